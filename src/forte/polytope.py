@@ -1,0 +1,187 @@
+"""Dynamic residual force polytope (RFP, paper Section 3.2) and the geometry built on it.
+
+For waypoint ``k`` with nominal torque ``tau_nom,k = RNEA(q_k, dq_k, ddq_k)`` the residual
+torque margins are ``tau+ = tau_max - tau_nom`` and ``tau- = -tau_max - tau_nom``, and the RFP is
+
+    P_k = { f in R^3 : alpha tau- <= J_t(q_k)^T f <= alpha tau+ }  =  { f : A_k f <= b_k },
+    A_k = [J_t ; -J_t]^T (2n x 3),   b_k = alpha [tau+ ; -tau-].
+
+With ``alpha = 1`` this is the paper's ``P_{r,k}``; the metric of Section 4.2 uses
+``0 < alpha <= 1`` to shrink the residual torque interval. All functions broadcast over
+leading batch dimensions (``A``: ... x 2n x 3, ``b``: ... x 2n).
+
+Rows with a zero normal (the Panda's joint 7 at its hand frames, whose axis passes through the
+end effector) do not constrain ``f``: they are vacuous when ``b_i >= 0`` and make the polytope
+empty when ``b_i < 0`` (the nominal motion alone exceeds that joint's limit).
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from forte.exceptions import InvalidInputError
+from forte.robot import MobileManipulator
+from forte.trajectory import backward_differences
+from forte.validation import FloatArray, as_array, check_times
+
+#: Normals shorter than this are treated as zero (units of the Jacobian, m).
+ZERO_NORMAL = 1e-9
+
+
+def nominal_torques(robot: MobileManipulator, q: Any, t: Any) -> FloatArray:
+    """``tau_nom,k = RNEA(q_a,k, dq_a,k, ddq_a,k)`` (N x n) with backward differences.
+
+    Args:
+        q: Whole-body configurations (N x nq); only the arm part enters the dynamics.
+        t: Strictly increasing time stamps (N).
+    """
+    times = check_times(t)
+    Q = as_array(q, "q", (times.size, robot.nq))
+    qa = Q[:, 3:]
+    dq, ddq = backward_differences(qa, times, "q_a")
+    return np.array([robot.rnea(a, b, c) for a, b, c in zip(qa, dq, ddq, strict=True)])
+
+
+def residual_margins(tau_nom: Any, tau_max: Any, tau_min: Any = None) -> tuple[FloatArray, FloatArray]:
+    """``(tau+, tau-) = (tau_max - tau_nom, tau_min - tau_nom)``; ``tau_min`` defaults to -tau_max."""
+    tau_nom = np.asarray(tau_nom, dtype=float)
+    tau_max = np.asarray(tau_max, dtype=float)
+    tau_min = -tau_max if tau_min is None else np.asarray(tau_min, dtype=float)
+    return tau_max - tau_nom, tau_min - tau_nom
+
+
+def halfspaces(J: Any, tau_plus: Any, tau_minus: Any, alpha: float = 1.0) -> tuple[FloatArray, FloatArray]:
+    """Half-space form ``A f <= b`` of the RFP from ``J`` (... x 3 x n) and the margins."""
+    if not 0.0 < alpha <= 1.0:
+        raise InvalidInputError(f"alpha: expected 0 < alpha <= 1, got {alpha}")
+    J = np.asarray(J, dtype=float)
+    Jt = np.swapaxes(J, -1, -2)
+    A = np.concatenate([Jt, -Jt], axis=-2)
+    b = alpha * np.concatenate([np.asarray(tau_plus), -np.asarray(tau_minus)], axis=-1)
+    return A, b
+
+
+@dataclass(frozen=True)
+class TrajectoryRFP:
+    """The dynamic RFP along a trajectory: Jacobians, nominal torques and half-spaces."""
+
+    J: FloatArray  # N x 3 x n, world frame
+    tau_nom: FloatArray  # N x n
+    A: FloatArray  # N x 2n x 3
+    b: FloatArray  # N x 2n
+    alpha: float
+
+
+def trajectory_rfp(robot: MobileManipulator, q: Any, t: Any, alpha: float = 1.0) -> TrajectoryRFP:
+    """Dynamic RFPs of a whole-body trajectory ``q`` (N x nq) at times ``t``."""
+    tau_nom = nominal_torques(robot, q, t)
+    J = np.array([robot.arm_jacobian(qk) for qk in np.asarray(q, dtype=float)])
+    A, b = halfspaces(J, *residual_margins(tau_nom, robot.torque_limits), alpha=alpha)
+    return TrajectoryRFP(J=J, tau_nom=tau_nom, A=A, b=b, alpha=alpha)
+
+
+def _row_norms(A: FloatArray) -> FloatArray:
+    return np.linalg.norm(A, axis=-1)
+
+
+def contains(A: FloatArray, b: FloatArray, f: Any, tol: float = 1e-9) -> FloatArray:
+    """Whether the point(s) ``f`` satisfy every half-space (with tolerance ``tol``)."""
+    f = np.asarray(f, dtype=float)
+    return np.all(np.einsum("...ij,...j->...i", A, f) <= b + tol, axis=-1)
+
+
+def directional_capacity(A: FloatArray, b: FloatArray, u: Any) -> FloatArray:
+    """Distance from the origin to the RFP boundary along the unit direction ``u``.
+
+    ``min over rows with a_i . u > 0 of b_i / (a_i . u)``: the force magnitude at which the ray
+    from the origin along ``u`` leaves the polytope (the paper's "directional capacity"). It is
+    negative when the origin itself lies outside, and ``inf`` when the ray never leaves.
+    """
+    u = np.asarray(u, dtype=float)
+    norms = np.linalg.norm(u, axis=-1, keepdims=True)
+    if np.any(norms < 1e-12):
+        raise InvalidInputError("direction: expected a non-zero vector")
+    u = u / norms
+    proj = np.einsum("...ij,...j->...i", A, u)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(proj > ZERO_NORMAL, b / np.where(proj > ZERO_NORMAL, proj, 1.0), np.inf)
+    return ratio.min(axis=-1)
+
+
+def inscribed_radius(A: FloatArray, b: FloatArray) -> FloatArray:
+    """Radius of the largest ball centred at the origin inside the RFP (Ferrolho et al. 2021).
+
+    ``min_i b_i / ||a_i||`` over rows with a non-zero normal; negative when the origin is
+    outside, ``-inf`` when a zero-normal row makes the polytope empty.
+    """
+    norms = _row_norms(A)
+    live = norms > ZERO_NORMAL
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dist = np.where(live, b / np.where(live, norms, 1.0), np.where(b >= 0, np.inf, -np.inf))
+    return dist.min(axis=-1)
+
+
+def cone_directions(u: Any, half_angle: float = 0.35, rings: int = 3, azimuths: int = 8) -> FloatArray:
+    """Unit rays of the linearized cone around ``u``: the axis plus ``rings x azimuths`` rays."""
+    u = np.asarray(u, dtype=float)
+    u = u / np.linalg.norm(u)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(u, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(u, e1)
+    rays = [u]
+    for ring in range(1, rings + 1):
+        theta = half_angle * ring / rings
+        for j in range(azimuths):
+            phi = 2 * np.pi * j / azimuths
+            rays.append(np.cos(theta) * u + np.sin(theta) * (np.cos(phi) * e1 + np.sin(phi) * e2))
+    return np.array(rays)
+
+
+def cone_measure(
+    A: FloatArray, b: FloatArray, u: Any, half_angle: float = 0.35, rings: int = 3,
+    azimuths: int = 8,
+) -> float:
+    """Volume of the RFP inside a cone of half-angle ``half_angle`` around ``u`` (one waypoint).
+
+    Ray approximation of Ferrolho et al.'s RFP-cone measure: with ``rho_j`` the (non-negative)
+    directional capacity along ray ``d_j``,
+    ``V ~= Omega / (3 M) sum_j rho_j^3``, ``Omega = 2 pi (1 - cos half_angle)``, M rays.
+    """
+    rays = cone_directions(u, half_angle, rings, azimuths)
+    rho = np.maximum(np.array([directional_capacity(A, b, d) for d in rays]), 0.0)
+    omega = 2 * np.pi * (1 - np.cos(half_angle))
+    return float(omega / (3 * len(rays)) * np.sum(rho**3))
+
+
+def vertices(A: Any, b: Any, tol: float = 1e-7) -> FloatArray:
+    """Vertices of one bounded polytope ``{f : A f <= b}`` in R^3 (for plots and tests).
+
+    Every triple of rows with independent normals gives a candidate point; the feasible ones
+    are kept, duplicates merged. Returns an empty (0 x 3) array when the polytope is empty.
+    """
+    A = as_array(A, "A", (None, 3))
+    b = as_array(b, "b", (A.shape[0],))
+    live = np.flatnonzero(_row_norms(A) > ZERO_NORMAL)
+    if np.any(b[_row_norms(A) <= ZERO_NORMAL] < 0):
+        return np.zeros((0, 3))
+    triples = np.array(list(itertools.combinations(live, 3)))
+    if triples.size == 0:
+        return np.zeros((0, 3))
+    M = A[triples]
+    rhs = b[triples]
+    det = np.linalg.det(M)
+    ok = np.abs(det) > 1e-10 * np.prod(np.linalg.norm(M, axis=-1), axis=-1)
+    pts = np.linalg.solve(M[ok], rhs[ok][..., None])[..., 0]
+    scale = max(1.0, float(np.abs(b).max()))
+    feasible = np.all(pts @ A.T <= b + tol * scale, axis=1)
+    pts = pts[feasible]
+    if pts.size == 0:
+        return np.zeros((0, 3))
+    keys = np.round(pts / (1e-6 * scale))
+    _, idx = np.unique(keys, axis=0, return_index=True)
+    return pts[np.sort(idx)]

@@ -1,0 +1,347 @@
+"""Robot model: a holonomic base ``q_b = [x, y, yaw]`` carrying a fixed-base URDF arm.
+
+The whole-body configuration is ``q = [q_b, q_a]``. The arm is loaded with Pinocchio; joints
+that are not on the kinematic chain of the end-effector frame (the Panda's fingers) are locked.
+The base-to-arm mounting transform is folded into the arm's root joint placement, so the arm
+model lives in the *base frame* (z up, gravity ``[0, 0, -g]``) and every world-frame quantity is
+the base-frame quantity rotated by ``R_z(yaw)`` and shifted by ``[x, y, 0]``.
+
+The end-effector tool load (the basket and camera of the paper's MOCA) is added to the inertia
+of the joint that carries the end-effector frame, so it is part of the arm dynamics; the payload
+is not: it enters through the desired task force (paper, Section 5).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from functools import cached_property
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from forte.exceptions import InvalidInputError, RobotModelError
+from forte.validation import FloatArray, as_array, as_positive, as_vector
+
+#: Torque limits used in the paper's experiments (Nm): joints 1-4 and 5-7 of the Franka arm.
+PAPER_TORQUE_LIMITS: tuple[float, ...] = (60.0, 60.0, 60.0, 60.0, 12.0, 12.0, 12.0)
+#: Joint names of the Franka Panda arm in example-robot-data.
+PANDA_ARM_JOINTS: tuple[str, ...] = tuple(f"panda_joint{i}" for i in range(1, 8))
+#: The Panda's usual "ready" pose.
+PANDA_HOME: tuple[float, ...] = (0.0, -np.pi / 4, 0.0, -3 * np.pi / 4, 0.0, np.pi / 2, np.pi / 4)
+N_BASE = 3
+STANDARD_GRAVITY = 9.81
+
+
+def example_robot_data_dir() -> Path:
+    """Folder of the robot descriptions shipped by the ``example-robot-data`` PyPI package."""
+    try:
+        dist = metadata.distribution("example-robot-data")
+    except metadata.PackageNotFoundError as exc:  # pragma: no cover - dependency of forte
+        raise RobotModelError("the 'example-robot-data' package is not installed") from exc
+    root = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
+    if not root.is_dir():  # pragma: no cover
+        raise RobotModelError(f"example-robot-data found, but {root} does not exist")
+    return root
+
+
+def resolve_urdf(urdf: str | Path) -> Path:
+    """Resolve ``urdf``: a path, or ``erd:<relative path>`` inside example-robot-data."""
+    text = str(urdf)
+    path = example_robot_data_dir() / text[4:] if text.startswith("erd:") else Path(text)
+    if not path.is_file():
+        raise RobotModelError(f"urdf: file {path} does not exist")
+    return path
+
+
+@dataclass(frozen=True)
+class ToolLoad:
+    """A rigid load fixed to the end-effector frame and modelled as part of the arm.
+
+    Attributes:
+        mass: Mass in kg (> 0).
+        com: Centre of mass in the end-effector frame (m).
+        inertia: 3x3 rotational inertia about the centre of mass, end-effector axes (kg m^2).
+    """
+
+    mass: float
+    com: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    inertia: tuple[tuple[float, float, float], ...] = ((0.0,) * 3,) * 3
+
+    def __post_init__(self) -> None:
+        as_positive(self.mass, "tool.mass")
+        as_vector(self.com, "tool.com", 3)
+        inertia = as_array(self.inertia, "tool.inertia", (3, 3))
+        if not np.allclose(inertia, inertia.T) or np.linalg.eigvalsh(inertia).min() < -1e-12:
+            raise InvalidInputError("tool.inertia: expected a symmetric positive semi-definite 3x3")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "mass": float(self.mass),
+            "com": [float(c) for c in self.com],
+            "inertia": [[float(v) for v in row] for row in self.inertia],
+        }
+
+
+def _box_inertia(mass: float, sx: float, sy: float, sz: float) -> tuple[tuple[float, ...], ...]:
+    k = mass / 12.0
+    return ((k * (sy**2 + sz**2), 0.0, 0.0), (0.0, k * (sx**2 + sz**2), 0.0),
+            (0.0, 0.0, k * (sx**2 + sy**2)))
+
+
+#: Basket, RealSense D435i camera and brackets of the MOCA set-up (an estimate: a 0.8 kg
+#: box of 0.20 x 0.15 x 0.10 m centred 2 cm behind the tool centre point).
+MOCA_TOOL = ToolLoad(mass=0.8, com=(0.0, 0.0, -0.02), inertia=_box_inertia(0.8, 0.20, 0.15, 0.10))
+#: Arm base 0.45 m above the floor and 0.2 m ahead of the base centre (MOCA-like).
+MOCA_MOUNT: tuple[tuple[float, ...], ...] = (
+    (1.0, 0.0, 0.0, 0.2), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.45), (0.0, 0.0, 0.0, 1.0))
+
+
+def _rot_z(yaw: float) -> FloatArray:
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+@dataclass
+class MobileManipulator:
+    """A planar holonomic base (x, y, yaw) with a URDF arm mounted on it.
+
+    Args:
+        urdf: Path to the arm URDF, or ``erd:<path>`` inside example-robot-data.
+        ee_frame: Name of the end-effector frame in the URDF.
+        arm_joints: Actuated arm joints, root to tip; default: the joints supporting
+            ``ee_frame``. Every other joint is locked at its neutral value.
+        mount: 4x4 homogeneous transform from the base frame to the arm's root frame.
+        tool: Load rigidly attached to the end effector, part of the arm dynamics.
+        torque_limits: Symmetric limits tau_max per arm joint (Nm); default: the URDF efforts.
+        gravity: Gravitational acceleration magnitude (m/s^2), acting along -z.
+        name: A label for reports.
+    """
+
+    urdf: str | Path
+    ee_frame: str
+    arm_joints: tuple[str, ...] | None = None
+    mount: Any = field(default_factory=lambda: np.eye(4))
+    tool: ToolLoad | None = None
+    torque_limits: Any = None
+    gravity: float = STANDARD_GRAVITY
+    name: str = "robot"
+
+    def __post_init__(self) -> None:
+        self.urdf_path = resolve_urdf(self.urdf)
+        self.gravity = as_positive(self.gravity, "gravity")
+        mount = as_array(self.mount, "mount", (4, 4))
+        if not np.allclose(mount[3], [0, 0, 0, 1]) or not np.allclose(
+            mount[:3, :3] @ mount[:3, :3].T, np.eye(3), atol=1e-9
+        ):
+            raise InvalidInputError("mount: expected a 4x4 rigid transform (orthonormal rotation)")
+        self.mount = mount
+        try:
+            full = pin.buildModelFromUrdf(str(self.urdf_path))
+        except Exception as exc:  # Pinocchio raises plain RuntimeError/ValueError
+            raise RobotModelError(f"urdf: cannot parse {self.urdf_path}: {exc}") from exc
+        if not full.existFrame(self.ee_frame):
+            names = ", ".join(f.name for f in full.frames if f.type == pin.FrameType.BODY)
+            raise RobotModelError(
+                f"ee_frame: no frame '{self.ee_frame}' in {self.urdf_path.name}; bodies: {names}"
+            )
+        chain = self._supporting_joints(full)
+        joints = tuple(self.arm_joints) if self.arm_joints is not None else chain
+        for j in joints:
+            if not full.existJointName(j):
+                raise RobotModelError(
+                    f"arm_joints: no joint '{j}' in {self.urdf_path.name}; joints: "
+                    + ", ".join(full.names[1:])
+                )
+            jid = full.getJointId(j)
+            if full.joints[jid].nq != 1 or full.joints[jid].nv != 1:
+                raise RobotModelError(f"arm_joints: joint '{j}' is not a 1-DoF joint")
+        self.arm_joints = joints
+        self.model = self._reduce(full, joints)
+        self.model.gravity = pin.Motion(np.array([0, 0, -self.gravity, 0, 0, 0]))
+        self.data = self.model.createData()
+        self.ee_frame_id = self.model.getFrameId(self.ee_frame)
+        self.n_arm = self.model.nq
+        self.nq = N_BASE + self.n_arm
+        self.lower = np.array(self.model.lowerPositionLimit, dtype=float)
+        self.upper = np.array(self.model.upperPositionLimit, dtype=float)
+        if self.torque_limits is None:
+            limits = np.array(self.model.effortLimit, dtype=float)
+        else:
+            limits = as_vector(self.torque_limits, "torque_limits", self.n_arm)
+        if np.any(limits <= 0):
+            raise InvalidInputError(f"torque_limits: expected every limit > 0 Nm, got {limits}")
+        self.torque_limits = limits
+
+    # -- construction -------------------------------------------------------------------
+    def _supporting_joints(self, full: pin.Model) -> tuple[str, ...]:
+        parent = full.frames[full.getFrameId(self.ee_frame)].parentJoint
+        return tuple(full.names[j] for j in full.supports[parent][1:])
+
+    def _reduce(self, full: pin.Model, joints: tuple[str, ...]) -> pin.Model:
+        keep = {full.getJointId(j) for j in joints}
+        lock = [j for j in range(1, full.njoints) if j not in keep]
+        q_ref = pin.neutral(full)
+        q_ref = np.clip(q_ref, full.lowerPositionLimit, full.upperPositionLimit)
+        model = pin.buildReducedModel(full, lock, q_ref) if lock else full.copy()
+        order = [model.names[j] for j in range(1, model.njoints)]
+        if tuple(order) != joints:
+            raise RobotModelError(
+                f"arm_joints: expected the joints in kinematic order {tuple(order)}, got {joints}"
+            )
+        mount = pin.SE3(self.mount[:3, :3].copy(), self.mount[:3, 3].copy())
+        for j in range(1, model.njoints):
+            if model.parents[j] == 0:
+                model.jointPlacements[j] = mount * model.jointPlacements[j]
+        for frame in model.frames:
+            if frame.parentJoint == 0:
+                frame.placement = mount * frame.placement
+        if self.tool is not None:
+            frame = model.frames[model.getFrameId(self.ee_frame)]
+            inertia = pin.Inertia(
+                float(self.tool.mass), np.zeros(3), np.array(self.tool.inertia, dtype=float)
+            )
+            placement = frame.placement * pin.SE3(np.eye(3), np.array(self.tool.com, dtype=float))
+            model.appendBodyToJoint(frame.parentJoint, inertia, placement)
+        return model
+
+    # -- description --------------------------------------------------------------------
+    def describe(self) -> dict[str, Any]:
+        """Everything needed to rebuild this model (for plan.json and cache keys)."""
+        return {
+            "name": self.name,
+            "urdf": str(self.urdf_path),
+            "urdf_sha256": hashlib.sha256(self.urdf_path.read_bytes()).hexdigest(),
+            "ee_frame": self.ee_frame,
+            "arm_joints": list(self.arm_joints or ()),
+            "mount": self.mount.tolist(),
+            "tool": self.tool.to_dict() if self.tool else None,
+            "torque_limits": self.torque_limits.tolist(),
+            "gravity": self.gravity,
+            "joint_lower": self.lower.tolist(),
+            "joint_upper": self.upper.tolist(),
+        }
+
+    @cached_property
+    def fingerprint(self) -> str:
+        """Short hash of :meth:`describe`, used to key caches of generated code."""
+        desc = self.describe()
+        desc.pop("urdf")
+        return hashlib.sha256(repr(sorted(desc.items())).encode()).hexdigest()[:16]
+
+    # -- configuration helpers ----------------------------------------------------------
+    def check_configuration(self, q: Any, name: str = "q") -> FloatArray:
+        """A finite whole-body configuration of length ``3 + n_arm``."""
+        return as_vector(q, name, self.nq)
+
+    def split(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """``(q_b, q_a)`` of a whole-body configuration."""
+        return q[:N_BASE], q[N_BASE:]
+
+    def home(self, base: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> FloatArray:
+        """A neutral whole-body configuration: the Panda home pose, or the joint-range centre."""
+        if self.arm_joints == PANDA_ARM_JOINTS:
+            arm = np.array(PANDA_HOME)
+        else:
+            arm = np.clip(pin.neutral(self.model), self.lower, self.upper)
+        return np.concatenate([np.asarray(base, dtype=float), arm])
+
+    @staticmethod
+    def base_transform(q_b: FloatArray) -> FloatArray:
+        """4x4 world pose of the base frame: ``Rot_z(yaw)`` at ``[x, y, 0]``."""
+        T = np.eye(4)
+        T[:3, :3] = _rot_z(q_b[2])
+        T[:2, 3] = q_b[:2]
+        return T
+
+    # -- kinematics ---------------------------------------------------------------------
+    def _arm_frame_placement(self, q_a: FloatArray) -> pin.SE3:
+        pin.framesForwardKinematics(self.model, self.data, q_a)
+        return self.data.oMf[self.ee_frame_id]
+
+    def ee_pose(self, q: Any) -> FloatArray:
+        """4x4 world-frame pose of the end-effector frame."""
+        q = self.check_configuration(q)
+        q_b, q_a = self.split(q)
+        return self.base_transform(q_b) @ self._arm_frame_placement(q_a).homogeneous
+
+    def ee_position(self, q: Any) -> FloatArray:
+        return self.ee_pose(q)[:3, 3]
+
+    def arm_jacobian(self, q: Any) -> FloatArray:
+        """World-frame translational Jacobian ``J_t`` (3 x n_arm) with the base held fixed."""
+        q = self.check_configuration(q)
+        q_b, q_a = self.split(q)
+        J = pin.computeFrameJacobian(
+            self.model, self.data, q_a, self.ee_frame_id, pin.LOCAL_WORLD_ALIGNED
+        )
+        return _rot_z(q_b[2]) @ J[:3]
+
+    def whole_body_jacobian(self, q: Any) -> FloatArray:
+        """World-frame 6 x nq Jacobian (linear; angular) of the end effector w.r.t. ``q``."""
+        q = self.check_configuration(q)
+        q_b, q_a = self.split(q)
+        R = _rot_z(q_b[2])
+        J_arm = pin.computeFrameJacobian(
+            self.model, self.data, q_a, self.ee_frame_id, pin.LOCAL_WORLD_ALIGNED
+        )
+        p_rel = R @ self.data.oMf[self.ee_frame_id].translation
+        J = np.zeros((6, self.nq))
+        J[0, 0] = J[1, 1] = 1.0
+        J[:3, 2] = [-p_rel[1], p_rel[0], 0.0]
+        J[5, 2] = 1.0
+        J[:3, N_BASE:] = R @ J_arm[:3]
+        J[3:, N_BASE:] = R @ J_arm[3:]
+        return J
+
+    # -- dynamics -----------------------------------------------------------------------
+    def rnea(self, q_a: Any, dq_a: Any, ddq_a: Any) -> FloatArray:
+        """Arm inverse dynamics ``tau = M(q) ddq + C(q, dq) dq + g(q)`` (base held fixed)."""
+        q_a = as_vector(q_a, "q_a", self.n_arm)
+        dq_a = as_vector(dq_a, "dq_a", self.n_arm)
+        ddq_a = as_vector(ddq_a, "ddq_a", self.n_arm)
+        return np.array(pin.rnea(self.model, self.data, q_a, dq_a, ddq_a))
+
+
+def default_robot(torque_limits: Any = PAPER_TORQUE_LIMITS, **overrides: Any) -> MobileManipulator:
+    """The built-in MOCA-like robot: holonomic base + Franka Panda (fingers locked).
+
+    Uses example-robot-data's ``panda.urdf``, end effector ``panda_hand_tcp``, the paper's
+    torque limits (60 Nm joints 1-4, 12 Nm joints 5-7), the :data:`MOCA_MOUNT` transform and
+    the :data:`MOCA_TOOL` basket-and-camera load.
+    """
+    kwargs: dict[str, Any] = {
+        "urdf": "erd:panda_description/urdf/panda.urdf",
+        "ee_frame": "panda_hand_tcp",
+        "arm_joints": PANDA_ARM_JOINTS,
+        "mount": np.array(MOCA_MOUNT),
+        "tool": MOCA_TOOL,
+        "torque_limits": torque_limits,
+        "name": "moca-panda",
+    }
+    kwargs.update(overrides)
+    return MobileManipulator(**kwargs)
+
+
+def robot_from_description(desc: dict[str, Any]) -> MobileManipulator:
+    """Rebuild a robot from :meth:`MobileManipulator.describe` output (e.g. from plan.json)."""
+    try:
+        tool = desc.get("tool")
+        return MobileManipulator(
+            urdf=desc["urdf"],
+            ee_frame=desc["ee_frame"],
+            arm_joints=tuple(desc["arm_joints"]) or None,
+            mount=np.array(desc["mount"], dtype=float),
+            tool=None if tool is None else ToolLoad(
+                mass=tool["mass"], com=tuple(tool["com"]),
+                inertia=tuple(tuple(row) for row in tool["inertia"]),
+            ),
+            torque_limits=desc["torque_limits"],
+            gravity=desc.get("gravity", STANDARD_GRAVITY),
+            name=desc.get("name", "robot"),
+        )
+    except KeyError as exc:
+        raise RobotModelError(f"robot description: missing field {exc}") from exc

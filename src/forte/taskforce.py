@@ -1,0 +1,82 @@
+"""Desired task force (paper, Section 4.1).
+
+The force the manipulator must apply to carry a payload of mass ``m`` along the end-effector
+trajectory is ``f_k = m (p''_k - g)`` with ``g = [0, 0, -9.81]``: the inertial force plus the
+upward gravity compensation. Each ``f_k`` is the centre of an uncertainty ball of radius
+``r_k`` (10 N in the paper).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from forte.exceptions import InvalidInputError
+from forte.robot import STANDARD_GRAVITY
+from forte.trajectory import backward_differences
+from forte.validation import FloatArray, as_array, as_positive, check_times
+
+#: The paper's task-force uncertainty radius (N).
+DEFAULT_RADIUS = 10.0
+
+
+@dataclass(frozen=True)
+class TaskForce:
+    """Desired forces ``f`` (N x 3, world frame, N) and ball radii ``r`` (N) at times ``t``."""
+
+    t: FloatArray
+    f: FloatArray
+    r: FloatArray
+
+    def __post_init__(self) -> None:
+        n = check_times(self.t).size
+        as_array(self.f, "force", (n, 3))
+        radius = as_array(self.r, "radius", (n,))
+        if np.any(radius < 0):
+            k = int(np.flatnonzero(radius < 0)[0])
+            raise InvalidInputError(f"radius[{k}]: expected >= 0 N, got {radius[k]}")
+
+    @property
+    def magnitude(self) -> FloatArray:
+        return np.linalg.norm(self.f, axis=1)
+
+    @property
+    def direction(self) -> FloatArray:
+        """Unit force directions (straight up where the force vanishes)."""
+        mag = self.magnitude[:, None]
+        up = np.broadcast_to([0.0, 0.0, 1.0], self.f.shape)
+        return np.where(mag > 1e-12, self.f / np.maximum(mag, 1e-12), up)
+
+
+def _radii(radius: Any, n: int) -> FloatArray:
+    if np.ndim(radius) == 0:
+        return np.full(n, as_positive(radius, "radius", allow_zero=True))
+    return as_array(radius, "radius", (n,))
+
+
+def payload_force(
+    t: Any,
+    positions: Any,
+    mass: Any,
+    radius: Any = DEFAULT_RADIUS,
+    gravity: float = STANDARD_GRAVITY,
+) -> TaskForce:
+    """``f_k = m (p''_k - g)`` from end-effector positions (N x 3) at times ``t``.
+
+    Accelerations are the paper's backward differences with the trajectory starting at rest
+    (see :func:`forte.trajectory.backward_differences`).
+    """
+    m = as_positive(mass, "mass")
+    times = check_times(t)
+    _, acc = backward_differences(positions, times, "positions")
+    g = np.array([0.0, 0.0, -gravity])
+    return TaskForce(times, m * (acc - g), _radii(radius, times.size))
+
+
+def given_force(t: Any, forces: Any, radius: Any = DEFAULT_RADIUS) -> TaskForce:
+    """A force profile given directly (N x 3), e.g. the continuous experiment of Section 5.2."""
+    times = check_times(t)
+    f = as_array(forces, "force", (times.size, 3))
+    return TaskForce(times, f, _radii(radius, times.size))

@@ -1,0 +1,60 @@
+"""Time-stamped trajectories: the paper's backward finite differences and quintic paths.
+
+Section 3.2 of the paper approximates velocities and accelerations by backward differences::
+
+    v_k = (x_k - x_{k-1}) / dt_k,    a_k = (v_k - v_{k-1}) / dt_k,    dt_k = t_k - t_{k-1}.
+
+The formulas need the samples before ``k = 1``; forte assumes the trajectory starts at rest:
+``v_1 = 0`` and ``a_1 = 0``, so ``a_2 = v_2 / dt_2``. The same rule serves the end-effector
+positions (task force, Section 4.1) and the arm joints (nominal torques, Section 3.2).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from forte.exceptions import InvalidInputError
+from forte.validation import FloatArray, as_array, check_times
+
+
+def backward_differences(x: Any, t: Any, name: str = "x") -> tuple[FloatArray, FloatArray]:
+    """Velocities and accelerations of samples ``x`` (N x d) at times ``t`` (N).
+
+    Returns:
+        ``(v, a)``, each N x d, with ``v[0] = a[0] = 0`` (start at rest).
+    """
+    times = check_times(t, "t")
+    samples = as_array(x, name, (times.size, None))
+    v = np.zeros_like(samples)
+    a = np.zeros_like(samples)
+    if times.size > 1:
+        dt = np.diff(times)[:, None]
+        v[1:] = np.diff(samples, axis=0) / dt
+        a[1:] = np.diff(v, axis=0) / dt
+    return v, a
+
+
+def quintic_blend(s: FloatArray) -> FloatArray:
+    """Minimum-jerk time scaling ``10 s^3 - 15 s^4 + 6 s^5`` on ``s`` in [0, 1]."""
+    return 10 * s**3 - 15 * s**4 + 6 * s**5
+
+
+def quintic_path(knot_times: Any, knots: Any, times: Any) -> FloatArray:
+    """Piecewise quintic (rest-to-rest) interpolation of ``knots`` (K x d) at ``times``.
+
+    Each segment between consecutive knots uses the minimum-jerk blend, so velocity and
+    acceleration are zero at every knot.
+    """
+    kt = check_times(knot_times, "knot_times")
+    values = as_array(knots, "knots", (kt.size, None))
+    ts = as_array(times, "times", (None,))
+    if ts.min() < kt[0] - 1e-12 or ts.max() > kt[-1] + 1e-12:
+        raise InvalidInputError(f"times: expected values within [{kt[0]}, {kt[-1]}]")
+    seg = np.clip(np.searchsorted(kt, ts, side="right") - 1, 0, max(kt.size - 2, 0))
+    if kt.size == 1:
+        return np.repeat(values, ts.size, axis=0)
+    s = np.clip((ts - kt[seg]) / (kt[seg + 1] - kt[seg]), 0.0, 1.0)
+    w = quintic_blend(s)[:, None]
+    return values[seg] + w * (values[seg + 1] - values[seg])

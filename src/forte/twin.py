@@ -1,0 +1,235 @@
+"""Differentiable twin of :class:`~forte.robot.MobileManipulator` as CasADi expressions.
+
+The PyPI build of Pinocchio has no CasADi bindings, so the forward kinematics, the world-frame
+translational Jacobian and the recursive Newton-Euler algorithm are rebuilt here from the
+Pinocchio model's own data (``jointPlacements``, ``parents``, ``inertias``, joint axes). They
+agree with Pinocchio numerics to ~1e-12 (see ``tests/test_twin.py``); the optimizer takes every
+derivative from them by automatic differentiation, never by finite differences.
+
+Conventions: each joint frame ``i`` has pose ``(R_i, p_i)`` in its parent's frame,
+``R_i = R_placement Rot(axis, q_i)`` (revolute) or ``p_i = p_placement + R_placement axis q_i``
+(prismatic). RNEA runs in local joint frames with the gravity trick ``a_0 = -g``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+import pinocchio as pin
+
+from forte.exceptions import RobotModelError
+from forte.robot import N_BASE, MobileManipulator
+
+Expr = ca.SX
+
+
+@dataclass(frozen=True)
+class _Joint:
+    parent: int  # index in the twin's joint list, -1 for the root
+    rotation: np.ndarray  # placement in the parent joint frame
+    translation: np.ndarray
+    axis: np.ndarray
+    revolute: bool
+    mass: float
+    com: np.ndarray
+    inertia_com: np.ndarray  # rotational inertia about the centre of mass
+
+
+_AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]),
+         "Z": np.array([0.0, 0.0, 1.0])}
+
+
+def _joint_axis(joint: pin.JointModel) -> tuple[np.ndarray, bool]:
+    name = joint.shortname()
+    for prefix, revolute in (("JointModelR", True), ("JointModelP", False)):
+        if name.startswith(prefix):
+            suffix = name[len(prefix):]
+            if suffix in _AXES:
+                return _AXES[suffix], revolute
+            if suffix in ("evoluteUnaligned", "rismaticUnaligned"):
+                return np.array(joint.extract().axis, dtype=float), revolute
+    raise RobotModelError(
+        f"joint type {name} is not supported by the CasADi twin (revolute or prismatic only)"
+    )
+
+
+def _skew_cross(a: Expr, b: Expr) -> Expr:
+    return ca.cross(a, b)
+
+
+def _axis_rotation(axis: np.ndarray, angle: Expr) -> Expr:
+    """Rodrigues' formula for a constant unit axis."""
+    k = ca.DM(axis)
+    K = ca.skew(k)
+    return ca.DM.eye(3) + ca.sin(angle) * K + (1 - ca.cos(angle)) * (K @ K)
+
+
+def rot_z(yaw: Expr) -> Expr:
+    c, s = ca.cos(yaw), ca.sin(yaw)
+    return ca.vertcat(ca.horzcat(c, -s, 0), ca.horzcat(s, c, 0), ca.horzcat(0, 0, 1))
+
+
+class CasadiTwin:
+    """Symbolic kinematics and dynamics of a :class:`MobileManipulator`.
+
+    Every method takes CasADi expressions (SX or MX) and returns expressions, so the same code
+    builds the optimizer's cost and constraints and, through :meth:`functions`, numeric
+    ``casadi.Function`` objects for tests.
+    """
+
+    def __init__(self, robot: MobileManipulator) -> None:
+        self.robot = robot
+        model = robot.model
+        self.n_arm = robot.n_arm
+        joints: list[_Joint] = []
+        for j in range(1, model.njoints):
+            axis, revolute = _joint_axis(model.joints[j])
+            placement = model.jointPlacements[j]
+            inertia = model.inertias[j]
+            joints.append(
+                _Joint(
+                    parent=model.parents[j] - 1,
+                    rotation=np.array(placement.rotation),
+                    translation=np.array(placement.translation),
+                    axis=axis,
+                    revolute=revolute,
+                    mass=float(inertia.mass),
+                    com=np.array(inertia.lever),
+                    inertia_com=np.array(inertia.inertia),
+                )
+            )
+        self._joints = joints
+        frame = model.frames[robot.ee_frame_id]
+        self._ee_joint = frame.parentJoint - 1
+        self._ee_rotation = np.array(frame.placement.rotation)
+        self._ee_translation = np.array(frame.placement.translation)
+        self.gravity = float(robot.gravity)
+
+    # -- per-joint transforms -----------------------------------------------------------
+    def _local(self, j: int, q: Expr) -> tuple[Expr, Expr]:
+        joint = self._joints[j]
+        R0 = ca.DM(joint.rotation)
+        p0 = ca.DM(joint.translation)
+        if joint.revolute:
+            return R0 @ _axis_rotation(joint.axis, q), p0
+        return R0, p0 + R0 @ ca.DM(joint.axis) * q
+
+    def _arm_poses(self, q_a: Expr) -> list[tuple[Expr, Expr]]:
+        poses: list[tuple[Expr, Expr]] = []
+        for j, joint in enumerate(self._joints):
+            R, p = self._local(j, q_a[j])
+            if joint.parent < 0:
+                poses.append((R, p))
+            else:
+                Rp, pp = poses[joint.parent]
+                poses.append((Rp @ R, pp + Rp @ p))
+        return poses
+
+    # -- kinematics (base frame) --------------------------------------------------------
+    def arm_ee_pose(self, q_a: Expr) -> tuple[Expr, Expr]:
+        """End-effector rotation and position in the base frame."""
+        R, p = self._arm_poses(q_a)[self._ee_joint]
+        return R @ ca.DM(self._ee_rotation), p + R @ ca.DM(self._ee_translation)
+
+    def arm_jacobian_base(self, q_a: Expr) -> Expr:
+        """Translational Jacobian (3 x n_arm) in the base frame."""
+        poses = self._arm_poses(q_a)
+        _, p_ee = self.arm_ee_pose(q_a)
+        support = self._support(self._ee_joint)
+        columns = []
+        for j in range(self.n_arm):
+            if j not in support:
+                columns.append(ca.DM.zeros(3, 1))
+                continue
+            R, p = poses[j]
+            z = R @ ca.DM(self._joints[j].axis)
+            columns.append(_skew_cross(z, p_ee - p) if self._joints[j].revolute else z)
+        return ca.horzcat(*columns)
+
+    def _support(self, j: int) -> set[int]:
+        chain: set[int] = set()
+        while j >= 0:
+            chain.add(j)
+            j = self._joints[j].parent
+        return chain
+
+    # -- kinematics (world frame) -------------------------------------------------------
+    def ee_pose(self, q: Expr) -> tuple[Expr, Expr]:
+        """World-frame end-effector rotation (3x3) and position (3)."""
+        R, p = self.arm_ee_pose(q[N_BASE:])
+        Rb = rot_z(q[2])
+        return Rb @ R, Rb @ p + ca.vertcat(q[0], q[1], 0)
+
+    def arm_jacobian(self, q: Expr) -> Expr:
+        """World-frame translational arm Jacobian ``J_t(q)`` (3 x n_arm), base held fixed."""
+        return rot_z(q[2]) @ self.arm_jacobian_base(q[N_BASE:])
+
+    # -- dynamics -----------------------------------------------------------------------
+    def rnea(self, q_a: Expr, dq_a: Expr, ddq_a: Expr) -> Expr:
+        """Arm joint torques of the recursive Newton-Euler algorithm (base held fixed)."""
+        n = self.n_arm
+        vel: list[tuple[Expr, Expr]] = []
+        forces: list[list[Expr]] = []
+        locals_ = [self._local(j, q_a[j]) for j in range(n)]
+        gravity_acc = (ca.DM([0.0, 0.0, self.gravity]), ca.DM.zeros(3, 1))
+        acc: list[tuple[Expr, Expr]] = []
+        for j, joint in enumerate(self._joints):
+            R, p = locals_[j]
+            Rt = R.T
+            if joint.parent < 0:
+                v_par, w_par = ca.DM.zeros(3, 1), ca.DM.zeros(3, 1)
+                a_par, al_par = gravity_acc
+            else:
+                v_par, w_par = vel[joint.parent]
+                a_par, al_par = acc[joint.parent]
+            axis = ca.DM(joint.axis)
+            w = Rt @ w_par
+            v = Rt @ (v_par + _skew_cross(w_par, p))
+            al = Rt @ al_par
+            a = Rt @ (a_par + _skew_cross(al_par, p))
+            if joint.revolute:
+                sw, sv = axis * dq_a[j], ca.DM.zeros(3, 1)
+                w = w + sw
+                al = al + axis * ddq_a[j] + _skew_cross(w, sw)
+                a = a + _skew_cross(v, sw)
+            else:
+                sv = axis * dq_a[j]
+                v = v + sv
+                a = a + axis * ddq_a[j] + _skew_cross(w, sv)
+            vel.append((v, w))
+            acc.append((a, al))
+            m, c, Ic = joint.mass, ca.DM(joint.com), ca.DM(joint.inertia_com)
+            # Spatial inertia times a motion (v, w) about the joint origin.
+            h = m * (a + _skew_cross(al, c))
+            n_ = Ic @ al + _skew_cross(c, h)
+            hv = m * (v + _skew_cross(w, c))
+            L = Ic @ w + _skew_cross(c, hv)
+            f = h + _skew_cross(w, hv)
+            tq = n_ + _skew_cross(w, L) + _skew_cross(v, hv)
+            forces.append([f, tq])
+        tau = [None] * n
+        for j in reversed(range(n)):
+            joint = self._joints[j]
+            f, tq = forces[j]
+            axis = ca.DM(joint.axis)
+            tau[j] = ca.dot(axis, tq) if joint.revolute else ca.dot(axis, f)
+            if joint.parent >= 0:
+                R, p = locals_[j]
+                fr = R @ f
+                forces[joint.parent][0] = forces[joint.parent][0] + fr
+                forces[joint.parent][1] = forces[joint.parent][1] + R @ tq + _skew_cross(p, fr)
+        return ca.vertcat(*tau)
+
+    # -- numeric wrappers ---------------------------------------------------------------
+    def functions(self) -> dict[str, ca.Function]:
+        """``casadi.Function`` objects: ``ee_pose``, ``arm_jacobian``, ``rnea``."""
+        q = ca.SX.sym("q", N_BASE + self.n_arm)
+        qa, dqa, ddqa = (ca.SX.sym(s, self.n_arm) for s in ("q_a", "dq_a", "ddq_a"))
+        R, p = self.ee_pose(q)
+        return {
+            "ee_pose": ca.Function("ee_pose", [q], [R, p]),
+            "arm_jacobian": ca.Function("arm_jacobian", [q], [self.arm_jacobian(q)]),
+            "rnea": ca.Function("rnea", [qa, dqa, ddqa], [self.rnea(qa, dqa, ddqa)]),
+        }
