@@ -1,0 +1,157 @@
+"""``forte estimate-mass`` and ``forte bench-mass``: payload mass from an image and a description.
+
+Without ``--vlm-base-url`` both use the offline estimator (stated quantities in the description);
+with it, any OpenAI-compatible chat-completions server (OpenAI, Ollama, vLLM). The API key is read
+from the environment variable named by ``--api-key-env`` and is never printed or cached.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from forte.estimation import (
+    DEFAULT_R_MIN,
+    MassEstimator,
+    OfflineEstimator,
+    VLMConfig,
+    VLMEstimator,
+    default_cache_dir,
+    estimate_payload,
+    radius_from_estimate,
+)
+from forte.exceptions import InvalidInputError
+from forte.massbench import load_dataset, markdown_table, run_benchmark, summarize_results, write_per_item_csv
+
+
+def _add_vlm_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("VLM (optional; without --vlm-base-url the offline estimator is used)")
+    g.add_argument(
+        "--vlm-base-url", metavar="URL", help="OpenAI-compatible server, e.g. https://api.openai.com/v1"
+    )
+    g.add_argument("--model", default="gpt-4o", help="model name (default gpt-4o, as in the paper)")
+    g.add_argument(
+        "--api-key-env",
+        default="OPENAI_API_KEY",
+        metavar="VAR",
+        help="environment variable holding the API key (default OPENAI_API_KEY)",
+    )
+    g.add_argument(
+        "--timeout", type=float, default=60.0, metavar="S", help="per-request timeout (default 60 s)"
+    )
+    g.add_argument("--retries", type=int, default=3, help="retries on 429/5xx/timeouts (default 3)")
+    g.add_argument(
+        "--backoff",
+        type=float,
+        default=1.0,
+        metavar="S",
+        help="first retry wait, doubled each retry (default 1 s)",
+    )
+    g.add_argument(
+        "--cache-dir",
+        type=Path,
+        metavar="DIR",
+        help=f"cache of VLM answers (default {default_cache_dir()})",
+    )
+
+
+def _vlm_config(args: argparse.Namespace) -> VLMConfig | None:
+    if not args.vlm_base_url:
+        return None
+    if args.retries < 0:
+        raise InvalidInputError(f"--retries: expected >= 0, got {args.retries}")
+    return VLMConfig(
+        base_url=args.vlm_base_url,
+        model=args.model,
+        api_key_env=args.api_key_env,
+        timeout_s=args.timeout,
+        max_retries=args.retries,
+        backoff_base_s=args.backoff,
+    )
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "estimate-mass",
+        help="estimate the payload mass from an image and a task description (JSON)",
+        description="Estimate the mass the end effector will carry (paper, Section 4.1) and print it "
+        "as JSON with its interval, source and the force-ball radius at rest.",
+    )
+    p.add_argument("--image", type=Path, metavar="IMG", help="RGB image (PNG, JPEG, WebP)")
+    p.add_argument("--description", metavar="TEXT", help="task description, e.g. 'carry two 1.5 L bottles'")
+    p.add_argument("--mass", type=float, metavar="KG", help="known mass: overrides every estimator")
+    p.add_argument(
+        "--r-min",
+        type=float,
+        default=DEFAULT_R_MIN,
+        metavar="N",
+        help="floor of the force-ball radius (default 10 N, the paper's)",
+    )
+    _add_vlm_options(p)
+    p.set_defaults(func=run_estimate_mass)
+
+    b = sub.add_parser(
+        "bench-mass",
+        help="evaluate a mass estimator on a CSV data set with the Image2Mass metrics",
+        description="Run the estimator on every row of DATASET.csv (columns image, description, "
+        "mass_kg; image paths relative to the CSV) and write results.md and items.csv to --out.",
+    )
+    b.add_argument("dataset", type=Path, metavar="DATASET.csv")
+    b.add_argument("--out", type=Path, default=Path("mass-bench"), metavar="DIR", help="output folder")
+    b.add_argument("--workers", type=int, default=4, metavar="K", help="concurrent requests (default 4)")
+    b.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    b.add_argument(
+        "--bootstrap", type=int, default=1000, metavar="B", help="resamples for r2_ls (default 1000)"
+    )
+    _add_vlm_options(b)
+    b.set_defaults(func=run_bench_mass)
+
+
+def run_estimate_mass(args: argparse.Namespace) -> int:
+    if args.image is None and not args.description and args.mass is None:
+        raise InvalidInputError("estimate-mass: give --image, --description or both (or --mass)")
+    vlm = _vlm_config(args)
+    cache = args.cache_dir if args.cache_dir is not None else (default_cache_dir() if vlm else None)
+    estimate = estimate_payload(args.description, args.image, mass=args.mass, vlm=vlm, cache_dir=cache)
+    # at rest |a - g| = 9.81 m/s^2: the radius the planner would use for a static hold
+    radius = float(radius_from_estimate([[0.0, 0.0, 0.0]], estimate, args.r_min)[0])
+    print(json.dumps({**estimate.to_dict(), "radius_at_rest_n": radius}, indent=2))
+    return 0
+
+
+def run_bench_mass(args: argparse.Namespace) -> int:
+    if args.workers < 1:
+        raise InvalidInputError(f"--workers: expected >= 1, got {args.workers}")
+    items = load_dataset(args.dataset)
+    vlm = _vlm_config(args)
+    estimator: MassEstimator
+    if vlm is None:
+        estimator = OfflineEstimator()
+        label = f"offline ({OfflineEstimator.version})"
+    else:
+        cache = args.cache_dir if args.cache_dir is not None else default_cache_dir()
+        estimator = VLMEstimator(vlm, cache)
+        label = f"VLM {vlm.model}"
+    results = run_benchmark(
+        items, estimator, workers=args.workers, progress=None if args.quiet else sys.stderr
+    )
+    summary = summarize_results(results, n_boot=args.bootstrap)
+    out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "results.md").write_text(markdown_table(summary, label, args.dataset.name), encoding="utf-8")
+        write_per_item_csv(results, out / "items.csv")
+        (out / "summary.json").write_text(
+            json.dumps({"estimator": label, **summary}, indent=2, allow_nan=True), encoding="utf-8"
+        )
+    except OSError as exc:
+        raise InvalidInputError(f"--out {str(out)!r}: cannot write results ({exc.strerror or exc})") from exc
+    m = summary["metrics"]
+    print(
+        f"{label}: {summary['n_ok']}/{summary['n_items']} estimated, {summary['n_failed']} failed; "
+        + ", ".join(f"{k} {v[0]:.3f}" for k, v in m.items())
+        + f"; wrote {out / 'results.md'} and {out / 'items.csv'}"
+    )
+    return 1 if summary["n_failed"] else 0
