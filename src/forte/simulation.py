@@ -19,29 +19,50 @@ agreement ~1e-12 Nm):
   on the link that carries the end-effector frame, and a site ``ee`` at the end-effector frame;
 * a payload body of configurable mass rigidly attached at the end effector (welded: a sphere
   of radius ``payload_radius`` centred at ``payload_com`` in the end-effector frame, inertia
-  ``2/5 m r^2``). The weld never breaks, so a *payload drop* is judged from the motion: see
-  :mod:`forte.control` (``Thresholds``), e.g. the end effector sagging more than 10 cm below
-  the plan or the basket tilting more than 0.5 rad;
+  ``2/5 m r^2``). The weld never breaks, so a *payload drop* is judged from the motion (see
+  :class:`Thresholds`): the end effector sagging more than 10 cm below the plan, or the basket
+  tilting more than 0.5 rad away from the planned orientation, counts as a drop;
 * torque actuators ``tau_<joint>`` on the arm joints with ``ctrlrange = +-robot.torque_limits``
   (MuJoCo clips the control, so the arm can never exceed its limits); velocity actuators
   ``v_base_x/y/yaw`` with gain ``kv`` on the base joints (the base is velocity-controlled,
   paper Section 3.1): force ``kv (v_cmd - qdot)``, integrated implicitly (``implicitfast``).
 
 Gravity is ``[0, 0, -robot.gravity]``; the time step defaults to 1 ms (1 kHz control).
+
+:func:`simulate_plan` runs a plan directory (``trajectory.csv`` + ``plan.json``, see
+:func:`write_plan_dir`) through the controllers of :mod:`forte.control` and judges the run.
+When the plan has no payload (``payload.mass`` null) but a task force, the force is an
+interaction with the environment: its reaction ``-f_d`` is applied at the end effector.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import csv
+import io
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import Any
 
 import mujoco
 import numpy as np
 import pinocchio as pin
 
-from forte.exceptions import InvalidInputError, SimulationError
-from forte.robot import N_BASE, MobileManipulator, ToolLoad, example_robot_data_dir
-from forte.validation import FloatArray, as_positive, as_vector
+from forte.control import ArmImpedance, BaseAdmittance, ControlGains, Reference, interpolate_plan
+from forte.exceptions import ForteError, InvalidInputError, SimulationError, TaskFileError
+from forte.robot import (
+    N_BASE,
+    MobileManipulator,
+    ToolLoad,
+    example_robot_data_dir,
+    robot_from_description,
+)
+from forte.validation import FloatArray, as_array, as_positive, as_vector, check_times
 
 #: Default base mass (kg) and yaw inertia (kg m^2): a MOCA-like omnidirectional platform.
 BASE_MASS = 60.0
@@ -366,3 +387,524 @@ def check_mass(mass: Any) -> float:
     return as_positive(mass, "mass", allow_zero=True)
 
 
+
+
+# -- plan directories -------------------------------------------------------------------------
+TRAJECTORY_FILE = "trajectory.csv"
+PLAN_FILE = "plan.json"
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The content of a plan directory."""
+
+    robot: MobileManipulator
+    t: FloatArray
+    q: FloatArray
+    mass: float | None
+    force_t: FloatArray | None
+    force: FloatArray | None
+    method: str
+    status: str
+
+
+def trajectory_header(n_arm: int) -> list[str]:
+    """``t,x_b,y_b,yaw,q1..qn``: the columns of ``trajectory.csv``."""
+    return ["t", "x_b", "y_b", "yaw", *(f"q{i}" for i in range(1, n_arm + 1))]
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", newline="") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_plan_dir(
+    plan_dir: str | Path,
+    robot: MobileManipulator,
+    t: Any,
+    q: Any,
+    *,
+    mass: float | None = None,
+    force: Any = None,
+    radius: Any = 10.0,
+    method: str = "manual",
+    status: str = "success",
+    extra: dict[str, Any] | None = None,
+) -> Path:
+    """Write ``trajectory.csv`` and ``plan.json`` for waypoints ``q`` (N x nq) at times ``t``.
+
+    ``force`` (N x 3, world frame) defaults to ``m (a - g)`` of the end-effector waypoints when
+    ``mass`` is given (:func:`forte.taskforce.payload_force`), else to zero.
+    """
+    from forte.taskforce import payload_force  # local: keeps this module light to import
+
+    times = check_times(t, "t")
+    Q = as_array(q, "q", (times.size, robot.nq))
+    if force is None and mass:
+        positions = np.array([robot.ee_position(qk) for qk in Q])
+        tf = payload_force(times, positions, mass, radius=radius, gravity=robot.gravity)
+        f, r = tf.f, tf.r
+    else:
+        f = np.zeros((times.size, 3)) if force is None else as_array(force, "force", (times.size, 3))
+        r = np.broadcast_to(np.asarray(radius, dtype=float), (times.size,))
+    out = Path(plan_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    buf = io.StringIO()
+    writer = csv.writer(buf)
+    writer.writerow(trajectory_header(robot.n_arm))
+    for tk, qk in zip(times, Q, strict=True):
+        writer.writerow([repr(float(tk)), *(repr(float(v)) for v in qk)])
+    plan: dict[str, Any] = {
+        "robot": robot.describe(),
+        "payload": {"mass": None if mass is None else float(mass)},
+        "force": {"t": times.tolist(), "f": f.tolist(), "r": [float(v) for v in r]},
+        "method": method,
+        "status": status,
+    }
+    plan.update(extra or {})
+    _atomic_write(out / TRAJECTORY_FILE, buf.getvalue())
+    _atomic_write(out / PLAN_FILE, json.dumps(plan, indent=1) + "\n")
+    return out
+
+
+def read_plan_dir(plan_dir: str | Path) -> Plan:
+    """Load and validate a plan directory; errors name the file and the field."""
+    root = Path(plan_dir)
+    if not root.is_dir():
+        raise TaskFileError(f"plan directory {root}: does not exist or is not a directory")
+    plan_path = root / PLAN_FILE
+    traj_path = root / TRAJECTORY_FILE
+    for path in (plan_path, traj_path):
+        if not path.is_file():
+            raise TaskFileError(f"{path}: file missing (expected the output of 'forte plan')")
+    try:
+        meta = json.loads(plan_path.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise TaskFileError(f"{plan_path}: not valid JSON: {exc}") from exc
+    if not isinstance(meta, dict) or not isinstance(meta.get("robot"), dict):
+        raise TaskFileError(f"{plan_path}: field 'robot': expected the robot description object")
+    try:
+        robot = robot_from_description(meta["robot"])
+    except ForteError as exc:
+        raise TaskFileError(f"{plan_path}: field 'robot': {exc}") from exc
+    payload = meta.get("payload") or {}
+    mass = payload.get("mass") if isinstance(payload, dict) else None
+    if mass is not None:
+        try:
+            mass = as_positive(mass, "payload.mass", allow_zero=True)
+        except InvalidInputError as exc:
+            raise TaskFileError(f"{plan_path}: field {exc}") from exc
+    force_t = force = None
+    fmeta = meta.get("force")
+    if fmeta is not None:
+        try:
+            force_t = check_times(fmeta["t"], "force.t")
+            force = as_array(fmeta["f"], "force.f", (force_t.size, 3))
+        except (KeyError, TypeError) as exc:
+            raise TaskFileError(f"{plan_path}: field 'force': expected {{'t': [...], 'f': [...]}}") from exc
+        except InvalidInputError as exc:
+            raise TaskFileError(f"{plan_path}: field {exc}") from exc
+    t, q = _read_trajectory(traj_path, robot)
+    return Plan(robot, t, q, mass, force_t, force, str(meta.get("method", "unknown")),
+                str(meta.get("status", "unknown")))
+
+
+def _read_trajectory(path: Path, robot: MobileManipulator) -> tuple[FloatArray, FloatArray]:
+    expected = trajectory_header(robot.n_arm)
+    try:
+        rows = list(csv.reader(path.read_text().splitlines()))
+    except (OSError, csv.Error, UnicodeDecodeError) as exc:
+        raise TaskFileError(f"{path}: cannot read: {exc}") from exc
+    if not rows:
+        raise TaskFileError(f"{path}: empty file (expected header {','.join(expected)})")
+    header = [h.strip() for h in rows[0]]
+    if header != expected:
+        raise TaskFileError(
+            f"{path}: header: expected {len(expected)} columns {','.join(expected)}, "
+            f"got {len(header)}: {','.join(header)}"
+        )
+    body = [r for r in rows[1:] if any(c.strip() for c in r)]
+    if not body:
+        raise TaskFileError(f"{path}: no waypoint rows after the header")
+    data = np.empty((len(body), len(expected)))
+    for i, row in enumerate(body):
+        line = i + 2
+        if len(row) != len(expected):
+            raise TaskFileError(f"{path}: line {line}: expected {len(expected)} values, got {len(row)}")
+        for j, cell in enumerate(row):
+            try:
+                data[i, j] = float(cell)
+            except ValueError:
+                raise TaskFileError(
+                    f"{path}: line {line}, column '{expected[j]}': expected a number, got {cell!r}"
+                ) from None
+            if not np.isfinite(data[i, j]):
+                raise TaskFileError(f"{path}: line {line}, column '{expected[j]}': not finite ({cell})")
+    try:
+        t = check_times(data[:, 0], "t")
+    except InvalidInputError as exc:
+        raise TaskFileError(f"{path}: column {exc}") from exc
+    return t, data[:, 1:]
+
+
+# -- verdict ----------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Thresholds:
+    """Failure criteria of a simulated execution (the first one met gives the verdict).
+
+    Attributes:
+        drop_sag: Payload drop: the end effector is this far (m) *below* the planned height
+            while a payload is carried (an object that is not lifted or slips out). 0.10 m.
+        drop_tilt: Payload drop: the end-effector z axis tilts this far (rad) from the planned
+            one while a payload is carried (the basket spills). 0.5 rad.
+        sag: End-effector sag: vertical shortfall (m) that counts when sustained. 0.03 m.
+        sag_time: How long (s) the sag must last. 0.2 s.
+        saturation_time: Sustained torque saturation: one joint's command exceeds its limit for
+            this long (s) without interruption. 0.25 s.
+        max_ee_error: Tracking loss: end-effector position error norm (m) at any instant. 0.15 m.
+    """
+
+    drop_sag: float = 0.10
+    drop_tilt: float = 0.5
+    sag: float = 0.03
+    sag_time: float = 0.2
+    saturation_time: float = 0.25
+    max_ee_error: float = 0.15
+
+    def __post_init__(self) -> None:
+        for name in ("drop_sag", "drop_tilt", "sag", "sag_time", "saturation_time", "max_ee_error"):
+            as_positive(getattr(self, name), f"thresholds.{name}")
+
+
+@dataclass
+class SimResult:
+    """Outcome of :func:`simulate_plan`.
+
+    Attributes:
+        success: No failure criterion was met.
+        reason: ``None`` on success, else ``"payload drop"``, ``"end-effector sag"``,
+            ``"torque saturation"``, ``"tracking loss"`` or ``"unstable"``.
+        failure_time: Simulated time (s) at which the criterion was met (``None`` on success).
+        detail: One human-readable sentence on the failure.
+        log: Recorded columns (name -> array), also written to ``sim.csv``.
+        summary: Scalar statistics (max errors, saturation fractions, wall time, ...).
+    """
+
+    success: bool
+    reason: str | None
+    failure_time: float | None
+    detail: str
+    log: dict[str, FloatArray]
+    summary: dict[str, Any]
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "verdict": "success" if self.success else "failure",
+            "reason": self.reason,
+            "failure_time": self.failure_time,
+            "detail": self.detail,
+            **self.summary,
+        }
+
+
+class _Judge:
+    """Checks the :class:`Thresholds` at every control step and keeps the first failure."""
+
+    def __init__(self, th: Thresholds, dt: float, n_arm: int, payload: bool) -> None:
+        self.th, self.dt, self.payload = th, dt, payload
+        self.sag_run = 0.0
+        self.sat_run = np.zeros(n_arm)
+        self.reason: str | None = None
+        self.time: float | None = None
+        self.detail = ""
+
+    def _fail(self, t: float, reason: str, detail: str) -> None:
+        if self.reason is None:
+            self.reason, self.time, self.detail = reason, t, detail
+
+    def step(self, t: float, ee_err: FloatArray, tilt: float, saturated: FloatArray) -> None:
+        th = self.th
+        sag = -ee_err[2]  # ee_err = p - p_d: negative z = below the plan
+        self.sag_run = self.sag_run + self.dt if sag > th.sag else 0.0
+        self.sat_run = np.where(saturated, self.sat_run + self.dt, 0.0)
+        if self.payload and sag > th.drop_sag:
+            self._fail(t, "payload drop", f"end effector {sag:.3f} m below the plan at t = {t:.3f} s")
+        elif self.payload and tilt > th.drop_tilt:
+            self._fail(t, "payload drop", f"end effector tilted {tilt:.2f} rad at t = {t:.3f} s")
+        elif float(np.linalg.norm(ee_err)) > th.max_ee_error:
+            self._fail(t, "tracking loss",
+                       f"end-effector error {np.linalg.norm(ee_err):.3f} m at t = {t:.3f} s")
+        elif self.sag_run >= th.sag_time - 1e-9:
+            self._fail(t, "end-effector sag",
+                       f"end effector more than {th.sag} m below the plan for {th.sag_time} s "
+                       f"(t = {t:.3f} s)")
+        elif np.any(self.sat_run >= th.saturation_time - 1e-9):
+            j = int(np.argmax(self.sat_run))
+            self._fail(t, "torque saturation",
+                       f"joint {j + 1} saturated for {th.saturation_time} s (t = {t:.3f} s)")
+
+
+# -- running ----------------------------------------------------------------------------------
+class _Recorder:
+    """Offscreen frames for ``--frames DIR`` (PNG) or ``--video FILE.mp4`` (ffmpeg)."""
+
+    def __init__(self, sim: SimModel, frames_dir: Path | None, video: Path | None, fps: float,
+                 size: tuple[int, int]) -> None:
+        self.frames_dir, self.video, self.fps = frames_dir, video, fps
+        self.frames: list[np.ndarray] = []
+        if video is not None and shutil.which("ffmpeg") is None:
+            raise SimulationError(f"video {video}: writing mp4 needs 'ffmpeg' on PATH; use --frames DIR")
+        gl = os.environ.get("MUJOCO_GL", "<unset>")
+        try:
+            self.renderer = mujoco.Renderer(sim.model, height=size[1], width=size[0])
+            self.camera = mujoco.MjvCamera()
+            self.camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+            self.camera.distance, self.camera.azimuth, self.camera.elevation = 3.0, 135.0, -20.0
+            self.capture(sim)
+            self.frames.clear()
+        except Exception as exc:  # MuJoCo/PyOpenGL raise assorted types when no context exists
+            raise SimulationError(
+                f"offscreen rendering could not initialise (MUJOCO_GL={gl}): {exc}. Set MUJOCO_GL=egl "
+                "(GPU or Mesa EGL) or MUJOCO_GL=osmesa before Python starts, or run without "
+                "--video/--frames"
+            ) from exc
+
+    def capture(self, sim: SimModel) -> None:
+        self.camera.lookat[:] = sim.data.site_xpos[sim.ee_site]
+        self.renderer.update_scene(sim.data, self.camera)
+        self.frames.append(self.renderer.render().copy())
+
+    def finish(self) -> list[Path]:
+        from PIL import Image
+
+        self.renderer.close()
+        written: list[Path] = []
+        if self.frames_dir is not None:
+            self.frames_dir.mkdir(parents=True, exist_ok=True)
+            for i, frame in enumerate(self.frames):
+                path = self.frames_dir / f"frame_{i:05d}.png"
+                Image.fromarray(frame).save(path)
+                written.append(path)
+        if self.video is not None and self.frames:
+            h, w = self.frames[0].shape[:2]
+            tmp = self.video.with_name(f".{self.video.stem}.tmp.mp4")
+            cmd = ["ffmpeg", "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24",
+                   "-s", f"{w}x{h}", "-r", str(self.fps), "-i", "-", "-pix_fmt", "yuv420p", str(tmp)]
+            proc = subprocess.run(cmd, input=b"".join(f.tobytes() for f in self.frames),
+                                  capture_output=True, check=False)
+            if proc.returncode != 0:
+                tmp.unlink(missing_ok=True)
+                raise SimulationError(f"video {self.video}: ffmpeg failed: {proc.stderr.decode()[-300:]}")
+            os.replace(tmp, self.video)
+            written.append(self.video)
+        return written
+
+
+def run_simulation(
+    sim: SimModel,
+    reference: Reference,
+    *,
+    gains: ControlGains | None = None,
+    thresholds: Thresholds | None = None,
+    reaction_force: bool = False,
+    record_every: int = 10,
+    stop_on_failure: bool = False,
+    recorder: _Recorder | None = None,
+    frame_every: int = 33,
+) -> SimResult:
+    """Run the controllers on ``sim`` along ``reference`` (sampled at every control step).
+
+    The simulation starts at ``reference.q[0]`` at rest; one control step per MuJoCo step
+    (``reference.t`` must be ``k * timestep``). With ``reaction_force`` the environment's
+    reaction ``-f_d`` is applied at the end-effector point.
+    """
+    robot = sim.robot
+    gains = gains or ControlGains()
+    th = thresholds or Thresholds()
+    dt = sim.timestep
+    arm = ArmImpedance(robot, gains)
+    base = BaseAdmittance(gains, dt)
+    n = robot.n_arm
+    steps = reference.t.size
+    judge = _Judge(th, dt, n, sim.payload_mass > 0)
+    ee_body = int(sim.model.site_bodyid[sim.ee_site])
+    m, d = sim.model, sim.data
+    sim.set_state(reference.q[0])
+    rec_idx = list(range(0, steps, max(1, int(record_every))))
+    if rec_idx[-1] != steps - 1:
+        rec_idx.append(steps - 1)
+    nrec = len(rec_idx)
+    log_q_err = np.zeros((nrec, robot.nq))
+    log_tau = np.zeros((nrec, n))
+    log_sat = np.zeros((nrec, n))
+    log_ee = np.zeros((nrec, 3))
+    sat_window = np.zeros(n, dtype=bool)
+    sat_steps = np.zeros(n)
+    max_ratio = np.zeros(n)
+    ee_err_max = 0.0
+    ee_sq = 0.0
+    qa_err_max = 0.0
+    r = 0
+    zero3 = np.zeros(3)
+    start = time.perf_counter()
+    steps_run = 0
+    for k in range(steps):
+        q, dq = sim.state()
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(dq))):
+            judge._fail(k * dt, "unstable", f"non-finite state at t = {k * dt:.3f} s")
+            break
+        q_d = reference.q[k]
+        T_d = robot.ee_pose(q_d)
+        T = sim.ee_pose()
+        ee_err = T[:3, 3] - T_d[:3, 3]
+        tilt = float(np.arccos(np.clip(T[:3, 2] @ T_d[:3, 2], -1.0, 1.0)))
+        J = sim.ee_jacobian()
+        f_d = reference.f[k]
+        cmd = arm.command(q[N_BASE:], dq[N_BASE:], q_d[N_BASE:], reference.dq[k, N_BASE:],
+                          reference.ddq[k, N_BASE:], J, f_d)
+        v_cmd = base.command(q[:N_BASE], dq[:N_BASE], q_d[:N_BASE], reference.dq[k, :N_BASE])
+        d.ctrl[sim.arm_act] = cmd.tau
+        d.ctrl[sim.base_act] = v_cmd
+        if reaction_force:
+            d.qfrc_applied[:] = 0.0
+            mujoco.mj_applyFT(m, d, -f_d, zero3, T[:3, 3].copy(), ee_body, d.qfrc_applied)
+        judge.step(k * dt, ee_err, tilt, cmd.saturated)
+        # Bookkeeping: saturation is OR-ed over each recording window so no event is lost.
+        sat_window |= cmd.saturated
+        sat_steps += cmd.saturated
+        max_ratio = np.maximum(max_ratio, np.abs(cmd.tau_raw) / arm.tau_max)
+        e_norm = float(np.linalg.norm(ee_err))
+        ee_err_max = max(ee_err_max, e_norm)
+        ee_sq += e_norm**2
+        qa_err_max = max(qa_err_max, float(np.abs(q_d[N_BASE:] - q[N_BASE:]).max()))
+        if r < nrec and k == rec_idx[r]:
+            e_q = q_d - q
+            e_q[2] = (e_q[2] + np.pi) % (2 * np.pi) - np.pi
+            log_q_err[r], log_tau[r], log_sat[r], log_ee[r] = e_q, cmd.tau, sat_window, ee_err
+            sat_window[:] = False
+            r += 1
+        if recorder is not None and k % frame_every == 0:
+            recorder.capture(sim)
+        steps_run += 1
+        if stop_on_failure and judge.reason is not None:
+            break
+        mujoco.mj_step(m, d)
+    wall = time.perf_counter() - start
+    names = trajectory_header(n)[1:]
+    log: dict[str, FloatArray] = {"t": reference.t[rec_idx[:r]]}
+    for i, name in enumerate(names):
+        log[f"e_{name}"] = log_q_err[:r, i]
+    for i in range(n):
+        log[f"tau{i + 1}"] = log_tau[:r, i]
+    for i in range(n):
+        log[f"sat{i + 1}"] = log_sat[:r, i]
+    for i, axis in enumerate("xyz"):
+        log[f"ee_err_{axis}"] = log_ee[:r, i]
+    log["ee_err"] = np.linalg.norm(log_ee[:r], axis=1)
+    summary = {
+        "duration": float(steps_run * dt),
+        "timestep": dt,
+        "steps": steps_run,
+        "wall_time_s": wall,
+        "payload_mass": sim.payload_mass,
+        "max_ee_error_m": ee_err_max,
+        "rms_ee_error_m": float(np.sqrt(ee_sq / max(steps_run, 1))),
+        "max_arm_joint_error_rad": qa_err_max,
+        "max_torque_ratio": max_ratio.tolist(),
+        "saturation_fraction": (sat_steps / max(steps_run, 1)).tolist(),
+        "thresholds": asdict(th),
+    }
+    return SimResult(judge.reason is None, judge.reason, judge.time,
+                     judge.detail or "all criteria met", log, summary)
+
+
+def simulate_plan(
+    plan_dir: str | Path,
+    mass: float | None = None,
+    *,
+    out_dir: str | Path | None = None,
+    gains: ControlGains | None = None,
+    thresholds: Thresholds | None = None,
+    torque_limits: Any = None,
+    hold: float = 1.0,
+    timestep: float = 1e-3,
+    record_every: int = 10,
+    stop_on_failure: bool = False,
+    frames_dir: str | Path | None = None,
+    video: str | Path | None = None,
+    fps: float = 30.0,
+    write: bool = True,
+) -> SimResult:
+    """Simulate the plan in ``plan_dir`` and (with ``write``) store ``sim.csv`` and ``sim.json``.
+
+    Args:
+        plan_dir: Folder with ``trajectory.csv`` and ``plan.json``.
+        mass: True payload mass in the simulation (kg); default: the plan's ``payload.mass``
+            (none when null). The controller's force feedforward always uses the plan's force,
+            so ``mass`` different from the plan's models a mass-estimation error.
+        out_dir: Where to write the results (default ``plan_dir``).
+        gains, thresholds: Controller gains and failure criteria (defaults documented there).
+        torque_limits: Override the robot's limits (Nm, per arm joint), e.g. for stress tests.
+        hold: Seconds simulated after the last waypoint, holding it.
+        timestep: Simulation and control period (s); 1 ms = 1 kHz.
+        record_every: Log every n-th control step (saturation flags OR-ed over the window).
+        stop_on_failure: Stop at the first failure instead of running to the end.
+        frames_dir, video: Offscreen rendering to PNG frames / an mp4 file at ``fps``.
+        write: Write ``sim.csv``/``sim.json``. They are written only after the run completes,
+            each through a temporary file and a rename, so an interrupted or crashed run never
+            replaces earlier results.
+
+    Raises:
+        TaskFileError: malformed plan directory; SimulationError: model or rendering problems.
+    """
+    plan = read_plan_dir(plan_dir)
+    robot = plan.robot
+    if torque_limits is not None:
+        robot = robot_from_description({**robot.describe(), "torque_limits": list(np.broadcast_to(
+            np.asarray(torque_limits, dtype=float), (robot.n_arm,)))})
+    true_mass = plan.mass if mass is None else check_mass(mass)
+    hold = as_positive(hold, "hold", allow_zero=True)
+    render = frames_dir is not None or video is not None
+    sim = build_sim_model(robot, true_mass or 0.0, meshes=render, timestep=timestep)
+    dt = sim.timestep
+    steps = int(round((plan.t[-1] - plan.t[0] + hold) / dt)) + 1
+    times = plan.t[0] + dt * np.arange(steps)
+    reference = interpolate_plan(plan.t, plan.q, times, plan.force_t, plan.force)
+    recorder = None
+    if render:
+        recorder = _Recorder(sim, None if frames_dir is None else Path(frames_dir),
+                             None if video is None else Path(video), fps, (640, 480))
+    result = run_simulation(
+        sim, reference, gains=gains, thresholds=thresholds,
+        reaction_force=plan.mass is None and plan.force is not None and bool(np.any(plan.force)),
+        record_every=record_every, stop_on_failure=stop_on_failure, recorder=recorder,
+        frame_every=max(1, int(round(1.0 / (fps * dt)))),
+    )
+    result.summary.update({"plan_dir": str(Path(plan_dir).resolve()), "plan_method": plan.method,
+                           "plan_status": plan.status, "plan_mass": plan.mass})
+    if recorder is not None:
+        result.summary["rendered"] = [str(p) for p in recorder.finish()]
+    if write:
+        write_results(result, Path(plan_dir) if out_dir is None else Path(out_dir))
+    return result
+
+
+def write_results(result: SimResult, out_dir: Path) -> tuple[Path, Path]:
+    """Atomically write ``sim.csv`` (the log) and ``sim.json`` (verdict + summary) to ``out_dir``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    names = list(result.log)
+    table = np.column_stack([result.log[n] for n in names]) if names else np.zeros((0, 0))
+    buf = io.StringIO()
+    buf.write(",".join(names) + "\n")
+    np.savetxt(buf, table, delimiter=",", fmt="%.6g")
+    csv_path, json_path = out_dir / "sim.csv", out_dir / "sim.json"
+    _atomic_write(csv_path, buf.getvalue())
+    _atomic_write(json_path, json.dumps(result.to_json(), indent=1) + "\n")
+    return csv_path, json_path
