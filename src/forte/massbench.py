@@ -159,7 +159,7 @@ def load_dataset(csv_path: Path) -> list[BenchItem]:
     """Read a CSV with columns ``image`` (relative to the CSV), ``description`` and ``mass_kg``.
 
     Accepted aliases: ``image_path``/``path``/``file`` and ``true_mass_kg``/``mass``/``true_mass``.
-    Rows are numbered from 2 (the header is row 1) in error messages.
+    Rows are named by their line in the file (the header is line 1) in error messages.
     """
     path = Path(csv_path)
     try:
@@ -175,7 +175,8 @@ def load_dataset(csv_path: Path) -> list[BenchItem]:
             f"dataset {str(path)!r}: expected columns image, description and mass_kg, got {fields}"
         )
     items: list[BenchItem] = []
-    for row_no, raw in enumerate(reader, start=2):
+    for raw in reader:
+        row_no = reader.line_num  # the physical line, so blank lines do not shift the numbers
         row = {(k or "").strip().lower(): (v or "").strip() for k, v in raw.items()}
         if not any(row.values()):
             continue

@@ -1,0 +1,220 @@
+"""Mass estimates: the offline table, the user override, answer validation, images, the radius."""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from forte.cli import main
+from forte.estimation import (
+    MassEstimate,
+    MassEstimator,
+    OfflineEstimator,
+    VLMConfig,
+    cache_key,
+    data_url,
+    estimate_payload,
+    image_bytes,
+    parse_answer,
+    parse_quantities,
+    radius_from_estimate,
+)
+from forte.exceptions import EstimationError, InvalidInputError
+
+IMAGE = Path(__file__).resolve().parents[1] / "examples" / "massbench" / "images" / "dumbbell.png"
+
+# description, expected mass (kg), hand-computed from the documented table
+OFFLINE_CASES = [
+    ("Carry the 2.7 L beverage in the basket", 2.7 * 1.02 * 1.03),
+    ("Hand over a 330 mL can of cola", 0.33 * 1.04 * 1.045),
+    ("a 0.33 L can of soda", 0.33 * 1.04 * 1.045),
+    ("Bring 500 g of flour", 0.5),
+    ("Lift a 2 kg dumbbell", 2.0),
+    ("1.5 kg", 1.5),
+    ("two 1.5 L bottles of water", 2 * 1.5 * 1.0 * 1.025),
+    ("3 x 330ml cans of beer", 3 * 0.33 * 1.01 * 1.045),
+    ("a six-pack of 0.5 L water bottles", 6 * 0.5 * 1.0 * 1.025),
+    ("a 750 mL glass bottle of wine", 0.75 * 0.99 * 1.6),
+    ("a 1 gallon jug of milk", 3.785411784 * 1.03 * 1.05),
+    ("a 2.5 lb bag of sugar", 2.5 * 0.45359237),
+    ("16 oz of ground coffee", 16 * 0.028349523125),
+    ("a 2 kg dumbbell and a 500 g book", 2.5),
+    ("a 1.5-litre bottle of olive oil", 1.5 * 0.92 * 1.025),
+]
+
+
+@pytest.mark.parametrize(("description", "mass"), OFFLINE_CASES)
+def test_offline_table(description: str, mass: float) -> None:
+    est = OfflineEstimator().estimate(description, None)
+    assert est.mass_kg == pytest.approx(mass, rel=1e-9)
+    assert est.low_kg < est.mass_kg < est.high_kg
+    assert est.source == "offline:quantity-table-v1"
+    assert est.rationale
+
+
+def test_offline_intervals() -> None:
+    dumbbell = OfflineEstimator().estimate("a 2 kg dumbbell", None)
+    assert (dumbbell.low_kg, dumbbell.high_kg) == pytest.approx((1.9, 2.1))  # +-5 % on a stated mass
+    hedged = OfflineEstimator().estimate("about 2 kg of apples", None)
+    assert (hedged.low_kg, hedged.high_kg) == pytest.approx((1.6, 2.4))  # +-20 % when hedged
+    water = OfflineEstimator().estimate("two 1.5 L bottles of water", None)
+    assert water.low_kg == pytest.approx(3.0 * 0.997 * 1.015)
+    assert water.high_kg == pytest.approx(3.0 * 1.003 * 1.05)
+    unknown = OfflineEstimator().estimate("a 2 L box", None)  # contents not named: wide interval
+    assert unknown.low_kg == pytest.approx(2 * 0.5) and unknown.high_kg == pytest.approx(2 * 1.5 * 1.1)
+
+
+def test_offline_unnamed_bottle_contents_taken_as_beverage() -> None:
+    (q,) = parse_quantities("two 1.5 L bottles")
+    assert q.count == 2 and q.mass_kg == pytest.approx(3 * 1.02 * 1.025)
+
+
+@pytest.mark.parametrize(
+    "description", ["Carry the red bottle to the table", "a heavy box", "move it 2 m to the left", "", "   "]
+)
+def test_offline_refuses_without_a_quantity(description: str) -> None:
+    with pytest.raises(EstimationError, match="--mass"):
+        OfflineEstimator().estimate(description, None)
+
+
+def test_offline_refuses_implausible_total() -> None:
+    with pytest.raises(EstimationError, match="outside the plausible payload range"):
+        OfflineEstimator().estimate("a 900 kg crate", None)
+
+
+def test_estimators_follow_the_protocol() -> None:
+    assert isinstance(OfflineEstimator(), MassEstimator)
+
+
+def test_user_mass_always_wins(tmp_path: Path) -> None:
+    vlm = VLMConfig(base_url="http://127.0.0.1:9/v1", api_key_env="FORTE_NO_SUCH_VAR")
+    est = estimate_payload("two 1.5 L bottles", IMAGE, mass=4.2, vlm=vlm, cache_dir=tmp_path)
+    assert (est.mass_kg, est.low_kg, est.high_kg, est.source) == (4.2, 4.2, 4.2, "user")
+    assert not list(tmp_path.iterdir())  # no request, no cache
+    with pytest.raises(InvalidInputError, match="mass"):
+        estimate_payload("x", None, mass=-1.0)
+
+
+def test_estimate_payload_defaults_to_offline() -> None:
+    est = estimate_payload("a 2 kg dumbbell", IMAGE)
+    assert est.source.startswith("offline") and est.mass_kg == 2.0
+
+
+def test_mass_estimate_validation_and_dict() -> None:
+    est = MassEstimate(2.0, 1.5, 2.5, "test", "why")
+    assert est.to_dict() == {
+        "mass_kg": 2.0, "low_kg": 1.5, "high_kg": 2.5, "source": "test", "rationale": "why", "cached": False,
+    }  # fmt: skip
+    assert est.half_width_kg == 0.5
+    json.dumps(est.to_dict())
+    with pytest.raises(EstimationError, match="low_kg <= mass_kg <= high_kg"):
+        MassEstimate(3.0, 1.5, 2.5, "test")
+    with pytest.raises(EstimationError, match="mass_kg: expected a finite number"):
+        MassEstimate(math.nan, 1.5, 2.5, "test")
+    with pytest.raises(EstimationError, match="low_kg: expected a positive mass"):
+        MassEstimate(1.0, 0.0, 2.5, "test")
+
+
+def test_radius_from_estimate_hand_computed() -> None:
+    est = MassEstimate(3.0, 2.0, 4.0, "test")  # half width 1 kg
+    acc = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 10.0], [3.0, 4.0, -9.81], [0.0, 0.0, -9.81]])
+    r = radius_from_estimate(acc, est, r_min=5.0)
+    # |a - g| = 9.81, 19.81, 5, 0 -> times 1 kg, floored at 5 N
+    np.testing.assert_allclose(r, [9.81, 19.81, 5.0, 5.0])
+    np.testing.assert_allclose(radius_from_estimate(acc, est), [10.0, 19.81, 10.0, 10.0])  # paper's 10 N
+    user = MassEstimate(3.0, 3.0, 3.0, "user")
+    np.testing.assert_allclose(radius_from_estimate(acc, user), 10.0)
+    with pytest.raises(InvalidInputError, match="acc"):
+        radius_from_estimate(np.zeros((4, 2)), est)
+    with pytest.raises(InvalidInputError, match="r_min"):
+        radius_from_estimate(acc, est, r_min=-1.0)
+
+
+def test_image_bytes(tmp_path: Path) -> None:
+    data, mime = image_bytes(IMAGE)
+    assert mime == "image/png" and data == IMAGE.read_bytes()
+    jpeg = tmp_path / "photo.bin"
+    jpeg.write_bytes(b"\xff\xd8\xff\xe0fake-jpeg")
+    assert image_bytes(jpeg) == (b"\xff\xd8\xff\xe0fake-jpeg", "image/jpeg")  # sent as they are
+    assert image_bytes(str(tmp_path / "photo.bin"))[1] == "image/jpeg"
+    grey, _ = image_bytes(np.linspace(0, 1, 12).reshape(3, 4))
+    assert grey.startswith(b"\x89PNG")
+    url = data_url(b"abc", "image/png")
+    assert url == "data:image/png;base64," + base64.b64encode(b"abc").decode()
+    with pytest.raises(InvalidInputError, match="cannot be read"):
+        image_bytes(tmp_path / "missing.png")
+    bad = tmp_path / "notes.txt"
+    bad.write_text("hello")
+    with pytest.raises(InvalidInputError, match="expected a PNG, JPEG"):
+        image_bytes(bad)
+    with pytest.raises(InvalidInputError, match="H x W"):
+        image_bytes(np.zeros((2, 2, 5)))
+    with pytest.raises(InvalidInputError, match=r"\[0, 1\]"):
+        image_bytes(np.full((2, 2), 3.0))
+
+
+def test_parse_answer() -> None:
+    good = {"object": "can", "mass_kg": 0.35, "low_kg": 0.3, "high_kg": 0.4, "rationale": "330 mL"}
+    est = parse_answer(json.dumps(good), "vlm:m")
+    assert (est.mass_kg, est.source, est.rationale) == (0.35, "vlm:m", "can: 330 mL")
+    for content, message in [
+        ("", "empty content"),
+        ("{", "not valid JSON"),
+        (json.dumps({**good, "mass_kg": math.inf}), "not valid JSON|finite"),
+        (json.dumps({**good, "mass_kg": True}), "must be a number"),
+        (json.dumps({**good, "low_kg": 0.0005}), "outside the plausible payload range"),
+        (json.dumps({**good, "high_kg": 600.0}), "outside the plausible payload range"),
+    ]:
+        with pytest.raises(EstimationError, match=message):
+            parse_answer(content, "vlm:m")
+
+
+def test_cache_key_depends_on_every_input() -> None:
+    base = cache_key("a" * 64, "desc", "gpt-4o")
+    assert base == cache_key("a" * 64, "desc", "gpt-4o")
+    assert len({base, cache_key("b" * 64, "desc", "gpt-4o"), cache_key("a" * 64, "other", "gpt-4o"),
+                cache_key("a" * 64, "desc", "llava")}) == 4  # fmt: skip
+
+
+def test_vlm_config_validation() -> None:
+    with pytest.raises(InvalidInputError, match="base_url"):
+        VLMConfig(base_url="localhost:11434")
+    with pytest.raises(InvalidInputError, match="timeout_s"):
+        VLMConfig(timeout_s=0)
+    with pytest.raises(InvalidInputError, match="max_retries"):
+        VLMConfig(max_retries=-1)
+    cfg = VLMConfig(backoff_base_s=0.5, backoff_max_s=3.0)
+    assert [cfg.backoff(k) for k in range(4)] == [0.5, 1.0, 2.0, 3.0]
+
+
+def test_cli_estimate_mass_offline(capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["estimate-mass", "--image", str(IMAGE), "--description", "Lift a 2 kg dumbbell"])
+    out, _ = capsys.readouterr()
+    assert code == 0
+    result = json.loads(out)
+    assert result["mass_kg"] == 2.0 and result["source"].startswith("offline")
+    assert result["radius_at_rest_n"] == 10.0  # 9.81 x 0.1 kg is below the 10 N floor
+
+    code = main(["estimate-mass", "--description", "about 20 kg", "--r-min", "1"])
+    result = json.loads(capsys.readouterr().out)
+    assert code == 0 and result["radius_at_rest_n"] == pytest.approx(9.81 * 4.0)
+
+
+def test_cli_estimate_mass_user_mass(capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["estimate-mass", "--description", "a heavy box", "--mass", "7.5"])
+    result = json.loads(capsys.readouterr().out)
+    assert code == 0 and result["source"] == "user" and result["mass_kg"] == 7.5
+
+
+def test_cli_estimate_mass_refusal(capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["estimate-mass", "--image", str(IMAGE), "--description", "a heavy box"])
+    _, err = capsys.readouterr()
+    assert code == 2
+    assert err.startswith("forte: error: no mass or volume stated") and "--mass" in err
+    assert main(["estimate-mass"]) == 2
+    assert "give --image, --description" in capsys.readouterr().err
