@@ -162,6 +162,8 @@ def test_parse_answer() -> None:
     good = {"object": "can", "mass_kg": 0.35, "low_kg": 0.3, "high_kg": 0.4, "rationale": "330 mL"}
     est = parse_answer(json.dumps(good), "vlm:m")
     assert (est.mass_kg, est.source, est.rationale) == (0.35, "vlm:m", "can: 330 mL")
+    fenced = parse_answer("```json\n" + json.dumps(good) + "\n```", "vlm:m")
+    assert fenced.mass_kg == 0.35
     for content, message in [
         ("", "empty content"),
         ("{", "not valid JSON"),

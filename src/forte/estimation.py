@@ -514,6 +514,10 @@ def parse_answer(content: str | None, source: str) -> MassEstimate:
     """
     if not content or not content.strip():
         raise EstimationError("VLM answer: empty content")
+    # servers that ignore the schema (some Ollama models) may wrap the JSON in a markdown fence
+    fenced = re.fullmatch(r"\s*```(?:json)?\s*(.*?)\s*```\s*", content, re.DOTALL)
+    if fenced:
+        content = fenced.group(1)
     try:
         answer = json.loads(content)
     except json.JSONDecodeError as exc:
