@@ -70,7 +70,8 @@ def payload_force(
     """
     m = as_positive(mass, "mass")
     times = check_times(t)
-    _, acc = backward_differences(positions, times, "positions")
+    pos = as_array(positions, "positions", (times.size, 3))
+    _, acc = backward_differences(pos, times, "positions")
     g = np.array([0.0, 0.0, -gravity])
     return TaskForce(times, m * (acc - g), _radii(radius, times.size))
 

@@ -23,7 +23,8 @@ def as_array(value: Any, name: str, shape: tuple[int | None, ...]) -> FloatArray
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
         raise InvalidInputError(f"{name}: expected numbers, got {value!r}") from exc
-    expected = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
+    dims = tuple("N" if s is None else str(s) for s in shape)
+    expected = "(" + ", ".join(dims) + ("," if len(dims) == 1 else "") + ")"
     if arr.ndim != len(shape) or any(
         s is not None and a != s for a, s in zip(arr.shape, shape, strict=True)
     ):

@@ -1,0 +1,86 @@
+"""Damped least-squares whole-body inverse kinematics along a path of end-effector poses.
+
+Used for the optimizer's initial guess and as the *quintic* baseline (the interpolated path
+followed without optimization). Each waypoint starts from the previous solution, so the
+result is continuous; base motion is weighted ``base_weight`` times more than arm motion, so
+the arm does most of the work, as a teach-pendant style controller would.
+
+Step (weighted, damped): ``dq = W^-1 J^T (J W^-1 J^T + lambda^2 I)^-1 e`` with the 6-D world
+pose error ``e = [p_d - p; log(R_d R^T)]``, then a clamp to the arm joint limits.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from forte.exceptions import InfeasibleTaskError
+from forte.robot import N_BASE, MobileManipulator
+from forte.validation import FloatArray
+
+
+@dataclass(frozen=True)
+class IKOptions:
+    damping: float = 1e-3
+    base_weight: float = 10.0
+    max_iterations: int = 200
+    tolerance: float = 1e-9
+    position_tolerance: float = 1e-4  # m: above this a waypoint is reported unreachable
+    orientation_tolerance: float = 1e-3  # rad
+
+
+def pose_error(robot: MobileManipulator, q: FloatArray, target: FloatArray) -> FloatArray:
+    """6-D world-frame error ``[p_d - p; log(R_d R^T)]`` of the end-effector pose."""
+    T = robot.ee_pose(q)
+    return np.concatenate([target[:3, 3] - T[:3, 3], pin.log3(target[:3, :3] @ T[:3, :3].T)])
+
+
+def solve_pose(
+    robot: MobileManipulator, target: FloatArray, q_start: FloatArray, options: IKOptions = IKOptions(),
+) -> tuple[FloatArray, FloatArray]:
+    """One waypoint: returns ``(q, final error)``."""
+    q = q_start.copy()
+    winv = np.concatenate([np.full(N_BASE, 1.0 / options.base_weight), np.ones(robot.n_arm)])
+    margin = 1e-6
+    for _ in range(options.max_iterations):
+        err = pose_error(robot, q, target)
+        if np.linalg.norm(err) < options.tolerance:
+            break
+        J = robot.whole_body_jacobian(q)
+        JW = J * winv
+        step = JW.T @ np.linalg.solve(JW @ J.T + options.damping**2 * np.eye(6), err)
+        q = q + step
+        q[N_BASE:] = np.clip(q[N_BASE:], robot.lower + margin, robot.upper - margin)
+    return q, pose_error(robot, q, target)
+
+
+def follow_path(
+    robot: MobileManipulator, targets: FloatArray, q_init: FloatArray, options: IKOptions = IKOptions(),
+) -> FloatArray:
+    """Whole-body configurations (N x nq) tracking the poses ``targets`` (N x 4 x 4).
+
+    The first configuration is ``q_init`` itself (the paper fixes ``q_1 = q_init``); its pose
+    must match ``targets[0]``.
+
+    Raises:
+        InfeasibleTaskError: naming the first waypoint the IK cannot reach and the distance.
+    """
+    q_init = robot.check_configuration(q_init, "q_init")
+    out = np.empty((len(targets), robot.nq))
+    q = q_init
+    for k, target in enumerate(targets):
+        if k > 0:
+            q, err = solve_pose(robot, target, q, options)
+        else:
+            err = pose_error(robot, q, target)
+        pos, ang = np.linalg.norm(err[:3]), np.linalg.norm(err[3:])
+        if pos > options.position_tolerance or ang > options.orientation_tolerance:
+            where = "the initial configuration does not reach waypoint 0" if k == 0 else f"waypoint {k}"
+            raise InfeasibleTaskError(
+                f"{where}: end-effector pose unreachable, position error {pos:.4f} m, "
+                f"orientation error {ang:.4f} rad (target position {np.round(target[:3, 3], 4).tolist()})"
+            )
+        out[k] = q
+    return out

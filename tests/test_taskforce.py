@@ -1,0 +1,74 @@
+"""Desired task force f_k = m (p''_k - g) with backward differences (paper, Section 4.1)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from forte.exceptions import InvalidInputError
+from forte.taskforce import given_force, payload_force
+from forte.trajectory import backward_differences, quintic_path
+
+
+def test_static_payload_needs_upward_gravity_compensation():
+    t = np.linspace(0, 1, 5)
+    p = np.tile([0.5, 0.0, 0.9], (5, 1))
+    task = payload_force(t, p, mass=2.7)
+    np.testing.assert_allclose(task.f, np.tile([0, 0, 2.7 * 9.81], (5, 1)))
+    np.testing.assert_allclose(task.r, 10.0)
+    np.testing.assert_allclose(task.direction, np.tile([0, 0, 1.0], (5, 1)))
+
+
+def test_constant_acceleration_is_recovered_after_the_first_samples():
+    dt = 0.1
+    t = np.arange(8) * dt
+    acc = np.array([0.4, -0.2, 1.5])
+    p = 0.5 * t[:, None] ** 2 * acc
+    task = payload_force(t, p, mass=2.0, radius=5.0)
+    # k = 0: at rest; k = 1: v_0 = 0 so a_1 = v_1 / dt = acc / 2; k >= 2: exact
+    np.testing.assert_allclose(task.f[0], 2.0 * np.array([0, 0, 9.81]))
+    np.testing.assert_allclose(task.f[1], 2.0 * (acc / 2 + [0, 0, 9.81]))
+    np.testing.assert_allclose(task.f[2:], np.tile(2.0 * (acc + [0, 0, 9.81]), (6, 1)), atol=1e-9)
+
+
+def test_backward_differences_with_uneven_steps():
+    t = np.array([0.0, 0.1, 0.3, 0.35])
+    x = np.array([[0.0], [1.0], [2.0], [4.0]])
+    v, a = backward_differences(x, t)
+    np.testing.assert_allclose(v[:, 0], [0, 10, 5, 40])
+    np.testing.assert_allclose(a[:, 0], [0, 100, -25, 700])
+
+
+def test_quintic_path_passes_knots_at_rest():
+    kt = np.array([0.0, 1.0, 3.0])
+    knots = np.array([[0.0, 0, 0], [1, 2, 3], [0, 0, 1]])
+    t = np.linspace(0, 3, 301)
+    p = quintic_path(kt, knots, t)
+    np.testing.assert_allclose(p[[0, 100, 300]], knots, atol=1e-12)
+    v = np.gradient(p, t, axis=0)
+    assert np.abs(v[100]).max() < 0.05  # rest at the interior knot
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"mass": -1.0}, "mass: expected a finite number > 0"),
+        ({"mass": float("nan")}, "mass: expected a finite number > 0"),
+        ({"mass": 1.0, "t": [0.0, 0.2, 0.1]}, "t[2]: time stamps must be strictly increasing"),
+        ({"mass": 1.0, "positions": np.zeros((3, 2))}, "positions: expected shape (3, 3), got (3, 2)"),
+        ({"mass": 1.0, "radius": -2.0}, "radius: expected a finite number >= 0"),
+    ],
+)
+def test_bad_task_force_inputs(kwargs, message):
+    args = {"t": [0.0, 0.1, 0.2], "positions": np.zeros((3, 3))} | kwargs
+    with pytest.raises(InvalidInputError) as err:
+        payload_force(**args)
+    assert message in str(err.value)
+
+
+def test_given_force_profile():
+    task = given_force([0, 1], [[1, 2, 3], [0, 0, 0]], radius=[1, 2])
+    np.testing.assert_allclose(task.magnitude, [np.sqrt(14), 0])
+    np.testing.assert_allclose(task.direction[1], [0, 0, 1])
+    with pytest.raises(InvalidInputError, match=r"radius\[1\]"):
+        given_force([0, 1], [[1, 2, 3], [0, 0, 0]], radius=[1, -2])
