@@ -88,6 +88,11 @@ def capability_stage(twin: CasadiTwin, tau_max: FloatArray, params: CapabilityPa
     return ca.Function("capability", [q2, q1, q0, dt1, dt0, f, r], [c])
 
 
+def _softplus(x: ca.SX) -> ca.SX:
+    """``log(1 + exp(x))`` without overflow."""
+    return ca.fmax(x, 0) + ca.log1p(ca.exp(-ca.fabs(x)))
+
+
 def _smooth_min(values: ca.SX, scale: ca.SX, beta: float) -> ca.SX:
     """``-(s/beta) log sum exp(-beta v_i / s)``: a lower bound of ``min v`` within s log(n)/beta."""
     return -scale / beta * ca.logsumexp(-beta * values / scale)
@@ -128,7 +133,7 @@ def cone_stage(twin: CasadiTwin, tau_max: FloatArray, params: CapabilityParamete
     sharp = 1e-3  # softplus width of a_i . d (m)
     for j in range(N_CONE_RAYS):
         proj = A @ rays[j, :].T
-        pos = sharp * ca.log1p(ca.exp(proj / sharp))
+        pos = sharp * _softplus(proj / sharp)
         rho = _smooth_min(b / (pos + 1e-9), scale, params.beta)
         total += ca.fmax(rho, 0) ** 3
     omega = 2 * np.pi * (1 - np.cos(half_angle))

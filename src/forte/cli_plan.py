@@ -1,0 +1,105 @@
+"""``forte plan`` and ``forte compare``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from forte.planner import ALL_METHODS, PlanResult, methods_for, plan
+from forte.reports import plan_summary, replace_directory, write_comparison, write_plan
+from forte.tasks import load_task
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("task", type=Path, help="task file (YAML), e.g. examples/tasks/lift.yaml")
+    p.add_argument("--mass", type=float, help="payload mass in kg (overrides the task file and the estimator)")
+    p.add_argument("--waypoints", type=int, help="number of waypoints N (trajectory mode)")
+    p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    p.add_argument("--vlm-base-url", help="OpenAI-compatible server for the mass estimate (else offline)")
+    p.add_argument("--model", default="gpt-4o", help="VLM model name (default gpt-4o)")
+    p.add_argument("--api-key-env", default="OPENAI_API_KEY", help="environment variable holding the API key")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("plan", help="plan a whole-body trajectory for a task",
+                       description="Plan a task with one method and write trajectory.csv, metrics.csv, "
+                       "plan.json and figures to --out.")
+    _common(p)
+    p.add_argument("--method", default="forte", choices=ALL_METHODS, help="planning method (default forte)")
+    p.add_argument("--out", type=Path, help="output directory (default runs/<task>-<method>)")
+    p.set_defaults(func=run_plan)
+    c = sub.add_parser("compare", help="plan a task with every method and compare them",
+                       description="Run every method that applies to the task and write one directory per "
+                       "method plus summary.md, summary.csv and comparison.png to --out.")
+    _common(c)
+    c.add_argument("--out", type=Path, help="output directory (default runs/<task>-compare)")
+    c.set_defaults(func=run_compare)
+
+
+def _estimator_options(args: argparse.Namespace) -> dict[str, Any]:
+    if not args.vlm_base_url:
+        return {}
+    from forte.estimation import VLMConfig
+
+    return {"vlm": VLMConfig(base_url=args.vlm_base_url, model=args.model, api_key_env=args.api_key_env)}
+
+
+def _say(args: argparse.Namespace, text: str) -> None:
+    if not args.quiet:
+        print(text, file=sys.stderr, flush=True)
+
+
+def _describe(res: PlanResult) -> str:
+    s = plan_summary(res)
+    solve = res.solver.get("solve_time_s")
+    timing = f", solved in {solve:.2f} s ({res.solver.get('iterations')} it.)" if solve is not None else ""
+    return (f"{res.method}: {res.status}{timing}; min d = {s['min_d']:.2f} N, min capacity - (|f| + r) = "
+            f"{s['min_capacity_margin']:.2f} N, mean manipulability = {s['mean_manipulability']:.4f}")
+
+
+def run_plan(args: argparse.Namespace) -> int:
+    start = time.perf_counter()
+    task = load_task(args.task, mass=args.mass, waypoints=args.waypoints)
+    out = args.out or Path("runs") / f"{task.name}-{args.method}"
+    _say(args, f"planning {task.name} ({task.mode}, {task.n} waypoints) with {args.method} ...")
+    res = plan(task, args.method, _estimator_options(args))
+    where = write_plan(res, out, figures=not args.no_figures)
+    _say(args, _describe(res))
+    if not res.success:
+        print(f"forte: error: optimization failed ({res.status}); report in {where}/plan.json, "
+              "no trajectory.csv written", file=sys.stderr)
+        return 1
+    _say(args, f"wrote {where} in {time.perf_counter() - start:.2f} s")
+    return 0
+
+
+def run_compare(args: argparse.Namespace) -> int:
+    task = load_task(args.task, mass=args.mass, waypoints=args.waypoints)
+    out = args.out or Path("runs") / f"{task.name}-compare"
+    methods = methods_for(task)
+    results: list[PlanResult] = []
+    options = _estimator_options(args)
+    for i, method in enumerate(methods, 1):
+        _say(args, f"[{i}/{len(methods)}] {method} ...")
+        res = plan(task, method, options)
+        results.append(res)
+        _say(args, "      " + _describe(res))
+
+    def build(tmp: Path) -> None:
+        for res in results:
+            write_plan(res, tmp / res.method, figures=not args.no_figures)
+        write_comparison(results, tmp)
+
+    replace_directory(build, out)
+    if not args.quiet:
+        print((out / "summary.md").read_text())
+    _say(args, f"wrote {out}")
+    failed = [r.method for r in results if not r.success]
+    if failed:
+        print(f"forte: error: optimization failed for {', '.join(failed)}", file=sys.stderr)
+        return 1
+    return 0

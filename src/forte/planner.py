@@ -1,0 +1,144 @@
+"""Planning: from a validated :class:`~forte.tasks.Task` to a whole-body plan and its metrics.
+
+Methods (paper, Section 5):
+
+- ``forte``: the full cost ``J1 + J2 + J3 + J4 + J5``;
+- ``manipulability``: the same problem without ``J1``;
+- ``rfp-radius`` / ``rfp-cone``: ``J1`` replaced by ``1 / max(|value|, eps)`` of the centred
+  inscribed radius or the cone measure of the RFP (Ferrolho et al. 2021);
+- ``quintic`` (trajectory mode): the interpolated path followed by damped least-squares IK,
+  no optimization (also the optimizer's initial guess);
+- ``teaching`` (hold mode): the user's teaching configuration, no optimization.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from forte.exceptions import InvalidInputError, TaskFileError
+from forte.ik import follow_path, solve_pose
+from forte.metrics import capability_margin, yoshikawa
+from forte.optimizer import OPTIMIZED_METHODS, Solution, TrajectoryOptimizer
+from forte.polytope import directional_capacity, halfspaces, inscribed_radius, residual_margins, trajectory_rfp
+from forte.robot import MobileManipulator
+from forte.taskforce import TaskForce
+from forte.tasks import Task
+from forte.validation import FloatArray
+
+TRAJECTORY_METHODS: tuple[str, ...] = (*OPTIMIZED_METHODS, "quintic")
+HOLD_METHODS: tuple[str, ...] = (*OPTIMIZED_METHODS, "teaching")
+ALL_METHODS: tuple[str, ...] = (*OPTIMIZED_METHODS, "quintic", "teaching")
+
+
+@dataclass
+class PlanResult:
+    """A plan: configurations, the desired force, per-waypoint metrics and solver facts."""
+
+    task: Task
+    method: str
+    q: FloatArray
+    force: TaskForce
+    metrics: dict[str, FloatArray]
+    success: bool
+    status: str
+    solver: dict[str, Any] = field(default_factory=dict)
+    estimate: dict[str, Any] | None = None
+
+    @property
+    def t(self) -> FloatArray:
+        return self.task.t
+
+
+def methods_for(task: Task) -> tuple[str, ...]:
+    return HOLD_METHODS if task.mode == "hold" else TRAJECTORY_METHODS
+
+
+def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: TaskForce, alpha: float) -> dict[str, FloatArray]:
+    """Exact per-waypoint metrics of a plan (the quantities reported in metrics.csv).
+
+    ``d`` uses the metric's ``alpha``; the directional capacity (along the desired force) and
+    the inscribed radius are those of the paper's RFP ``P_r,k`` itself (``alpha = 1``).
+    """
+    rfp = trajectory_rfp(robot, q, t, alpha=1.0)
+    plus, minus = residual_margins(rfp.tau_nom, robot.torque_limits)
+    A, b = halfspaces(rfp.J, plus, minus, alpha=alpha)
+    capacity = directional_capacity(rfp.A, rfp.b, force.direction)
+    return {
+        "t": np.asarray(t, dtype=float),
+        "fx": force.f[:, 0], "fy": force.f[:, 1], "fz": force.f[:, 2],
+        "radius": force.r,
+        "d": capability_margin(A, b, force.f, force.r),
+        "directional_capacity": capacity,
+        "capacity_margin": capacity - (force.magnitude + force.r),
+        "inscribed_radius": inscribed_radius(rfp.A, rfp.b),
+        "manipulability": yoshikawa(rfp.J),
+        "max_torque_ratio": np.max(np.abs(rfp.tau_nom) / robot.torque_limits, axis=1),
+    }
+
+
+def resolve_mass(task: Task, estimator_options: dict[str, Any] | None = None) -> dict[str, Any] | None:
+    """Fill ``task.payload['mass']`` from the estimator when only a description/image is given."""
+    if task.force_profile is not None or task.payload.get("mass") is not None:
+        return None
+    if not (task.payload.get("description") or task.payload.get("image")):
+        raise TaskFileError(f"{task.source}: payload: give a mass, a description or an image")
+    from forte.estimation import estimate_payload
+
+    estimate = estimate_payload(task.payload.get("description"), task.payload.get("image"),
+                                **(estimator_options or {}))
+    task.payload["mass"] = float(estimate.mass_kg)
+    return estimate.to_dict()
+
+
+def initial_guess(task: Task) -> FloatArray:
+    """Feasible, smooth start: IK along the path (trajectory) or onto the pose (hold)."""
+    if task.mode == "hold":
+        q, err = solve_pose(task.robot, task.targets[0], task.q_init)
+        if np.linalg.norm(err[:3]) > 1e-4:
+            from forte.exceptions import InfeasibleTaskError
+
+            raise InfeasibleTaskError(f"hold pose unreachable from initial_configuration: position error "
+                                      f"{np.linalg.norm(err[:3]):.4f} m")
+        return q[None]
+    return follow_path(task.robot, task.targets, task.q_init)
+
+
+def plan(task: Task, method: str = "forte", estimator_options: dict[str, Any] | None = None,
+         guess: FloatArray | None = None) -> PlanResult:
+    """Plan ``task`` with ``method``; never raises for a solver failure (see ``success``)."""
+    allowed = methods_for(task)
+    if method not in allowed:
+        raise InvalidInputError(f"method: '{method}' does not apply to mode '{task.mode}'; "
+                                f"expected one of {', '.join(allowed)}")
+    estimate = resolve_mass(task, estimator_options)
+    force = task.force()
+    robot = task.robot
+    start = time.perf_counter()
+    solver_info: dict[str, Any] = {}
+    if method == "teaching":
+        if task.teaching is None:
+            raise TaskFileError(f"{task.source}: teaching_configuration: required for method 'teaching'")
+        q, success, status = task.teaching[None], True, "not optimized (teaching point)"
+    else:
+        q_guess = initial_guess(task) if guess is None else guess
+        if method == "quintic":
+            q, success, status = q_guess, True, "not optimized (quintic path + IK)"
+        else:
+            opt = TrajectoryOptimizer(robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
+                                      options=task.solver)
+            sol: Solution = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess)
+            q, success, status = sol.q, sol.success, sol.status
+            solver_info = {
+                "status": sol.status, "success": sol.success, "iterations": sol.iterations,
+                "objective": sol.objective, "constraint_violation": sol.constraint_violation,
+                "build_time_s": sol.build_time, "solve_time_s": sol.solve_time, "kernels": sol.codegen,
+                "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, force.f, force.r),
+            }
+    solver_info["wall_time_s"] = time.perf_counter() - start
+    metrics = evaluate(robot, q, task.t, force, task.weights.capability_params.alpha)
+    return PlanResult(task=task, method=method, q=q, force=force, metrics=metrics, success=success,
+                      status=status, solver=solver_info, estimate=estimate)
