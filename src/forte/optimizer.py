@@ -69,7 +69,7 @@ class SolverOptions:
         print_level: IPOPT verbosity (0 = silent).
     """
 
-    max_iter: int = 300
+    max_iter: int = 500
     tol: float = 1e-6
     constraint_tol: float = 1e-6
     codegen: bool = True

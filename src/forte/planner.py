@@ -14,7 +14,7 @@ Methods (paper, Section 5):
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -107,6 +107,33 @@ def initial_guess(task: Task) -> FloatArray:
     return follow_path(task.robot, task.targets, task.q_init)
 
 
+#: Trajectories longer than this are solved coarse-to-fine (see :func:`coarse_guess`).
+COARSE_WAYPOINTS = 25
+
+
+def coarse_guess(task: Task, method: str) -> tuple[FloatArray, dict[str, Any]] | None:
+    """Solve the same task on ``COARSE_WAYPOINTS`` samples and interpolate the result in time.
+
+    A fine horizon makes the finite-difference accelerations stiff (``1 / dt^2``) and IPOPT slow
+    from the IK guess; starting from the interpolated coarse optimum halves the iterations at
+    N = 100 (see ``benchmarks/bench_planner.py``). Returns ``None`` when it does not apply.
+    """
+    if task.mode != "trajectory" or task.n <= 2 * COARSE_WAYPOINTS or not task.raw:
+        return None
+    from forte.tasks import task_from_dict
+
+    coarse = task_from_dict(task.raw, task.source, mass=task.payload.get("mass"), waypoints=COARSE_WAYPOINTS)
+    coarse.weights, coarse.solver = task.weights, task.solver
+    force = coarse.force()
+    opt = TrajectoryOptimizer(task.robot, coarse.n, method, task.weights, options=task.solver)
+    sol = opt.solve(coarse.t, coarse.targets, force.f, force.r, coarse.q_init, initial_guess(coarse))
+    if not sol.success:
+        return None
+    q = np.column_stack([np.interp(task.t, coarse.t, sol.q[:, j]) for j in range(sol.q.shape[1])])
+    q[0] = task.q_init
+    return q, {"waypoints": coarse.n, "iterations": sol.iterations, "solve_time_s": sol.solve_time}
+
+
 def plan(task: Task, method: str = "forte", estimator_options: dict[str, Any] | None = None,
          guess: FloatArray | None = None) -> PlanResult:
     """Plan ``task`` with ``method``; never raises for a solver failure (see ``success``)."""
@@ -128,11 +155,18 @@ def plan(task: Task, method: str = "forte", estimator_options: dict[str, Any] | 
         if method == "quintic":
             q, success, status = q_guess, True, "not optimized (quintic path + IK)"
         else:
+            options = task.solver
+            warm = coarse_guess(task, method) if guess is None else None
+            if warm is not None:
+                q_guess = warm[0]
+                solver_info["coarse"] = warm[1]
+                # a near-optimal start: begin with a small barrier parameter
+                options = replace(options, extra={"mu_strategy": "monotone", "mu_init": 1e-4} | options.extra)
             opt = TrajectoryOptimizer(robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
-                                      options=task.solver)
+                                      options=options)
             sol: Solution = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess)
             q, success, status = sol.q, sol.success, sol.status
-            solver_info = {
+            solver_info |= {
                 "status": sol.status, "success": sol.success, "iterations": sol.iterations,
                 "objective": sol.objective, "constraint_violation": sol.constraint_violation,
                 "build_time_s": sol.build_time, "solve_time_s": sol.solve_time, "kernels": sol.codegen,

@@ -1,0 +1,140 @@
+"""The NLP: hand-assembled exact derivatives equal CasADi's AD; solutions meet the constraints."""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pytest
+from scipy.fft import dct
+
+from forte.costs import (
+    CostWeights,
+    base_spectral_cost,
+    dct_matrix,
+    dct_penalty_matrix,
+    high_frequencies,
+    smoothness_cost,
+)
+from forte.exceptions import InvalidInputError
+from forte.ik import follow_path
+from forte.optimizer import SolverOptions, TrajectoryOptimizer
+from forte.taskforce import payload_force
+from forte.trajectory import quintic_path
+
+
+def lift_problem(robot, n, duration=3.0, drop=0.2):
+    q0 = robot.home()
+    T0 = robot.ee_pose(q0)
+    t = np.linspace(0, duration, n)
+    P = quintic_path([0, duration], [T0[:3, 3], T0[:3, 3] + [0.1, 0.0, -drop]], t)
+    targets = np.repeat(T0[None], n, axis=0)
+    targets[:, :3, 3] = P
+    return t, targets, q0
+
+
+@pytest.mark.parametrize(("method", "fix"), [("forte", True), ("rfp-radius", True), ("rfp-cone", True),
+                                              ("manipulability", False), ("forte", False)])
+def test_assembled_derivatives_equal_automatic_differentiation(robot, method, fix):
+    n = 5 if fix else 1
+    opt = TrajectoryOptimizer(robot, n, method, fix_initial=fix, options=SolverOptions(codegen=False))
+    rng = np.random.default_rng(0)
+    x = np.tile(robot.home(), n) + 0.1 * rng.normal(size=robot.nq * n)
+    T = np.repeat(robot.ee_pose(robot.home())[None], n, 0)
+    p = opt.parameters(np.linspace(0, 1, n), T, rng.normal(size=(n, 3)) * 30, np.full(n, 10.0))
+    oracle = opt.solver.oracle()
+    xs, ps = ca.MX.sym("x", x.size), ca.MX.sym("p", p.size)
+    out = oracle(x=xs, p=ps)
+    lam_g = rng.normal(size=out["g"].numel())
+    lagrangian = 0.7 * out["f"] + ca.dot(ca.DM(lam_g), out["g"])
+    auto = ca.Function("auto", [xs, ps], [ca.gradient(out["f"], xs), ca.jacobian(out["g"], xs),
+                                          ca.hessian(lagrangian, xs)[0]])
+    grad_a, jac_a, hess_a = (np.array(ca.densify(v)) for v in auto(x, p))
+    _, grad = opt.solver.get_function("nlp_grad_f")(x, p)
+    _, jac = opt.solver.get_function("nlp_jac_g")(x, p)
+    hess = np.array(ca.densify(opt.solver.get_function("nlp_hess_l")(x, p, 0.7, lam_g)))
+    hess = np.triu(hess) + np.triu(hess, 1).T
+    scale = 1 + np.abs(hess_a).max()
+    np.testing.assert_allclose(np.array(grad).ravel(), grad_a.ravel(), atol=1e-9 * scale)
+    np.testing.assert_allclose(np.array(ca.densify(jac)), jac_a, atol=1e-12)
+    np.testing.assert_allclose(hess, hess_a, atol=1e-10 * scale)
+
+
+def test_compiled_kernels_equal_the_virtual_machine(robot, tmp_path):
+    n = 6
+    t, targets, q0 = lift_problem(robot, n)
+    force = payload_force(t, targets[:, :3, 3], 2.0)
+    vm = TrajectoryOptimizer(robot, n, "forte", options=SolverOptions(codegen=False))
+    cg = TrajectoryOptimizer(robot, n, "forte", options=SolverOptions(cache_dir=str(tmp_path)))
+    assert cg.codegen in ("compiled", "cached")
+    x = np.tile(q0, n) + 0.05
+    p = vm.parameters(t, targets, force.f, force.r)
+    for name in ("nlp_grad_f", "nlp_jac_g"):
+        a = vm.solver.get_function(name)(x, p)
+        b = cg.solver.get_function(name)(x, p)
+        for u, v in zip(a, b, strict=True):
+            np.testing.assert_allclose(np.array(ca.densify(u)), np.array(ca.densify(v)), rtol=1e-12, atol=1e-12)
+    again = TrajectoryOptimizer(robot, n, "forte", options=SolverOptions(cache_dir=str(tmp_path)))
+    assert again.codegen == "cached"
+
+
+def test_solution_meets_pose_bounds_and_initial_configuration(robot):
+    n = 12
+    t, targets, q0 = lift_problem(robot, n)
+    force = payload_force(t, targets[:, :3, 3], 2.7)
+    guess = follow_path(robot, targets, q0)
+    opt = TrajectoryOptimizer(robot, n, "forte")
+    sol = opt.solve(t, targets, force.f, force.r, q0, guess)
+    assert sol.success, sol.status
+    np.testing.assert_allclose(sol.q[0], q0, atol=1e-12)
+    for qk, Tk in zip(sol.q, targets, strict=True):
+        T = robot.ee_pose(qk)
+        assert np.linalg.norm(T[:3, 3] - Tk[:3, 3]) < 1e-6
+        assert np.abs(T[:3, :3] - Tk[:3, :3]).max() < 1e-6
+    assert np.all(sol.q[:, 3:] >= robot.lower - 1e-8) and np.all(sol.q[:, 3:] <= robot.upper + 1e-8)
+    terms = opt.cost_terms(sol.q, t, targets, force.f, force.r)
+    assert terms["smoothness"] == pytest.approx(smoothness_cost(sol.q, CostWeights()), rel=1e-9)
+    assert terms["base_spectral"] == pytest.approx(base_spectral_cost(sol.q[:, :3], CostWeights()), rel=1e-9,
+                                                   abs=1e-15)
+    # the optimizer improves on its own initial guess
+    guess_terms = opt.cost_terms(guess, t, targets, force.f, force.r)
+    w = CostWeights()
+    total = {k: v * getattr(w, k) for k, v in terms.items()}
+    total_guess = {k: v * getattr(w, k) for k, v in guess_terms.items()}
+    assert sum(total.values()) < sum(total_guess.values())
+
+
+def test_iteration_limit_is_reported_as_failure(robot):
+    n = 8
+    t, targets, q0 = lift_problem(robot, n)
+    force = payload_force(t, targets[:, :3, 3], 2.7)
+    opt = TrajectoryOptimizer(robot, n, "forte", options=SolverOptions(max_iter=1))
+    sol = opt.solve(t, targets, force.f, force.r, q0, np.tile(q0, (n, 1)))
+    assert not sol.success
+    assert sol.status == "Maximum_Iterations_Exceeded"
+
+
+def test_bad_method_and_horizon(robot):
+    with pytest.raises(InvalidInputError, match="method: expected one of"):
+        TrajectoryOptimizer(robot, 5, "quintic")
+    with pytest.raises(InvalidInputError, match="waypoints: expected at least 1"):
+        TrajectoryOptimizer(robot, 0)
+
+
+def test_dct_matches_scipy_and_penalizes_only_high_frequencies():
+    x = np.random.default_rng(1).normal(size=20)
+    np.testing.assert_allclose(dct_matrix(20) @ x, dct(x, norm="ortho"), atol=1e-12)
+    assert high_frequencies(20, 0.35).tolist() == list(range(7, 20))
+    w = CostWeights(dct_power=1.0)
+    coeffs = dct(x, norm="ortho")
+    H = high_frequencies(20, w.dct_cutoff)
+    expected = np.sum((H / 19.0) * coeffs[H] ** 2)
+    assert x @ dct_penalty_matrix(20, w) @ x == pytest.approx(expected)
+    # a constant or a low-frequency base motion costs nothing, a fast one its full energy
+    slow = 1.0 + np.cos(np.pi * (2 * np.arange(20) + 1) * 2 / 40)
+    assert slow @ dct_penalty_matrix(20, CostWeights()) @ slow == pytest.approx(0.0, abs=1e-12)
+    fast = np.cos(np.pi * (2 * np.arange(20) + 1) * 15 / 40)
+    assert fast @ dct_penalty_matrix(20, CostWeights()) @ fast == pytest.approx(fast @ fast)
+    base = np.column_stack([x, 2 * x, x])
+    w0 = CostWeights()
+    direct = 0.5 * sum(eta * np.sum(dct(base[:, i], norm="ortho")[H] ** 2) for i, eta in enumerate(w0.dct_axis))
+    assert base_spectral_cost(base, w0) == pytest.approx(direct)

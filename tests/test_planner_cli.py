@@ -1,0 +1,106 @@
+"""forte plan / compare end to end: outputs, failure behaviour, atomic writes, unreachable poses."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from forte.cli import main
+from forte.exceptions import InfeasibleTaskError
+from forte.planner import plan
+from forte.tasks import load_task
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
+
+
+def test_plan_writes_every_output(tmp_path):
+    out = tmp_path / "lift"
+    assert main(["plan", str(EXAMPLES / "lift.yaml"), "--waypoints", "14", "--out", str(out), "--quiet"]) == 0
+    names = {p.name for p in out.iterdir()}
+    assert {"trajectory.csv", "metrics.csv", "plan.json", "capacity.png", "manipulability.png",
+            "rfp_worst.png", "ellipsoid.png"} <= names
+    rows = list(csv.reader((out / "trajectory.csv").open()))
+    assert rows[0] == ["t", "x_b", "y_b", "yaw", *[f"q{i}" for i in range(1, 8)]] and len(rows) == 15
+    header = next(csv.reader((out / "metrics.csv").open()))
+    for col in ("t", "fx", "fy", "fz", "radius", "d", "directional_capacity", "inscribed_radius",
+                "manipulability", "max_torque_ratio"):
+        assert col in header
+    doc = json.loads((out / "plan.json").read_text())
+    assert doc["status"] == "success" and doc["method"] == "forte"
+    assert doc["robot"]["torque_limits"] == [60, 60, 60, 60, 12, 12, 12]
+    assert doc["robot"]["alpha"] == 0.8 and doc["robot"]["tool"]["mass"] > 0
+    assert doc["solver"]["iterations"] > 0 and doc["solver"]["constraint_violation"] < 1e-6
+    assert doc["weights"]["capability"] == 5.0 and "casadi" in doc["versions"]
+    # the metrics in the CSV are the exact ones, recomputed from the trajectory
+    task = load_task(EXAMPLES / "lift.yaml", waypoints=14)
+    q = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)[:, 1:]
+    from forte.planner import evaluate
+    m = evaluate(task.robot, q, task.t, task.force(), 0.8)
+    np.testing.assert_allclose(np.loadtxt(out / "metrics.csv", delimiter=",", skiprows=1)[:, header.index("d")],
+                               m["d"], rtol=1e-9)
+
+
+def test_failed_optimization_never_replaces_a_good_plan(tmp_path, capsys):
+    out = tmp_path / "lift"
+    args = ["plan", str(EXAMPLES / "lift.yaml"), "--waypoints", "10", "--out", str(out), "--quiet", "--no-figures"]
+    assert main(args) == 0
+    good = (out / "trajectory.csv").read_text()
+    data = yaml.safe_load((EXAMPLES / "lift.yaml").read_text())
+    data["solver"] = {"max_iter": 1}
+    bad_task = tmp_path / "lift_bad.yaml"
+    bad_task.write_text(yaml.safe_dump(data))
+    assert main(["plan", str(bad_task), "--waypoints", "10", "--out", str(out), "--quiet", "--no-figures"]) == 1
+    assert "optimization failed (Maximum_Iterations_Exceeded)" in capsys.readouterr().err
+    assert (out / "trajectory.csv").read_text() == good
+    failed = tmp_path / "lift.failed"
+    doc = json.loads((failed / "plan.json").read_text())
+    assert doc["status"] == "failure" and doc["solver_status"] == "Maximum_Iterations_Exceeded"
+    assert not (failed / "trajectory.csv").exists() and (failed / "last_iterate.csv").exists()
+    # a fresh directory receives the failure report itself
+    fresh = tmp_path / "fresh"
+    assert main(["plan", str(bad_task), "--waypoints", "10", "--out", str(fresh), "--quiet", "--no-figures"]) == 1
+    assert json.loads((fresh / "plan.json").read_text())["status"] == "failure"
+    assert not (fresh / "trajectory.csv").exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary leftovers
+
+
+def test_unreachable_waypoint_is_named(tmp_path, capsys):
+    data = yaml.safe_load((EXAMPLES / "lift.yaml").read_text())
+    data["path"]["waypoints"][1]["position"] = [0.0, 0.0, 3.0]
+    path = tmp_path / "far.yaml"
+    path.write_text(yaml.safe_dump(data))
+    task = load_task(path, waypoints=12)
+    with pytest.raises(InfeasibleTaskError, match=r"waypoint \d+: end-effector pose unreachable, position error"):
+        plan(task, "forte")
+    assert main(["plan", str(path), "--waypoints", "12", "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("forte: error: waypoint") and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_compare_hold_runs_every_method(tmp_path):
+    out = tmp_path / "cmp"
+    assert main(["compare", str(EXAMPLES / "hold.yaml"), "--out", str(out), "--quiet"]) == 0
+    rows = list(csv.DictReader((out / "summary.csv").open()))
+    assert [r["method"] for r in rows] == ["forte", "manipulability", "rfp-radius", "rfp-cone", "teaching"]
+    assert (out / "comparison.png").stat().st_size > 1000
+    assert "| forte | success |" in (out / "summary.md").read_text()
+    for r in rows:
+        assert (out / r["method"] / "plan.json").exists()
+
+
+def test_method_must_fit_the_mode(tmp_path, capsys):
+    assert main(["plan", str(EXAMPLES / "hold.yaml"), "--method", "quintic", "--out", str(tmp_path / "x")]) == 2
+    assert "does not apply to mode 'hold'" in capsys.readouterr().err
+
+
+def test_demo_command(capsys):
+    assert main(["demo", "--mass", "1.0"]) == 0
+    assert "residual force polytope" in capsys.readouterr().out
+    assert main(["demo", "--mass", "-1"]) == 2
+    assert "mass: expected a finite number > 0" in capsys.readouterr().err

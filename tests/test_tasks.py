@@ -1,0 +1,110 @@
+"""Task files: the shipped examples load, and bad files give errors naming file and field."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from forte.exceptions import ForteError, TaskFileError
+from forte.tasks import load_task
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
+
+
+def test_lift_example_loads():
+    task = load_task(EXAMPLES / "lift.yaml", waypoints=20)
+    assert task.mode == "trajectory" and task.n == 20
+    assert task.payload["mass"] == 2.7
+    np.testing.assert_allclose(task.targets[0], task.robot.ee_pose(task.q_init), atol=1e-9)
+    # the path goes down then up, orientation fixed
+    z = task.targets[:, 2, 3]
+    assert z.min() < z[0] - 0.3 and z[-1] > z.min() + 0.3
+    np.testing.assert_allclose(task.targets[:, :3, :3], np.repeat(task.targets[:1, :3, :3], 20, 0))
+    force = task.force()
+    np.testing.assert_allclose(force.f[0], [0, 0, 2.7 * 9.81])
+    assert load_task(EXAMPLES / "lift.yaml", mass=0.35).force().f[0, 2] == pytest.approx(0.35 * 9.81)
+
+
+def test_continuous_example_follows_the_papers_formula():
+    task = load_task(EXAMPLES / "continuous.yaml")
+    T = 12.0
+    t = task.t
+    s = 10 * (t / T) ** 3 - 15 * (t / T) ** 4 + 6 * (t / T) ** 5
+    w = 4 * s * (1 - s)
+    fz = w * (-65 + 80 * np.sin(2 * np.pi * t / 12 + np.pi / 4))
+    np.testing.assert_allclose(task.force().f[:, 2], fz, atol=1e-5)
+    dy = w * 0.10 * np.sin(2 * np.pi * 0.2 * t)
+    np.testing.assert_allclose(task.targets[:, 1, 3] - task.targets[0, 1, 3], dy, atol=1e-9)
+
+
+def test_hold_example_uses_the_teaching_pose():
+    task = load_task(EXAMPLES / "hold.yaml")
+    assert task.mode == "hold" and task.n == 1
+    np.testing.assert_allclose(task.targets[0], task.robot.ee_pose(task.teaching), atol=1e-12)
+
+
+def write(tmp_path, data, name="task.yaml"):
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(data) if not isinstance(data, str) else data)
+    return path
+
+
+def lift_dict():
+    return yaml.safe_load((EXAMPLES / "lift.yaml").read_text())
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"),
+    [
+        (lambda d: d.update(colour="red"), "colour: unknown field"),
+        (lambda d: d.update(mode="fly"), "mode: expected one of trajectory, hold"),
+        (lambda d: d["payload"].update(mass=-2), "payload.mass: expected a number > 0"),
+        (lambda d: d["payload"].update(mass="heavy"), "payload.mass: expected a finite number"),
+        (lambda d: d.update(initial_configuration=[0, 0, 0]), "initial_configuration: expected a list of 10"),
+        (lambda d: d["path"]["waypoints"][2].update(t=1.0), "path.waypoints[2].t: times must increase"),
+        (lambda d: d["path"]["waypoints"][1].update(position=[0, 0]), "path.waypoints[1].position: expected a list"),
+        (lambda d: d["path"].update(relative=False), "the path must start at the end-effector pose"),
+        (lambda d: d.pop("payload"), "payload: give a payload"),
+        (lambda d: d.update(uncertainty_radius=-1), "uncertainty_radius: expected a number >= 0"),
+        (lambda d: d.update(weights={"capability": -1}), "weights.capability: expected a number >= 0"),
+        (lambda d: d.update(weights={"capabilty": 1}), "weights.capabilty: unknown field"),
+        (lambda d: d.update(robot={"urdf": "missing.urdf", "ee_frame": "x"}), "does not exist"),
+        (lambda d: d.update(robot={"ee_frame": "nope"}), "robot: ee_frame: no frame 'nope'"),
+        (lambda d: d.update(torque_limits=[1, 2]), "torque_limits: expected a list of 7"),
+    ],
+)
+def test_bad_task_files_name_file_and_field(tmp_path, mutate, message):
+    data = lift_dict()
+    mutate(data)
+    path = write(tmp_path, data)
+    with pytest.raises(ForteError) as err:
+        load_task(path)
+    assert message in str(err.value)
+    assert str(path) in str(err.value) or "robot" in message or "does not exist" in message
+
+
+def test_missing_and_malformed_files(tmp_path):
+    with pytest.raises(TaskFileError, match="task file does not exist"):
+        load_task(tmp_path / "nope.yaml")
+    with pytest.raises(TaskFileError, match="not valid YAML"):
+        load_task(write(tmp_path, "a: [1, 2"))
+    with pytest.raises(TaskFileError, match=r"\(top level\): expected a mapping"):
+        load_task(write(tmp_path, "- 1\n- 2\n"))
+
+
+def test_mass_override_is_validated():
+    with pytest.raises(TaskFileError, match="--mass: expected a finite number > 0"):
+        load_task(EXAMPLES / "lift.yaml", mass=float("nan"))
+
+
+def test_robot_section_loads_another_arm(tmp_path):
+    data = lift_dict()
+    data["robot"] = {"urdf": "erd:ur_description/urdf/ur5_robot.urdf", "ee_frame": "tool0",
+                     "mount": {"xyz": [0, 0, 0.5]}, "tool": None}
+    data["initial_configuration"] = [0, 0, 0, 0, -1.2, 1.5, -1.8, -1.57, 0]
+    task = load_task(write(tmp_path, data))
+    assert task.robot.n_arm == 6 and task.robot.tool is None
+    assert task.robot.mount[2, 3] == 0.5
