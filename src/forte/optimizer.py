@@ -326,7 +326,9 @@ def _block_diagonal_pattern(rows: int, cols: int, count: int, col_offset: int, n
     return sp, _dm(m)
 
 
-def _hessian_pattern(index: FloatArray, nq: int, n: int, Q: sparse.spmatrix) -> tuple[ca.Sparsity, tuple[Any, Any, Any]]:
+def _hessian_pattern(
+    index: FloatArray, nq: int, n: int, Q: sparse.spmatrix
+) -> tuple[ca.Sparsity, tuple[Any, Any, Any]]:
     """Upper-triangular pattern of the Lagrangian Hessian and the maps that fill it from the
     stage Hessians (3nq x 3nq per waypoint), the pose Hessians (nq x nq) and the constant ``Q``."""
     w = 3 * nq

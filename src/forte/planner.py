@@ -57,7 +57,9 @@ def methods_for(task: Task) -> tuple[str, ...]:
     return HOLD_METHODS if task.mode == "hold" else TRAJECTORY_METHODS
 
 
-def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: TaskForce, alpha: float) -> dict[str, FloatArray]:
+def evaluate(
+    robot: MobileManipulator, q: FloatArray, t: FloatArray, force: TaskForce, alpha: float
+) -> dict[str, FloatArray]:
     """Exact per-waypoint metrics of a plan (the quantities reported in metrics.csv).
 
     ``d`` uses the metric's ``alpha``; the directional capacity (along the desired force) and
