@@ -21,6 +21,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "forte.cli_plan",
     "forte.cli_estimation",
     "forte.cli_simulation",
+    "forte.cli_experiment",
 )
 
 
