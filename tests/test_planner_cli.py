@@ -104,3 +104,33 @@ def test_demo_command(capsys):
     assert "residual force polytope" in capsys.readouterr().out
     assert main(["demo", "--mass", "-1"]) == 2
     assert "mass: expected a finite number > 0" in capsys.readouterr().err
+
+
+def test_payload_description_goes_through_the_estimator(tmp_path):
+    data = yaml.safe_load((EXAMPLES / "lift.yaml").read_text())
+    data["payload"] = {"description": "two 1.5 L bottles of water in the basket"}
+    path = tmp_path / "est.yaml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "plan"
+    assert main(["plan", str(path), "--waypoints", "10", "--out", str(out), "--quiet", "--no-figures"]) == 0
+    doc = json.loads((out / "plan.json").read_text())
+    estimate = doc["payload"]["estimate"]
+    assert estimate["source"].startswith("offline")
+    assert 3.0 <= doc["payload"]["mass"] <= 3.3  # 3 L of water plus the bottles
+    assert doc["payload"]["mass"] == estimate["mass_kg"]
+    assert doc["force"]["f"][0][2] == pytest.approx(doc["payload"]["mass"] * 9.81)
+    # an explicit --mass wins over the estimator
+    assert main(["plan", str(path), "--waypoints", "10", "--out", str(out), "--quiet", "--no-figures",
+                 "--mass", "1.0"]) == 0
+    doc = json.loads((out / "plan.json").read_text())
+    assert doc["payload"]["mass"] == 1.0 and doc["payload"]["estimate"] is None
+
+
+def test_payload_without_quantity_is_refused(tmp_path, capsys):
+    data = yaml.safe_load((EXAMPLES / "lift.yaml").read_text())
+    data["payload"] = {"description": "some drinks"}
+    path = tmp_path / "vague.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert main(["plan", str(path), "--waypoints", "10", "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "--mass" in err and "Traceback" not in err
