@@ -1,0 +1,89 @@
+"""The experiment runners (``forte experiment``) end to end at a tiny size, and the issue's lifting claim."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import pytest
+
+from forte import cli_experiment
+from forte.experiments import run_continuous, run_hold, run_lift
+from forte.planner import plan
+from forte.reports import write_plan
+from forte.simulation import simulate_plan
+from forte.tasks import load_task
+
+LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
+
+
+def _check_outputs(out: Path, figures: list[str], cases: int) -> dict:
+    doc = json.loads((out / "summary.json").read_text())
+    text = (out / "summary.md").read_text()
+    assert "Paper claim vs our result" in text
+    assert doc["claims"] and all(isinstance(c["reproduced"], bool) for c in doc["claims"])
+    assert len(doc["cases"]) == cases
+    for name in figures:
+        assert (out / name).stat().st_size > 1000, name
+        assert name in doc["figures"]
+    return doc
+
+
+def test_continuous_runs_end_to_end(tmp_path):
+    out = tmp_path / "continuous"
+    doc = run_continuous(out, trials=1, waypoints=12, simulate=False)
+    _check_outputs(out, ["continuous.png"], 1)
+    methods = doc["cases"]["force profile (Section 5.2)"]["methods"]
+    assert set(methods) == {"forte", "manipulability", "rfp-radius", "rfp-cone"}
+    assert (out / "forte" / "plan.json").exists()
+
+
+def test_lift_runs_end_to_end_with_simulation(tmp_path):
+    out = tmp_path / "lift"
+    doc = run_lift(out, trials=1, waypoints=12)
+    _check_outputs(out, ["lift.png"], 2)
+    for case in doc["cases"].values():
+        assert set(case["methods"]) == {"forte", "manipulability", "rfp-radius", "rfp-cone", "quintic"}
+        for entry in case["methods"].values():
+            sim = entry["simulation"]
+            assert sim["verdict"] in {"success", "failure", "not simulated"}
+            if sim["verdict"] != "not simulated":
+                assert sim["trials"]["count"] == 1
+                assert 0.35 * 0.9 - 1e-9 <= sim["trials"]["runs"][0]["mass"] or case["mass"] == 2.7
+    assert (out / "2.7kg" / "quintic" / "sim.json").exists()
+
+
+def test_hold_runs_through_the_cli_parser(tmp_path):
+    parser = argparse.ArgumentParser()
+    cli_experiment.register(parser.add_subparsers(dest="command"))
+    out = tmp_path / "hold"
+    args = parser.parse_args(["experiment", "hold", "--out", str(out), "--trials", "1", "--quiet"])
+    assert args.func(args) == 0
+    doc = _check_outputs(out, ["hold_metrics.png", "hold_polytopes.png", "hold_ellipsoids.png"], 2)
+    assert set(doc["cases"]["2.7 L"]["methods"]) == {"forte", "manipulability", "rfp-radius", "rfp-cone", "teaching"}
+
+
+def test_hold_function_is_deterministic_in_its_seeded_trials(tmp_path):
+    a = run_hold(tmp_path / "a", trials=2, seed=3)
+    b = run_hold(tmp_path / "b", trials=2, seed=3)
+    masses = [[r["mass"] for r in m["simulation"]["trials"]["runs"]]
+              for c in (a, b) for m in c["cases"]["2.7 L"]["methods"].values()]
+    assert masses[:5] == masses[5:]
+    assert all(2.7 * 0.9 <= x <= 2.7 * 1.1 for row in masses for x in row)
+
+
+@pytest.mark.xfail(strict=True, reason="measured (N=50, nominal mass): the 2.7 L quintic plan fails (torque "
+                   "saturation at 2.17 s) but so does the forte plan (torque saturation of joint 3 at 0.60 s, max "
+                   "torque ratio 3.6); both also saturate with no payload at all (forte 1.13 s, quintic 1.95 s), so "
+                   "the failures come from tracking the whole-body motion, not from the payload force; planning-wise "
+                   "forte keeps min d = 0.4 N and the quintic path min d = 10.8 N")
+def test_issue_claim_quintic_fails_and_forte_succeeds_with_2p7_litres(tmp_path):
+    task = load_task(LIFT, mass=2.7)
+    verdicts = {}
+    for method in ("forte", "quintic"):
+        res = plan(task, method)
+        assert res.success
+        verdicts[method] = simulate_plan(write_plan(res, tmp_path / method, figures=False), write=False).success
+    assert not verdicts["quintic"]
+    assert verdicts["forte"]
