@@ -138,3 +138,26 @@ def test_dct_matches_scipy_and_penalizes_only_high_frequencies():
     w0 = CostWeights()
     direct = 0.5 * sum(eta * np.sum(dct(base[:, i], norm="ortho")[H] ** 2) for i, eta in enumerate(w0.dct_axis))
     assert base_spectral_cost(base, w0) == pytest.approx(direct)
+
+
+def test_kinematic_limits_bound_the_backward_differences(robot):
+    from forte.optimizer import KinematicLimits
+
+    n = 12
+    t, targets, q0 = lift_problem(robot, n, duration=1.2, drop=0.3)
+    force = payload_force(t, targets[:, :3, 3], 2.7)
+    guess = follow_path(robot, targets, q0)
+    limits = KinematicLimits(arm_velocity=(1.0,) * 7, arm_acceleration=(4.0,) * 7)
+    opt = TrajectoryOptimizer(robot, n, "forte", limits=limits)
+    sol = opt.solve(t, targets, force.f, force.r, q0, guess)
+    assert sol.success, sol.status
+    dt = np.diff(t)[:, None]
+    v = np.vstack([np.zeros(robot.nq), np.diff(sol.q, axis=0) / dt])  # at rest at k = 1
+    a = np.diff(v, axis=0) / dt
+    vel, acc = limits.resolve(robot)
+    assert np.all(np.abs(v) <= vel + 1e-6)
+    assert np.all(np.abs(a) <= acc + 1e-5)
+    assert np.any(np.abs(a[:, 3:]) > 0.99 * 4.0)  # the limit binds on this fast lift
+    free = TrajectoryOptimizer(robot, n, "forte", limits=KinematicLimits(enabled=False))
+    assert free.solver.size_out("g")[0] == 6 * (n - 1)  # the paper's NLP: pose constraints only
+    assert np.array_equal(KinematicLimits().resolve(robot)[0][3:], robot.model.velocityLimit)

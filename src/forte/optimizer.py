@@ -78,6 +78,50 @@ class SolverOptions:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
+#: Franka Panda joint acceleration limits (rad/s^2, datasheet).
+PANDA_ACCELERATION_LIMITS: tuple[float, ...] = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
+
+
+@dataclass(frozen=True)
+class KinematicLimits:
+    """Joint velocity and acceleration limits of the planned motion.
+
+    Not part of the paper's NLP, which only bounds joint positions: without them the optimizer
+    may leave ``q_init`` for a better posture within one or two waypoints (3-4 rad/s, 20+ rad/s^2
+    on the lift task), which no robot can execute. They are linear constraints on the same
+    backward differences as the dynamics (the motion starts at rest, so the first steps ramp up).
+
+    Attributes:
+        enabled: ``False`` gives the paper's NLP exactly.
+        arm_velocity: rad/s per arm joint; ``None``: the URDF's velocity limits.
+        arm_acceleration: rad/s^2 per arm joint; ``None``: the Panda datasheet values for a Panda
+            arm, no limit otherwise.
+        base_velocity: (x, y, yaw) in m/s, m/s, rad/s.
+        base_acceleration: (x, y, yaw) in m/s^2, m/s^2, rad/s^2.
+    """
+
+    enabled: bool = True
+    arm_velocity: tuple[float, ...] | None = None
+    arm_acceleration: tuple[float, ...] | None = None
+    base_velocity: tuple[float, float, float] = (1.0, 1.0, 1.5)
+    base_acceleration: tuple[float, float, float] = (1.0, 1.0, 2.0)
+
+    def resolve(self, robot: MobileManipulator) -> tuple[FloatArray, FloatArray]:
+        """Whole-body velocity and acceleration limits (inf where unlimited)."""
+        n = robot.n_arm
+        vel = np.asarray(self.arm_velocity if self.arm_velocity is not None else robot.model.velocityLimit, float)
+        if self.arm_acceleration is not None:
+            acc = np.asarray(self.arm_acceleration, dtype=float)
+        elif n == 7 and all(j.startswith("panda_joint") for j in robot.arm_joints or ()):
+            acc = np.asarray(PANDA_ACCELERATION_LIMITS)
+        else:
+            acc = np.full(n, np.inf)
+        if vel.shape != (n,) or acc.shape != (n,):
+            raise InvalidInputError(f"limits: expected {n} arm velocity and acceleration limits")
+        vel = np.where(vel > 0, vel, np.inf)  # URDFs use 0 for "no limit"
+        return (np.concatenate([self.base_velocity, vel]), np.concatenate([self.base_acceleration, acc]))
+
+
 @dataclass
 class Solution:
     """Result of one optimization."""
@@ -120,7 +164,7 @@ class TrajectoryOptimizer:
     def __init__(
         self, robot: MobileManipulator, n: int, method: str = "forte",
         weights: CostWeights = CostWeights(), fix_initial: bool = True,
-        options: SolverOptions = SolverOptions(),
+        options: SolverOptions = SolverOptions(), limits: KinematicLimits = KinematicLimits(),
     ) -> None:
         if method not in OPTIMIZED_METHODS:
             raise InvalidInputError(f"method: expected one of {', '.join(OPTIMIZED_METHODS)}, got '{method}'")
@@ -128,6 +172,8 @@ class TrajectoryOptimizer:
             raise InvalidInputError(f"waypoints: expected at least 1, got {n}")
         self.robot, self.n, self.method = robot, n, method
         self.weights, self.fix_initial, self.options = weights, fix_initial, options
+        self.limits = limits
+        self._vel, self._acc = limits.resolve(robot)
         start = time.perf_counter()
         self.kernels = load_kernels(robot, method, weights, options)
         self._build()
@@ -183,7 +229,9 @@ class TrajectoryOptimizer:
         f_stage = ca.sum2(kern.cost.map(n)(*stage_args))
         cost = f_stage + 0.5 * ca.dot(x, Qx)
         pd, Rd = par("p_d", 3), par("R_d", 9)
-        g = ca.vec(kern.pose.map(n)(X, pd, Rd)[:, first:])
+        g_pose = ca.vec(kern.pose.map(n)(X, pd, Rd)[:, first:])
+        g_kin = self._kinematic_rows(X, dt)
+        g = ca.vertcat(g_pose, g_kin)
 
         # gradient: scatter-add the stage gradients into x
         grad_stage = kern.grad.map(n)(*stage_args)  # 3nq x n
@@ -194,11 +242,13 @@ class TrajectoryOptimizer:
         jac_blocks = kern.pose_jac.map(n)(X, pd, Rd)[:, first * nq:]  # 6 x nq(n - first)
         jac_sp, jac_map = _block_diagonal_pattern(6, nq, n - first, col_offset=first * nq, ncol=nq * n)
         jac = ca.MX(jac_sp, ca.mtimes(ca.DM(jac_map), ca.vec(jac_blocks)))
+        if g_kin.numel():
+            jac = ca.vertcat(jac, ca.jacobian(g_kin, x))  # linear rows: no Hessian contribution
 
         # Hessian of the Lagrangian, upper triangle
         lam_f = ca.MX.sym("lam_f")
-        lam_g = ca.MX.sym("lam_g", 6 * (n - first))
-        lam = ca.horzcat(ca.DM.zeros(6, first), ca.reshape(lam_g, 6, n - first))
+        lam_g = ca.MX.sym("lam_g", g.numel())
+        lam = ca.horzcat(ca.DM.zeros(6, first), ca.reshape(lam_g[: 6 * (n - first)], 6, n - first))
         h_stage = kern.hess.map(n)(*stage_args)  # 3nq x 3nq n
         h_pose = kern.pose_hess.map(n)(X, pd, Rd, lam)  # nq x nq n
         hess_sp, maps = _hessian_pattern(index, nq, n, Q)
@@ -218,6 +268,29 @@ class TrajectoryOptimizer:
         self._term_names = ["capability", "manipulability", "joint_limits", "smoothness", "base_spectral"]
         self._terms = ca.Function("terms", [x, P], [ca.vertcat(
             ca.sum2(terms), 0.5 * ca.dot(x, ca.mtimes(ca.DM(Qs), x)), 0.5 * ca.dot(x, ca.mtimes(ca.DM(Qd), x)))])
+
+    def _kinematic_rows(self, X: ca.MX, dt: ca.MX) -> ca.MX:
+        """Velocity rows ``q_k - q_{k-1}`` and acceleration rows ``dq_k - dq_{k-1}`` (k >= 2), with
+        ``dq_1 = 0``; :meth:`_kinematic_bounds` scales the limits by ``dt_k``."""
+        self._vel_rows = np.flatnonzero(np.isfinite(self._vel)) if self.limits.enabled else np.array([], int)
+        self._acc_rows = np.flatnonzero(np.isfinite(self._acc)) if self.limits.enabled else np.array([], int)
+        if self.n < 2 or not self.fix_initial:
+            self._vel_rows = self._acc_rows = np.array([], int)
+            return ca.MX(0, 1)
+        step = X[:, 1:] - X[:, :-1]
+        dq = step / ca.repmat(dt[:, 1:], X.shape[0], 1)
+        dq_prev = ca.horzcat(ca.MX.zeros(X.shape[0], 1), dq[:, :-1])
+        rows = [ca.vec(step[self._vel_rows.tolist(), :]), ca.vec((dq - dq_prev)[self._acc_rows.tolist(), :])]
+        return ca.vertcat(*rows)
+
+    def _kinematic_bounds(self, t: FloatArray) -> tuple[FloatArray, FloatArray]:
+        if self.n < 2 or not self.fix_initial:
+            return np.zeros(0), np.zeros(0)
+        dt = np.diff(t)
+        vel = (self._vel[self._vel_rows][:, None] * dt[None, :]).ravel(order="F")
+        acc = (self._acc[self._acc_rows][:, None] * dt[None, :]).ravel(order="F")
+        ub = np.concatenate([vel, acc])
+        return -ub, ub
 
     def _ipopt_options(self) -> dict[str, Any]:
         o = self.options
@@ -262,13 +335,18 @@ class TrajectoryOptimizer:
             lbx[:nq] = ubx[:nq] = q_init
         x0 = np.clip(np.asarray(q_guess, dtype=float).ravel(), lbx, ubx)
         start = time.perf_counter()
-        result = self.solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=0, ubg=0)
+        klb, kub = self._kinematic_bounds(np.asarray(t, dtype=float))
+        n_pose = 6 * (n - (1 if self.fix_initial else 0))
+        lbg = np.concatenate([np.zeros(n_pose), klb])
+        ubg = np.concatenate([np.zeros(n_pose), kub])
+        result = self.solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         solve_time = time.perf_counter() - start
         stats = self.solver.stats()
         x = np.array(result["x"]).ravel()
         g = np.array(self._g(x, p)).ravel()
         bounds = np.maximum(np.maximum(lbx - x, x - ubx), 0)
-        violation = float(max(np.abs(g).max(initial=0.0), bounds.max(initial=0.0)))
+        g_excess = np.maximum(np.maximum(lbg - g, g - ubg), 0)
+        violation = float(max(g_excess.max(initial=0.0), bounds.max(initial=0.0)))
         status = str(stats.get("return_status", "unknown"))
         tol = max(1e-5, 10 * self.options.constraint_tol)
         success = bool(stats.get("success", False)) and violation <= tol

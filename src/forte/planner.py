@@ -127,7 +127,7 @@ def coarse_guess(task: Task, method: str) -> tuple[FloatArray, dict[str, Any]] |
     coarse = task_from_dict(task.raw, task.source, mass=task.payload.get("mass"), waypoints=COARSE_WAYPOINTS)
     coarse.weights, coarse.solver = task.weights, task.solver
     force = coarse.force()
-    opt = TrajectoryOptimizer(task.robot, coarse.n, method, task.weights, options=task.solver)
+    opt = TrajectoryOptimizer(task.robot, coarse.n, method, task.weights, options=task.solver, limits=task.limits)
     sol = opt.solve(coarse.t, coarse.targets, force.f, force.r, coarse.q_init, initial_guess(coarse))
     if not sol.success:
         return None
@@ -165,7 +165,7 @@ def plan(task: Task, method: str = "forte", estimator_options: dict[str, Any] | 
                 # a near-optimal start: begin with a small barrier parameter
                 options = replace(options, extra={"mu_strategy": "monotone", "mu_init": 1e-4} | options.extra)
             opt = TrajectoryOptimizer(robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
-                                      options=options)
+                                      options=options, limits=task.limits)
             sol: Solution = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess)
             q, success, status = sol.q, sol.success, sol.status
             solver_info |= {

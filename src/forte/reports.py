@@ -94,6 +94,7 @@ def plan_document(result: PlanResult) -> dict[str, Any]:
         "solver": result.solver,
         "weights": asdict(task.weights),
         "solver_options": asdict(task.solver),
+        "kinematic_limits": asdict(task.limits),
         "robot": task.robot.describe() | {"alpha": task.weights.capability_params.alpha},
         "payload": {"mass": task.payload.get("mass"), "description": task.payload.get("description"),
                     "image": task.payload.get("image"), "estimate": result.estimate},

@@ -10,8 +10,16 @@ agreement ~1e-12 Nm):
 * joints that Pinocchio locks (the Panda's fingers) are deleted: their bodies become rigidly
   fixed at the locked value (the neutral configuration clipped to the joint range), together
   with any equality (``mimic``) constraint that referred to them;
-* joint damping, armature and friction loss are set to zero (the URDF has damping 0.003 that
-  Pinocchio's ``rnea`` does not model); joint range limits stay active (a real arm has them);
+* joint damping and friction loss are set to zero (the URDF has damping 0.003 that Pinocchio's
+  ``rnea`` does not model); joint range limits stay active (a real arm has them);
+* every arm joint gets the reflected motor (rotor) inertia ``armature`` (default
+  :data:`ARM_ARMATURE`, 0.1 kg m^2 per joint as in MuJoCo Menagerie's Panda). The URDF's
+  rigid-body model has none, but a geared, torque-controlled arm does, and it matters for the
+  1 kHz controller: without it the inertia of the wrist mode ``q5 = -q7`` drops to
+  0.007 kg m^2 when ``q6 -> pi`` (axes 5 and 7 nearly parallel), and the sampled damping
+  ``D_a`` of the impedance law is unstable there (``dt * eig(M^-1 D_a) > 2``, see
+  :func:`forte.control.sampled_loop_spectral_radius`). The controller's inertia includes the
+  same armature (``M_a(q) + diag(armature)``), so ``mj_inverse = rnea + armature * ddq``;
 * ``package://`` mesh URIs are replaced by the example-robot-data share path; with
   ``meshes=False`` every URDF geometry is dropped (faster, nothing to render). Every geom has
   ``contype = conaffinity = 0``: self-contacts between collision meshes would add huge forces;
@@ -70,6 +78,8 @@ BASE_INERTIA = (2.5, 2.5, 3.0)
 #: Velocity-actuator gains of the base joints: slides (N s/m) and yaw (N m s/rad). With the base
 #: mass above, the velocity loop has a time constant of ~ m / kv = 30 ms.
 BASE_KV = (2000.0, 2000.0, 400.0)
+#: Reflected rotor inertia of each arm joint (kg m^2), MuJoCo Menagerie's Panda value.
+ARM_ARMATURE = 0.1
 #: Name prefix of the arm's bodies and joints in the MuJoCo model (``arm/panda_joint1``, ...).
 ARM_PREFIX = "arm/"
 
@@ -145,6 +155,7 @@ class SimModel:
         arm_act, base_act: Actuator ids of the arm torque and base velocity actuators.
         ee_site: Id of the site at the end-effector frame.
         payload_body: Body id of the payload (-1 when none).
+        armature: Reflected rotor inertia of each arm joint (kg m^2), in the model's ``M_a``.
     """
 
     robot: MobileManipulator
@@ -157,6 +168,7 @@ class SimModel:
     base_act: np.ndarray
     ee_site: int
     payload_body: int
+    armature: FloatArray
     _jacp: FloatArray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -191,7 +203,9 @@ class SimModel:
         return self._jacp[:, self.dof_idx[N_BASE:]].copy()
 
     def inverse_dynamics(self, q_a: Any, dq_a: Any, ddq_a: Any) -> FloatArray:
-        """Arm torques from ``mj_inverse`` with the base at rest (compare with ``robot.rnea``).
+        """Arm torques from ``mj_inverse`` with the base at rest.
+
+        Equals ``robot.rnea(q_a, dq_a, ddq_a) + armature * ddq_a`` (rigid body + rotor inertia).
 
         Sets the state of :attr:`data` (base at the origin, at rest).
         """
@@ -216,6 +230,7 @@ def build_sim_model(
     base_mass: float = BASE_MASS,
     base_inertia: tuple[float, float, float] = BASE_INERTIA,
     base_kv: tuple[float, float, float] = BASE_KV,
+    armature: Any = ARM_ARMATURE,
 ) -> SimModel:
     """Build the MuJoCo model of ``robot`` carrying a welded payload of ``payload_mass`` kg.
 
@@ -227,6 +242,7 @@ def build_sim_model(
         meshes: Keep the URDF meshes (for rendering; no contacts either way).
         timestep: Integration step (s).
         base_mass, base_inertia, base_kv: Base body and base velocity-actuator parameters.
+        armature: Reflected rotor inertia of the arm joints (kg m^2; one value or one per joint).
 
     Raises:
         SimulationError: when the URDF cannot be turned into a MuJoCo model.
@@ -234,11 +250,14 @@ def build_sim_model(
     payload_mass = as_positive(payload_mass, "mass", allow_zero=True)
     timestep = as_positive(timestep, "timestep")
     com = as_vector(payload_com, "payload_com", 3)
+    rotor = np.array(np.broadcast_to(np.asarray(armature, dtype=float), (robot.n_arm,)))
+    if np.any(~np.isfinite(rotor)) or np.any(rotor < 0):
+        raise InvalidInputError(f"armature: expected values >= 0 kg m^2, got {rotor}")
     try:
         arm = mujoco.MjSpec.from_string(_urdf_text(robot, meshes))
     except Exception as exc:  # MuJoCo raises plain ValueError on parse/compile problems
         raise SimulationError(f"urdf: MuJoCo cannot load {robot.urdf_path}: {exc}") from exc
-    _prepare_arm(arm, robot, meshes)
+    _prepare_arm(arm, robot, meshes, rotor)
 
     spec = mujoco.MjSpec()
     spec.modelname = f"forte-{robot.name}"
@@ -325,18 +344,20 @@ def build_sim_model(
         arm_act=np.array(acts), base_act=np.array(bacts),
         ee_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "ee"),
         payload_body=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "payload"),
+        armature=rotor,
     )
 
 
-def _prepare_arm(arm: mujoco.MjSpec, robot: MobileManipulator, meshes: bool) -> None:
-    """Lock non-arm joints, zero damping/armature/friction, disable contacts, drop meshes."""
-    keep = set(robot.arm_joints or ())
+def _prepare_arm(arm: mujoco.MjSpec, robot: MobileManipulator, meshes: bool, armature: FloatArray) -> None:
+    """Lock non-arm joints, zero damping/friction, set the armature, disable contacts, drop meshes."""
+    rotor = dict(zip(robot.arm_joints or (), armature, strict=True))
+    keep = set(rotor)
     for eq in list(arm.equalities):  # URDF mimic joints become equality constraints
         arm.delete(eq)
     for joint in list(arm.joints):
         if joint.name in keep:
             joint.damping = np.zeros(3)  # MuJoCo 4: damping polynomial coefficients
-            joint.armature = 0.0
+            joint.armature = float(rotor[joint.name])
             joint.frictionloss = 0.0
             continue
         value = _locked_value(robot, joint)
@@ -729,7 +750,7 @@ def run_simulation(
     gains = gains or ControlGains()
     th = thresholds or Thresholds()
     dt = sim.timestep
-    arm = ArmImpedance(robot, gains)
+    arm = ArmImpedance(robot, gains, armature=sim.armature)
     base = BaseAdmittance(gains, dt)
     n = robot.n_arm
     steps = reference.t.size

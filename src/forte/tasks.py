@@ -21,7 +21,7 @@ import yaml
 from forte.costs import CostWeights
 from forte.exceptions import ForteError, TaskFileError
 from forte.metrics import CapabilityParameters
-from forte.optimizer import SolverOptions
+from forte.optimizer import KinematicLimits, SolverOptions
 from forte.robot import MobileManipulator, ToolLoad, default_robot
 from forte.taskforce import DEFAULT_RADIUS, TaskForce, given_force, payload_force
 from forte.trajectory import quintic_blend, quintic_path
@@ -47,6 +47,7 @@ class Task:
     weights: CostWeights
     solver: SolverOptions
     teaching: FloatArray | None = None
+    limits: KinematicLimits = field(default_factory=KinematicLimits)
     raw: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -301,8 +302,9 @@ def _dataclass_from(reader: _Reader, name: str, cls: type, base: Any) -> Any:
             sub = r.sub(key)
             sub.unknown({f.name for f in dataclasses.fields(CapabilityParameters)})
             values[key] = CapabilityParameters(**{k: sub.number(k) for k in sub.data})
-        elif isinstance(getattr(base, key), tuple):
-            values[key] = tuple(r.vector(key, len(getattr(base, key))))
+        elif getattr(base, key) is None or isinstance(getattr(base, key), tuple):
+            default = getattr(base, key)
+            values[key] = tuple(r.vector(key, len(default) if default is not None else None))
         elif isinstance(getattr(base, key), bool):
             if not isinstance(value, bool):
                 raise r.error(key, f"expected true or false, got {value!r}")
@@ -344,7 +346,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     """Validate an already-parsed task (see :func:`load_task`)."""
     reader = _Reader(data, path)
     reader.unknown({"name", "robot", "mode", "initial_configuration", "path", "pose", "payload", "force",
-                    "uncertainty_radius", "weights", "torque_limits", "solver", "teaching_configuration"})
+                    "uncertainty_radius", "weights", "torque_limits", "solver", "teaching_configuration", "limits"})
     base = path.parent if path else Path.cwd()
     robot = _robot(reader, base)
     mode = reader.get("mode", "trajectory")
@@ -388,10 +390,15 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
         raise reader.error("payload", "give a payload (mass, or description/image) or a force profile")
     weights = _dataclass_from(reader, "weights", CostWeights, CostWeights())
     solver = _dataclass_from(reader, "solver", SolverOptions, SolverOptions())
+    limits = _dataclass_from(reader, "limits", KinematicLimits, KinematicLimits())
+    try:
+        limits.resolve(robot)
+    except ForteError as exc:
+        raise reader.error("limits", str(exc)) from exc
     name = str(reader.get("name", path.stem if path else "task"))
     return Task(name=name, source=path, robot=robot, mode=mode, t=t, targets=targets, q_init=q_init,
                 radius=radius, payload=payload, force_profile=force_profile, weights=weights, solver=solver,
-                teaching=teaching, raw=data)
+                teaching=teaching, limits=limits, raw=data)
 
 
 def _hold_pose(reader: _Reader, robot: MobileManipulator, T0: FloatArray, teaching: FloatArray | None) -> FloatArray:
