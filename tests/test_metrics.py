@@ -5,7 +5,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 import pytest
-from conftest import random_configuration
+from conftest import TWO_LINK_J, TWO_LINK_TAU_MAX, TWO_LINK_TAU_NOM, random_configuration
 
 from forte.exceptions import InvalidInputError
 from forte.metrics import (
@@ -24,9 +24,7 @@ from forte.metrics import (
 )
 from forte.polytope import contains, halfspaces, residual_margins
 
-J2 = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 0.0]])
-TAU_MAX = np.array([10.0, 5.0])
-TAU_NOM = np.array([2.0, -1.0])
+J2, TAU_MAX, TAU_NOM = TWO_LINK_J, TWO_LINK_TAU_MAX, TWO_LINK_TAU_NOM
 
 
 def test_signed_distances_by_hand():

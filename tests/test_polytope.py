@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import random_configuration
+from conftest import TWO_LINK_J, TWO_LINK_TAU_MAX, TWO_LINK_TAU_NOM, random_configuration
 
 from forte.exceptions import InvalidInputError
 from forte.polytope import (
@@ -22,11 +22,7 @@ from forte.polytope import (
 from forte.robot import MobileManipulator
 from forte.trajectory import backward_differences
 
-# Planar 2-link arm (l1 = l2 = 1) in the xy-plane at q = (0, pi/2):
-# j1 = (-1, 1, 0), j2 = (-1, 0, 0); limits (10, 5) Nm; nominal torque (2, -1) Nm.
-J2 = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 0.0]])
-TAU_MAX = np.array([10.0, 5.0])
-TAU_NOM = np.array([2.0, -1.0])
+J2, TAU_MAX, TAU_NOM = TWO_LINK_J, TWO_LINK_TAU_MAX, TWO_LINK_TAU_NOM
 
 
 def test_two_link_margins_and_halfspaces_by_hand():
