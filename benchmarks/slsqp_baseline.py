@@ -23,10 +23,10 @@ LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 def compare(n: int = 25, max_iter: int = 300) -> None:
     task = load_task(LIFT, waypoints=n)
     force = task.force()
-    opt = TrajectoryOptimizer(task.robot, n, "forte", task.weights, options=SolverOptions(codegen=False))
+    opt = TrajectoryOptimizer(task.robot, n, "forte", task.weights, options=SolverOptions(codegen=False),
+                              limits=task.limits)
     p = opt.parameters(task.t, task.targets, force.f, force.r)
     oracle = opt.solver.oracle()
-    nq = task.robot.nq
     fixed = task.q_init
 
     def full(z: np.ndarray) -> np.ndarray:
@@ -35,17 +35,28 @@ def compare(n: int = 25, max_iter: int = 300) -> None:
     def cost(z: np.ndarray) -> float:
         return float(oracle(x=full(z), p=p)["f"])
 
-    def constraints(z: np.ndarray) -> np.ndarray:
+    n_pose = 6 * (n - 1)
+    lower_g, upper_g = opt._kinematic_bounds(task.t)  # velocity and acceleration rows
+
+    def rows(z: np.ndarray) -> np.ndarray:
         return np.array(oracle(x=full(z), p=p)["g"]).ravel()
+
+    def equalities(z: np.ndarray) -> np.ndarray:
+        return rows(z)[:n_pose]
+
+    def inequalities(z: np.ndarray) -> np.ndarray:
+        g = rows(z)[n_pose:]
+        return np.concatenate([upper_g - g, g - lower_g])
 
     guess = initial_guess(task)[1:].ravel()
     lower = np.tile(np.r_[np.full(3, -np.inf), task.robot.lower], n - 1)
     upper = np.tile(np.r_[np.full(3, np.inf), task.robot.upper], n - 1)
     start = time.perf_counter()
     res = minimize(cost, guess, method="SLSQP", bounds=list(zip(lower, upper, strict=True)),
-                   constraints=[{"type": "eq", "fun": constraints}], options={"maxiter": max_iter, "ftol": 1e-6})
+                   constraints=[{"type": "eq", "fun": equalities}, {"type": "ineq", "fun": inequalities}],
+                   options={"maxiter": max_iter, "ftol": 1e-6})
     slsqp_time = time.perf_counter() - start
-    viol = np.abs(constraints(res.x)).max()
+    viol = max(np.abs(equalities(res.x)).max(), np.maximum(-inequalities(res.x), 0).max())
 
     ours = plan(task, "forte")
     print(f"\nN = {n}: SciPy SLSQP (finite differences): {slsqp_time:.1f} s, {res.nit} iterations, "
@@ -53,7 +64,6 @@ def compare(n: int = 25, max_iter: int = 300) -> None:
     print(f"N = {n}: forte (IPOPT, exact derivatives, compiled kernels): {ours.solver['solve_time_s']:.3f} s, "
           f"{ours.solver['iterations']} iterations, objective {ours.solver['objective']:.2f}")
     print(f"speed-up: {slsqp_time / ours.solver['solve_time_s']:.0f}x")
-    _ = nq
 
 
 if __name__ == "__main__":
