@@ -29,7 +29,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("plan_dir", type=Path, metavar="PLAN_DIR", help="output folder of 'forte plan'")
     p.add_argument("--mass", type=float, default=None,
-                   help="true payload mass in kg (default: the plan's payload mass)")
+                   help="true payload mass in kg (default: the plan's payload mass). A different "
+                   "mass > 0 models an estimation error (the force feedforward keeps the plan's "
+                   "force); 0 means no payload: no payload and no force feedforward")
+    p.add_argument("--no-force", action="store_true",
+                   help="switch the task-force feedforward tau_F = J^T f off (any mass)")
     p.add_argument("--out", type=Path, default=None, help="result folder (default: PLAN_DIR)")
     p.add_argument("--hold", type=float, default=1.0, help="seconds held after the last waypoint")
     p.add_argument("--stop-on-failure", action="store_true", help="stop at the first failure")
@@ -58,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
                                    ("saturation_time", args.saturation_time)) if v is not None}
     th = replace(th, **overrides)
     result = simulate_plan(
-        args.plan_dir, args.mass, out_dir=args.out, thresholds=th, hold=args.hold,
+        args.plan_dir, args.mass, force_feedforward=False if args.no_force else None,
+        out_dir=args.out, thresholds=th, hold=args.hold,
         stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video,
     )
     out = args.out or args.plan_dir

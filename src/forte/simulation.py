@@ -53,7 +53,7 @@ import shutil
 import subprocess
 import tempfile
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -850,6 +850,7 @@ def simulate_plan(
     plan_dir: str | Path,
     mass: float | None = None,
     *,
+    force_feedforward: bool | None = None,
     out_dir: str | Path | None = None,
     gains: ControlGains | None = None,
     thresholds: Thresholds | None = None,
@@ -868,8 +869,15 @@ def simulate_plan(
     Args:
         plan_dir: Folder with ``trajectory.csv`` and ``plan.json``.
         mass: True payload mass in the simulation (kg); default: the plan's ``payload.mass``
-            (none when null). The controller's force feedforward always uses the plan's force,
-            so ``mass`` different from the plan's models a mass-estimation error.
+            (none when null). A mass > 0 different from the plan's models a mass-estimation
+            error: the controller's force feedforward still uses the plan's force. ``mass=0``
+            on a plan that carries a payload means *no payload*: no payload body and, unless
+            ``force_feedforward=True``, no force feedforward either (nothing to carry). On a
+            plan without payload (``payload.mass`` null) the force is an interaction with the
+            environment and stays on.
+        force_feedforward: ``tau_F = J^T f_d`` on (True) or off (False); default (None): on,
+            except for ``mass=0`` on a payload plan (see ``mass``). Off, with a plan's
+            interaction force, the environment still pushes but the arm does not push back.
         out_dir: Where to write the results (default ``plan_dir``).
         gains, thresholds: Controller gains and failure criteria (defaults documented there).
         torque_limits: Override the robot's limits (Nm, per arm joint), e.g. for stress tests.
@@ -891,6 +899,11 @@ def simulate_plan(
         robot = robot_from_description({**robot.describe(), "torque_limits": list(np.broadcast_to(
             np.asarray(torque_limits, dtype=float), (robot.n_arm,)))})
     true_mass = plan.mass if mass is None else check_mass(mass)
+    if force_feedforward is None:
+        force_feedforward = not (mass is not None and true_mass == 0.0 and plan.mass is not None)
+    gains = gains or ControlGains()
+    if not force_feedforward:
+        gains = replace(gains, force_feedforward=False)
     hold = as_positive(hold, "hold", allow_zero=True)
     render = frames_dir is not None or video is not None
     sim = build_sim_model(robot, true_mass or 0.0, meshes=render, timestep=timestep)
@@ -909,7 +922,9 @@ def simulate_plan(
         frame_every=max(1, int(round(1.0 / (fps * dt)))),
     )
     result.summary.update({"plan_dir": str(Path(plan_dir).resolve()), "plan_method": plan.method,
-                           "plan_status": plan.status, "plan_mass": plan.mass})
+                           "plan_status": plan.status, "plan_mass": plan.mass,
+                           "force_feedforward": gains.force_feedforward,
+                           "armature": sim.armature.tolist()})
     if recorder is not None:
         result.summary["rendered"] = [str(p) for p in recorder.finish()]
     if write:
