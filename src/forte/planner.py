@@ -79,6 +79,9 @@ def evaluate(
         "inscribed_radius": inscribed_radius(rfp.A, rfp.b),
         "manipulability": yoshikawa(rfp.J),
         "max_torque_ratio": np.max(np.abs(rfp.tau_nom) / robot.torque_limits, axis=1),
+        # nominal torque plus the torque that applies the desired force, tau_nom + J^T f
+        "max_torque_ratio_with_force": np.max(
+            np.abs(rfp.tau_nom + np.einsum("kij,ki->kj", rfp.J, force.f)) / robot.torque_limits, axis=1),
     }
 
 

@@ -25,7 +25,7 @@ from forte.planner import PlanResult
 from forte.polytope import halfspaces, residual_margins, trajectory_rfp, vertices
 
 METRIC_COLUMNS = ("t", "fx", "fy", "fz", "radius", "d", "directional_capacity", "capacity_margin",
-                  "inscribed_radius", "manipulability", "max_torque_ratio")
+                  "inscribed_radius", "manipulability", "max_torque_ratio", "max_torque_ratio_with_force")
 PACKAGES = ("forte", "numpy", "scipy", "casadi", "pin", "example-robot-data", "matplotlib", "mujoco", "openai")
 
 
@@ -76,6 +76,7 @@ def plan_summary(result: PlanResult) -> dict[str, float]:
         "mean_manipulability": float(np.mean(m["manipulability"])),
         "min_manipulability": float(np.min(m["manipulability"])),
         "max_torque_ratio": float(np.max(m["max_torque_ratio"])),
+        "max_torque_ratio_with_force": float(np.max(m["max_torque_ratio_with_force"])),
         "waypoints_with_d_negative": int(np.sum(m["d"] < 0)),
     }
 
