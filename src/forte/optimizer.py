@@ -298,6 +298,8 @@ class TrajectoryOptimizer:
             "ipopt.max_iter": o.max_iter, "ipopt.tol": o.tol, "ipopt.print_level": o.print_level,
             "ipopt.sb": "yes", "print_time": False, "ipopt.constr_viol_tol": o.constraint_tol,
             "ipopt.mu_strategy": "adaptive", "calc_lam_p": False, "calc_lam_x": False,
+            # QAMD ordering: ~25 % faster factorizations than MUMPS' default on this KKT (benchmarks/)
+            "ipopt.mumps_pivot_order": 6,
         }
         opts.update({k if "." in k else f"ipopt.{k}": v for k, v in o.extra.items()})
         return opts
