@@ -16,7 +16,6 @@ with two copies of ``q_1``, which makes ``dq_1 = ddq_1 = 0`` and ``dq_1 = 0`` in
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -207,10 +206,3 @@ def smoothness_cost(q: FloatArray, weights: CostWeights) -> float:
     q = np.asarray(q, dtype=float)
     W = smoothness_weights(q.shape[1] - N_BASE, weights)
     return 0.5 * float(np.sum((np.diff(q, axis=0) * W) ** 2))
-
-
-def as_dict(weights: CostWeights) -> dict[str, Any]:
-    """Plain dictionary of the weights (for plan.json)."""
-    from dataclasses import asdict
-
-    return asdict(weights)

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from forte.exceptions import InvalidInputError, TaskFileError
+from forte.exceptions import InfeasibleTaskError, InvalidInputError, TaskFileError
 from forte.ik import follow_path, solve_pose
 from forte.metrics import capability_margin, yoshikawa
 from forte.optimizer import OPTIMIZED_METHODS, Solution, TrajectoryOptimizer
@@ -104,8 +104,6 @@ def initial_guess(task: Task) -> FloatArray:
     if task.mode == "hold":
         q, err = solve_pose(task.robot, task.targets[0], task.q_init)
         if np.linalg.norm(err[:3]) > 1e-4:
-            from forte.exceptions import InfeasibleTaskError
-
             raise InfeasibleTaskError(f"hold pose unreachable from initial_configuration: position error "
                                       f"{np.linalg.norm(err[:3]):.4f} m")
         return q[None]

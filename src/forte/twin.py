@@ -55,10 +55,6 @@ def _joint_axis(joint: pin.JointModel) -> tuple[np.ndarray, bool]:
     )
 
 
-def _skew_cross(a: Expr, b: Expr) -> Expr:
-    return ca.cross(a, b)
-
-
 def _axis_rotation(axis: np.ndarray, angle: Expr) -> Expr:
     """Rodrigues' formula for a constant unit axis."""
     k = ca.DM(axis)
@@ -145,7 +141,7 @@ class CasadiTwin:
                 continue
             R, p = poses[j]
             z = R @ ca.DM(self._joints[j].axis)
-            columns.append(_skew_cross(z, p_ee - p) if self._joints[j].revolute else z)
+            columns.append(ca.cross(z, p_ee - p) if self._joints[j].revolute else z)
         return ca.horzcat(*columns)
 
     def _support(self, j: int) -> set[int]:
@@ -186,28 +182,28 @@ class CasadiTwin:
                 a_par, al_par = acc[joint.parent]
             axis = ca.DM(joint.axis)
             w = Rt @ w_par
-            v = Rt @ (v_par + _skew_cross(w_par, p))
+            v = Rt @ (v_par + ca.cross(w_par, p))
             al = Rt @ al_par
-            a = Rt @ (a_par + _skew_cross(al_par, p))
+            a = Rt @ (a_par + ca.cross(al_par, p))
             if joint.revolute:
                 sw, sv = axis * dq_a[j], ca.DM.zeros(3, 1)
                 w = w + sw
-                al = al + axis * ddq_a[j] + _skew_cross(w, sw)
-                a = a + _skew_cross(v, sw)
+                al = al + axis * ddq_a[j] + ca.cross(w, sw)
+                a = a + ca.cross(v, sw)
             else:
                 sv = axis * dq_a[j]
                 v = v + sv
-                a = a + axis * ddq_a[j] + _skew_cross(w, sv)
+                a = a + axis * ddq_a[j] + ca.cross(w, sv)
             vel.append((v, w))
             acc.append((a, al))
             m, c, Ic = joint.mass, ca.DM(joint.com), ca.DM(joint.inertia_com)
             # Spatial inertia times a motion (v, w) about the joint origin.
-            h = m * (a + _skew_cross(al, c))
-            n_ = Ic @ al + _skew_cross(c, h)
-            hv = m * (v + _skew_cross(w, c))
-            L = Ic @ w + _skew_cross(c, hv)
-            f = h + _skew_cross(w, hv)
-            tq = n_ + _skew_cross(w, L) + _skew_cross(v, hv)
+            h = m * (a + ca.cross(al, c))
+            n_ = Ic @ al + ca.cross(c, h)
+            hv = m * (v + ca.cross(w, c))
+            L = Ic @ w + ca.cross(c, hv)
+            f = h + ca.cross(w, hv)
+            tq = n_ + ca.cross(w, L) + ca.cross(v, hv)
             forces.append([f, tq])
         tau = [None] * n
         for j in reversed(range(n)):
@@ -219,7 +215,7 @@ class CasadiTwin:
                 R, p = locals_[j]
                 fr = R @ f
                 forces[joint.parent][0] = forces[joint.parent][0] + fr
-                forces[joint.parent][1] = forces[joint.parent][1] + R @ tq + _skew_cross(p, fr)
+                forces[joint.parent][1] = forces[joint.parent][1] + R @ tq + ca.cross(p, fr)
         return ca.vertcat(*tau)
 
     # -- numeric wrappers ---------------------------------------------------------------
