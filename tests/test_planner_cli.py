@@ -134,3 +134,27 @@ def test_payload_without_quantity_is_refused(tmp_path, capsys):
     assert main(["plan", str(path), "--waypoints", "10", "--out", str(tmp_path / "o"), "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "--mass" in err and "Traceback" not in err
+
+
+def test_another_urdf_arm_plans(tmp_path):
+    """The planner is not tied to the Panda: a UR5 on the same holonomic base lifts a payload."""
+    data = yaml.safe_load((EXAMPLES / "lift.yaml").read_text())
+    data["robot"] = {"urdf": "erd:ur_description/urdf/ur5_robot.urdf", "ee_frame": "tool0",
+                     "mount": {"xyz": [0.2, 0.0, 0.45]}, "tool": None}
+    data["initial_configuration"] = [0, 0, 0, 0.0, -1.2, 1.5, -1.87, -1.57, 0.0]
+    data["path"]["waypoints"] = [{"t": 0.0, "position": [0, 0, 0]}, {"t": 3.0, "position": [0.1, 0.0, -0.2]}]
+    path = tmp_path / "ur5.yaml"
+    path.write_text(yaml.safe_dump(data))
+    task = load_task(path, waypoints=12)
+    res = plan(task, "forte")
+    assert res.success, res.status
+    assert res.q.shape == (12, 9)
+    for qk, Tk in zip(res.q, task.targets, strict=True):
+        assert np.linalg.norm(task.robot.ee_pose(qk)[:3, 3] - Tk[:3, 3]) < 1e-6
+    assert np.all(res.metrics["d"] > -1.0)  # the 2.7 kg ball fits (up to the surrogate's slack)
+
+
+def test_tutorial_example_runs():
+    import runpy
+
+    runpy.run_path(str(EXAMPLES.parent / "tutorial.py"), run_name="__main__")
