@@ -25,11 +25,11 @@ import numpy as np
 
 from forte.planner import PlanResult, plan
 from forte.reports import (
-    _jsonable,
-    _pyplot,
     draw_polytope,
+    jsonable,
     package_versions,
     plan_summary,
+    pyplot,
     replace_directory,
     write_plan,
 )
@@ -204,7 +204,7 @@ def _write_summary(directory: Path, title: str, intro: list[str], cases: list[_C
         "figures": figures,
         "versions": package_versions(),
     }
-    (directory / "summary.json").write_text(json.dumps(_jsonable(doc), indent=1) + "\n")
+    (directory / "summary.json").write_text(json.dumps(jsonable(doc), indent=1) + "\n")
     lines = [f"# {title}", "", *intro, ""]
     for case in cases:
         lines += [f"## {case.label}", "", *_table(case), ""]
@@ -227,7 +227,7 @@ def _band(ax: Any, res: PlanResult) -> None:
 
 # -- 5.2 continuous trajectory --------------------------------------------------------------
 def _plot_continuous(results: dict[str, PlanResult], path: Path) -> None:
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.2))
     ax2 = ax.twinx()
     _band(ax, next(iter(results.values())))
@@ -338,7 +338,7 @@ def _continuous_claims(results: dict[str, PlanResult]) -> tuple[list[Claim], lis
 
 # -- 5.3 lifting ----------------------------------------------------------------------------
 def _plot_lift(cases: list[_Case], path: Path) -> None:
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(11, 6.5), sharex=True)
     for col, case in enumerate(cases):
         ax_c, ax_m = axes[0, col], axes[1, col]
@@ -494,7 +494,7 @@ def _lift_claims(cases: list[_Case], unloaded: dict[str, str]) -> tuple[list[Cla
 
 # -- 5.4 single-point holding ---------------------------------------------------------------
 def _plot_hold_metrics(cases: list[_Case], path: Path) -> None:
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for ax, case in zip(axes, cases, strict=True):
         names = list(case.results)
@@ -519,7 +519,7 @@ def _plot_hold_metrics(cases: list[_Case], path: Path) -> None:
 
 
 def _plot_hold_polytopes(cases: list[_Case], path: Path) -> None:
-    plt = _pyplot()
+    plt = pyplot()
     rows = cases[::-1]  # the paper puts 2.7 L on top
     cols = list(rows[0].results)
     fig = plt.figure(figsize=(3.2 * len(cols), 3.3 * len(rows)))
@@ -542,7 +542,7 @@ def _plot_hold_polytopes(cases: list[_Case], path: Path) -> None:
 
 def _plot_hold_ellipses(cases: list[_Case], path: Path) -> None:
     """Each cell overlays the xy, xz and yz projections of one configuration's velocity ellipsoid."""
-    plt = _pyplot()
+    plt = pyplot()
     rows = cases[::-1]
     cols = list(rows[0].results)
     fig, axes = plt.subplots(len(rows), len(cols), figsize=(2.8 * len(cols), 2.9 * len(rows)),

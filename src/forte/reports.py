@@ -51,13 +51,14 @@ def _write_csv(path: Path, header: list[str], rows: np.ndarray) -> None:
             writer.writerow([repr(float(v)) for v in row])
 
 
-def _jsonable(value: Any) -> Any:
+def jsonable(value: Any) -> Any:
+    """``value`` with numpy types, paths and non-finite floats turned into plain JSON values."""
     if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
+        return {str(k): jsonable(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
+        return [jsonable(v) for v in value]
     if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
+        return jsonable(value.tolist())
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, float) and not np.isfinite(value):
@@ -86,7 +87,7 @@ def plan_document(result: PlanResult) -> dict[str, Any]:
     from dataclasses import asdict
 
     task = result.task
-    return _jsonable({
+    return jsonable({
         "task": {"name": task.name, "file": str(task.source) if task.source else None, "mode": task.mode,
                  "waypoints": task.n, "duration_s": float(task.t[-1] - task.t[0]), "definition": task.raw},
         "method": result.method,
@@ -108,7 +109,8 @@ def plan_document(result: PlanResult) -> dict[str, Any]:
 
 
 # -- figures ------------------------------------------------------------------------------
-def _pyplot() -> Any:
+def pyplot() -> Any:
+    """matplotlib.pyplot with the non-interactive Agg backend (no display needed)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -119,7 +121,7 @@ def _pyplot() -> Any:
 
 def plot_capacity(results: list[PlanResult], path: Path) -> None:
     """Directional capacity vs time, with the desired |f| and its +-r band."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 3.6))
     ref = results[0]
     mag = ref.force.magnitude
@@ -137,7 +139,7 @@ def plot_capacity(results: list[PlanResult], path: Path) -> None:
 
 
 def plot_manipulability(results: list[PlanResult], path: Path) -> None:
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 3.2))
     for res in results:
         ax.plot(res.t, res.metrics["manipulability"], lw=1.5, label=res.method)
@@ -185,7 +187,7 @@ def draw_polytope(ax: Any, result: PlanResult, k: int) -> None:
 
 
 def plot_polytope(result: PlanResult, path: Path) -> None:
-    plt = _pyplot()
+    plt = pyplot()
     k = worst_waypoint(result)
     fig = plt.figure(figsize=(5.5, 5.5))
     ax = fig.add_subplot(projection="3d")
@@ -212,7 +214,7 @@ def draw_ellipses(axes: Any, result: PlanResult, k: int, color: str = "tab:green
 
 
 def plot_ellipsoid(result: PlanResult, path: Path) -> None:
-    plt = _pyplot()
+    plt = pyplot()
     k = worst_waypoint(result)
     fig, axes = plt.subplots(1, 3, figsize=(9, 3.2))
     draw_ellipses(axes, result, k)
@@ -306,7 +308,7 @@ def write_comparison(results: list[PlanResult], directory: Path) -> None:
         lines.append(f"| {r['method']} | {r['status']} | {r['min_d']:.2f} | {r['min_capacity_margin']:.2f} | "
                      f"{r['mean_manipulability']:.4f} | {r['max_torque_ratio']:.2f} | {r['solve_time_s']:.2f} |")
     (directory / "summary.md").write_text("\n".join(lines) + "\n")
-    plt = _pyplot()
+    plt = pyplot()
     if task.mode == "hold":
         fig, ax = plt.subplots(figsize=(7, 3.5))
         names = [r.method for r in results]
