@@ -158,3 +158,16 @@ def test_tutorial_example_runs():
     import runpy
 
     runpy.run_path(str(EXAMPLES.parent / "tutorial.py"), run_name="__main__")
+
+
+def test_compare_hold_without_teaching_runs_the_optimized_methods(tmp_path):
+    data = yaml.safe_load((EXAMPLES / "hold.yaml").read_text())
+    data["pose"] = {"position": [0.05, 0.0, -0.2], "relative": True}
+    data.pop("teaching_configuration")
+    path = tmp_path / "hold.yaml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "cmp"
+    assert main(["compare", str(path), "--out", str(out), "--quiet", "--no-figures"]) == 0
+    rows = list(csv.DictReader((out / "summary.csv").open()))
+    assert [r["method"] for r in rows] == ["forte", "manipulability", "rfp-radius", "rfp-cone"]
+    assert main(["plan", str(path), "--method", "teaching", "--out", str(tmp_path / "t")]) == 2

@@ -108,3 +108,44 @@ def test_robot_section_loads_another_arm(tmp_path):
     task = load_task(write(tmp_path, data))
     assert task.robot.n_arm == 6 and task.robot.tool is None
     assert task.robot.mount[2, 3] == 0.5
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"),
+    [
+        (lambda d: d.update(solver={"tol": 0}), "solver: tol: expected a finite number > 0"),
+        (lambda d: d.update(solver={"max_iter": 0}), "solver: max_iter: expected an integer >= 1"),
+        (lambda d: d.update(weights={"joint_margin": 0}), "weights: joint_margin: expected a finite number > 0"),
+        (lambda d: d.update(weights={"capability_params": {"alpha": 2}}),
+         "weights.capability_params: alpha: expected 0 < alpha <= 1"),
+        (lambda d: d.update(limits={"base_velocity": [-1, 1, 1]}), "limits: base_velocity: expected limits > 0"),
+        (lambda d: d.update(limits={"arm_velocity": [1, 2]}), "limits: expected 7 arm velocity"),
+        (lambda d: d["path"].update(relative="no"), "path.relative: expected true or false"),
+        (lambda d: d["path"].update(samples=None, rate=0.01), "path.rate: gives 1 waypoint"),
+        (lambda d: d["path"].update(orientation={"matrix": [["a"]]}), "path.orientation.matrix: expected a 3x3"),
+        (lambda d: d.update(initial_configuration=[0, 0, 0, 0, -0.78, 0, 0.5, 0, 1.57, 0.78]),
+         "initial_configuration[6]: joint panda_joint4 = 0.5 is outside its limits"),
+        (lambda d: d.update(mode="hold", teaching_configuration=d["initial_configuration"]),
+         "path: not used in mode 'hold'"),
+    ],
+)
+def test_bad_options_name_file_and_field(tmp_path, mutate, message):
+    data = lift_dict()
+    mutate(data)
+    path = write(tmp_path, data)
+    with pytest.raises(ForteError) as err:
+        load_task(path)
+    assert message in str(err.value)
+    assert str(path) in str(err.value)
+
+
+def test_string_options_are_accepted(tmp_path):
+    data = lift_dict()
+    data["solver"] = {"cache_dir": str(tmp_path / "cache"), "codegen": False}
+    task = load_task(write(tmp_path, data))
+    assert task.solver.cache_dir == str(tmp_path / "cache") and task.solver.codegen is False
+
+
+def test_waypoints_do_not_apply_to_hold():
+    with pytest.raises(TaskFileError, match="--waypoints: applies to mode 'trajectory'"):
+        load_task(EXAMPLES / "hold.yaml", waypoints=10)

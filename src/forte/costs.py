@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from forte.exceptions import InvalidInputError
 from forte.metrics import (
     CapabilityParameters,
     inverse_capacity_expr,
@@ -64,6 +65,22 @@ class CostWeights:
     dct_axis: tuple[float, float, float] = (1.0, 1.0, 0.5)
     dct_power: float = 0.0
     capability_params: CapabilityParameters = field(default_factory=CapabilityParameters)
+
+    def __post_init__(self) -> None:
+        for name in ("capability", "manipulability", "joint_limits", "smoothness", "base_spectral", "dct_power"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise InvalidInputError(f"{name}: expected a finite number >= 0, got {value}")
+        for name in ("manipulability_lambda", "manipulability_eps", "joint_margin", "joint_eps", "smoothness_arm"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise InvalidInputError(f"{name}: expected a finite number > 0, got {value}")
+        if not 0.0 < self.dct_cutoff < 1.0:
+            raise InvalidInputError(f"dct_cutoff: expected 0 < cutoff < 1, got {self.dct_cutoff}")
+        for name in ("smoothness_base", "dct_axis"):
+            values = np.asarray(getattr(self, name), dtype=float)
+            if values.shape != (3,) or not np.all(np.isfinite(values) & (values >= 0)):
+                raise InvalidInputError(f"{name}: expected 3 finite numbers >= 0, got {getattr(self, name)}")
 
 
 def _stage_symbols(nq: int) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX, ca.SX]:

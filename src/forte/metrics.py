@@ -151,7 +151,12 @@ def smooth_penalty_expr(
 
 
 def inverse_capacity_expr(value: Any, eps: float = 1e-6) -> Any:
-    """Baseline cost term ``1 / max(|value|, eps)`` (RFP radius and cone baselines)."""
+    """Baseline cost term ``1 / max(|value|, eps)`` (RFP radius and cone baselines).
+
+    The absolute value is the authors' implementation (see ``shared/NOTES.md``). It makes the
+    term *decrease* again when the value turns negative (origin outside the RFP), so a baseline
+    started where the value is negative can be pushed further out; kept as written for fidelity.
+    """
     return 1 / ca.fmax(ca.fabs(value), eps)
 
 

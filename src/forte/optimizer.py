@@ -77,6 +77,16 @@ class SolverOptions:
     print_level: int = 0
     extra: dict[str, Any] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        if not (isinstance(self.max_iter, int) and self.max_iter >= 1):
+            raise InvalidInputError(f"max_iter: expected an integer >= 1, got {self.max_iter!r}")
+        for name in ("tol", "constraint_tol"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise InvalidInputError(f"{name}: expected a finite number > 0, got {value!r}")
+        if not (isinstance(self.print_level, int) and 0 <= self.print_level <= 12):
+            raise InvalidInputError(f"print_level: expected an integer in 0..12, got {self.print_level!r}")
+
 
 #: Franka Panda joint acceleration limits (rad/s^2, datasheet).
 PANDA_ACCELERATION_LIMITS: tuple[float, ...] = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
@@ -106,10 +116,20 @@ class KinematicLimits:
     base_velocity: tuple[float, float, float] = (1.0, 1.0, 1.5)
     base_acceleration: tuple[float, float, float] = (1.0, 1.0, 2.0)
 
+    def __post_init__(self) -> None:
+        for name in ("arm_velocity", "arm_acceleration", "base_velocity", "base_acceleration"):
+            values = getattr(self, name)
+            if values is not None and not np.all(np.asarray(values, dtype=float) > 0):
+                raise InvalidInputError(f"{name}: expected limits > 0 (use enabled: false for none), got {values}")
+
     def resolve(self, robot: MobileManipulator) -> tuple[FloatArray, FloatArray]:
         """Whole-body velocity and acceleration limits (inf where unlimited)."""
         n = robot.n_arm
-        vel = np.asarray(self.arm_velocity if self.arm_velocity is not None else robot.model.velocityLimit, float)
+        if self.arm_velocity is not None:
+            vel = np.asarray(self.arm_velocity, dtype=float)
+        else:  # URDFs use 0 for "no limit"
+            urdf = np.asarray(robot.model.velocityLimit, dtype=float)
+            vel = np.where(urdf > 0, urdf, np.inf)
         if self.arm_acceleration is not None:
             acc = np.asarray(self.arm_acceleration, dtype=float)
         elif n == 7 and all(j.startswith("panda_joint") for j in robot.arm_joints or ()):
@@ -118,7 +138,6 @@ class KinematicLimits:
             acc = np.full(n, np.inf)
         if vel.shape != (n,) or acc.shape != (n,):
             raise InvalidInputError(f"limits: expected {n} arm velocity and acceleration limits")
-        vel = np.where(vel > 0, vel, np.inf)  # URDFs use 0 for "no limit"
         return (np.concatenate([self.base_velocity, vel]), np.concatenate([self.base_acceleration, acc]))
 
 
@@ -261,7 +280,10 @@ class TrajectoryOptimizer:
         opts["grad_f"] = ca.Function("nlp_grad_f", [x, P], [cost, grad])
         opts["jac_g"] = ca.Function("nlp_jac_g", [x, P], [g, jac])
         opts["hess_lag"] = ca.Function("nlp_hess_l", [x, P, lam_f, lam_g], [hess])
-        self.solver = ca.nlpsol("forte", "ipopt", {"x": x, "p": P, "f": cost, "g": g}, opts)
+        try:
+            self.solver = ca.nlpsol("forte", "ipopt", {"x": x, "p": P, "f": cost, "g": g}, opts)
+        except RuntimeError as exc:  # e.g. an option IPOPT rejects
+            raise SolverError(f"IPOPT could not be set up: {str(exc).splitlines()[-1]}", status="setup") from exc
         self._g = ca.Function("g", [x, P], [g])
         terms = kern.terms.map(n)(*stage_args[:-1])  # 3 x n: capability, manipulability, joint limits
         Qs, Qd = _quadratic_parts(robot.n_arm, n, w)
@@ -341,7 +363,10 @@ class TrajectoryOptimizer:
         n_pose = 6 * (n - (1 if self.fix_initial else 0))
         lbg = np.concatenate([np.zeros(n_pose), klb])
         ubg = np.concatenate([np.zeros(n_pose), kub])
-        result = self.solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        try:
+            result = self.solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        except RuntimeError as exc:  # IPOPT refused the problem (bad option values, inconsistent bounds)
+            raise SolverError(f"IPOPT refused the problem: {str(exc).splitlines()[-1]}", status="error") from exc
         solve_time = time.perf_counter() - start
         stats = self.solver.stats()
         x = np.array(result["x"]).ravel()

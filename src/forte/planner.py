@@ -54,7 +54,10 @@ class PlanResult:
 
 
 def methods_for(task: Task) -> tuple[str, ...]:
-    return HOLD_METHODS if task.mode == "hold" else TRAJECTORY_METHODS
+    """Methods that apply to the task (``teaching`` only with a teaching configuration)."""
+    if task.mode == "hold":
+        return HOLD_METHODS if task.teaching is not None else OPTIMIZED_METHODS
+    return TRAJECTORY_METHODS
 
 
 def evaluate(
@@ -88,7 +91,7 @@ def evaluate(
 def resolve_mass(task: Task, estimator_options: dict[str, Any] | None = None) -> dict[str, Any] | None:
     """Fill ``task.payload['mass']`` from the estimator when only a description/image is given."""
     if task.force_profile is not None or task.payload.get("mass") is not None:
-        return None
+        return task.payload.get("estimate")
     if not (task.payload.get("description") or task.payload.get("image")):
         raise TaskFileError(f"{task.source}: payload: give a mass, a description or an image")
     from forte.estimation import estimate_payload
@@ -96,7 +99,8 @@ def resolve_mass(task: Task, estimator_options: dict[str, Any] | None = None) ->
     estimate = estimate_payload(task.payload.get("description"), task.payload.get("image"),
                                 **(estimator_options or {}))
     task.payload["mass"] = float(estimate.mass_kg)
-    return estimate.to_dict()
+    task.payload["estimate"] = estimate.to_dict()  # every later plan of this task reports it too
+    return task.payload["estimate"]
 
 
 def initial_guess(task: Task) -> FloatArray:
@@ -140,6 +144,8 @@ def coarse_guess(task: Task, method: str) -> tuple[FloatArray, dict[str, Any]] |
 def plan(task: Task, method: str = "forte", estimator_options: dict[str, Any] | None = None,
          guess: FloatArray | None = None) -> PlanResult:
     """Plan ``task`` with ``method``; never raises for a solver failure (see ``success``)."""
+    if method == "teaching" and task.mode == "hold" and task.teaching is None:
+        raise TaskFileError(f"{task.source}: teaching_configuration: required for method 'teaching'")
     allowed = methods_for(task)
     if method not in allowed:
         raise InvalidInputError(f"method: '{method}' does not apply to mode '{task.mode}'; "

@@ -144,8 +144,11 @@ def _rotation(reader: _Reader, name: str, default: FloatArray) -> FloatArray:
         r.unknown({"rpy", "matrix"})
         if r.has("rpy"):
             return pin.rpy.rpyToMatrix(*r.vector("rpy", 3))
-        R = np.asarray(r.get("matrix"), dtype=float)
-        if R.shape != (3, 3) or not np.allclose(R @ R.T, np.eye(3), atol=1e-6):
+        try:
+            R = np.asarray(r.get("matrix"), dtype=float)
+        except (TypeError, ValueError):
+            raise r.error("matrix", f"expected a 3x3 matrix of numbers, got {r.get('matrix')!r}") from None
+        if R.shape != (3, 3) or not np.all(np.isfinite(R)) or not np.allclose(R @ R.T, np.eye(3), atol=1e-6):
             raise r.error("matrix", "expected an orthonormal 3x3 rotation matrix")
         return R
     raise reader.error(name, "expected a mapping with 'rpy' (radians) or 'matrix'")
@@ -230,10 +233,10 @@ def _samples(r: _Reader, t0: float, t1: float, waypoints: int | None) -> FloatAr
         n = r.integer("samples", minimum=2)
     elif r.has("rate"):
         n = int(round((t1 - t0) * r.number("rate", positive=True))) + 1
+        if n < 2:
+            raise r.error("rate", f"gives {n} waypoint over {t1 - t0} s; expected at least 2")
     else:
         n = 50
-    if n < 2:
-        raise r.error("samples", f"expected at least 2 waypoints, got {n}")
     return np.linspace(t0, t1, n)
 
 
@@ -250,7 +253,9 @@ def _path(reader: _Reader, T0: FloatArray, waypoints: int | None) -> tuple[Float
         if not isinstance(pts, list) or len(pts) < 2:
             raise r.error("waypoints", "expected a list of at least 2 waypoints {t, position}")
         times, positions = [], []
-        relative = bool(r.get("relative", False))
+        relative = r.get("relative", False)
+        if not isinstance(relative, bool):
+            raise r.error("relative", f"expected true or false, got {relative!r}")
         for i, item in enumerate(pts):
             w = _Reader(item, r.path, f"{r.key('waypoints')}[{i}].")
             w.unknown({"t", "position"})
@@ -291,33 +296,44 @@ def _force_profile(reader: _Reader, t: FloatArray, radius: float) -> TaskForce |
 
 
 def _dataclass_from(reader: _Reader, name: str, cls: type, base: Any) -> Any:
+    """Override fields of the dataclass instance ``base`` from ``reader[name]``, by field type."""
     if not reader.has(name):
         return base
     r = reader.sub(name)
-    fields = {f.name: f for f in dataclasses.fields(cls)}
-    r.unknown(set(fields) - {"capability_params", "extra"} | ({"capability_params"} if cls is CostWeights else set()))
+    fields = {f.name: str(f.type) for f in dataclasses.fields(cls)}
+    r.unknown(set(fields) - {"extra"})
     values: dict[str, Any] = {}
-    for key, value in r.data.items():
-        if key == "capability_params":
-            sub = r.sub(key)
-            sub.unknown({f.name for f in dataclasses.fields(CapabilityParameters)})
-            values[key] = CapabilityParameters(**{k: sub.number(k) for k in sub.data})
-        elif getattr(base, key) is None or isinstance(getattr(base, key), tuple):
-            default = getattr(base, key)
-            values[key] = tuple(r.vector(key, len(default) if default is not None else None))
-        elif isinstance(getattr(base, key), bool):
-            if not isinstance(value, bool):
-                raise r.error(key, f"expected true or false, got {value!r}")
-            values[key] = value
-        elif isinstance(getattr(base, key), int):
-            values[key] = r.integer(key, minimum=0)
-        elif isinstance(getattr(base, key), float):
-            values[key] = r.number(key, nonnegative=True)
-        else:
-            values[key] = value
     try:
+        for key, value in r.data.items():
+            kind = fields[key]
+            if key == "capability_params":
+                sub = r.sub(key)
+                sub.unknown({f.name for f in dataclasses.fields(CapabilityParameters)})
+                try:
+                    values[key] = CapabilityParameters(**{k: sub.number(k) for k in sub.data})
+                except ForteError as exc:
+                    raise sub.error("", str(exc)) from exc
+            elif kind.startswith("tuple"):
+                default = getattr(base, key)
+                values[key] = tuple(r.vector(key, len(default) if default is not None else None))
+            elif kind == "bool":
+                if not isinstance(value, bool):
+                    raise r.error(key, f"expected true or false, got {value!r}")
+                values[key] = value
+            elif kind == "int":
+                values[key] = r.integer(key, minimum=0)
+            elif kind == "float":
+                values[key] = r.number(key, nonnegative=True)
+            elif kind.startswith("str"):
+                if not isinstance(value, str):
+                    raise r.error(key, f"expected a string, got {value!r}")
+                values[key] = value
+            else:  # pragma: no cover - every field type is handled above
+                raise r.error(key, "cannot be set from a task file")
         return dataclasses.replace(base, **values)
     except ForteError as exc:
+        if isinstance(exc, TaskFileError):
+            raise
         raise r.error("", str(exc)) from exc
 
 
@@ -355,10 +371,12 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     q_init = robot.home()
     if reader.has("initial_configuration"):
         q_init = reader.vector("initial_configuration", robot.nq)
+        _check_joint_limits(reader, "initial_configuration", robot, q_init)
     radius = reader.number("uncertainty_radius", DEFAULT_RADIUS, nonnegative=True)
     teaching = None
     if reader.has("teaching_configuration"):
         teaching = reader.vector("teaching_configuration", robot.nq)
+        _check_joint_limits(reader, "teaching_configuration", robot, teaching)
     T0 = robot.ee_pose(q_init)
     if mode == "trajectory":
         if waypoints is not None and waypoints < 2:
@@ -368,6 +386,10 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
             raise reader.error("path", "the path must start at the end-effector pose of initial_configuration "
                                f"(at {np.round(T0[:3, 3], 4).tolist()}); use 'relative: true'")
     else:
+        if waypoints is not None:
+            raise TaskFileError(f"--waypoints: applies to mode 'trajectory', {path} is a 'hold' task")
+        if reader.has("path"):
+            raise reader.error("path", "not used in mode 'hold' (give pose or teaching_configuration)")
         t = np.zeros(1)
         targets = _hold_pose(reader, robot, T0, teaching)
     payload: dict[str, Any] = {}
@@ -399,6 +421,15 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     return Task(name=name, source=path, robot=robot, mode=mode, t=t, targets=targets, q_init=q_init,
                 radius=radius, payload=payload, force_profile=force_profile, weights=weights, solver=solver,
                 teaching=teaching, limits=limits, raw=data)
+
+
+def _check_joint_limits(reader: _Reader, name: str, robot: MobileManipulator, q: FloatArray) -> None:
+    arm = q[3:]
+    bad = np.flatnonzero((arm < robot.lower - 1e-9) | (arm > robot.upper + 1e-9))
+    if bad.size:
+        i = int(bad[0])
+        raise reader.error(f"{name}[{i + 3}]", f"joint {robot.arm_joints[i]} = {arm[i]} is outside its limits "
+                           f"[{robot.lower[i]}, {robot.upper[i]}]")
 
 
 def _hold_pose(reader: _Reader, robot: MobileManipulator, T0: FloatArray, teaching: FloatArray | None) -> FloatArray:
