@@ -171,3 +171,18 @@ def test_compare_hold_without_teaching_runs_the_optimized_methods(tmp_path):
     rows = list(csv.DictReader((out / "summary.csv").open()))
     assert [r["method"] for r in rows] == ["forte", "manipulability", "rfp-radius", "rfp-cone"]
     assert main(["plan", str(path), "--method", "teaching", "--out", str(tmp_path / "t")]) == 2
+
+
+def test_failed_comparison_never_replaces_an_earlier_one(tmp_path):
+    out = tmp_path / "cmp"
+    assert main(["compare", str(EXAMPLES / "hold.yaml"), "--out", str(out), "--quiet", "--no-figures"]) == 0
+    before = (out / "summary.csv").read_text()
+    data = yaml.safe_load((EXAMPLES / "hold.yaml").read_text())
+    data["solver"] = {"max_iter": 1}
+    data.pop("teaching_configuration")
+    data["pose"] = {"position": [0.05, 0.0, -0.2], "relative": True}
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump(data))
+    assert main(["compare", str(bad), "--out", str(out), "--quiet", "--no-figures"]) == 1
+    assert (out / "summary.csv").read_text() == before
+    assert "failure" in (tmp_path / "cmp.failed" / "summary.csv").read_text()

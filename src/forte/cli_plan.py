@@ -94,6 +94,8 @@ def run_compare(args: argparse.Namespace) -> int:
             write_plan(res, tmp / res.method, figures=not args.no_figures)
         write_comparison(results, tmp)
 
+    if not any(r.success for r in results) and (out / "summary.csv").exists():
+        out = out.with_name(out.name + ".failed")  # never replace an earlier comparison with a total failure
     replace_directory(build, out)
     if not args.quiet:
         print((out / "summary.md").read_text())
