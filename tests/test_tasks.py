@@ -56,6 +56,16 @@ def lift_dict():
     return yaml.safe_load((EXAMPLES / "lift.yaml").read_text())
 
 
+def load_error(tmp_path, mutate):
+    """Write lift.yaml changed by ``mutate`` and return (path, the error message of loading it)."""
+    data = lift_dict()
+    mutate(data)
+    path = write(tmp_path, data)
+    with pytest.raises(ForteError) as err:
+        load_task(path)
+    return path, str(err.value)
+
+
 @pytest.mark.parametrize(
     ("mutate", "message"),
     [
@@ -77,13 +87,9 @@ def lift_dict():
     ],
 )
 def test_bad_task_files_name_file_and_field(tmp_path, mutate, message):
-    data = lift_dict()
-    mutate(data)
-    path = write(tmp_path, data)
-    with pytest.raises(ForteError) as err:
-        load_task(path)
-    assert message in str(err.value)
-    assert str(path) in str(err.value) or "robot" in message or "does not exist" in message
+    path, error = load_error(tmp_path, mutate)
+    assert message in error
+    assert str(path) in error or "robot" in message or "does not exist" in message
 
 
 def test_missing_and_malformed_files(tmp_path):
@@ -130,13 +136,9 @@ def test_robot_section_loads_another_arm(tmp_path):
     ],
 )
 def test_bad_options_name_file_and_field(tmp_path, mutate, message):
-    data = lift_dict()
-    mutate(data)
-    path = write(tmp_path, data)
-    with pytest.raises(ForteError) as err:
-        load_task(path)
-    assert message in str(err.value)
-    assert str(path) in str(err.value)
+    path, error = load_error(tmp_path, mutate)
+    assert message in error
+    assert str(path) in error
 
 
 def test_string_options_are_accepted(tmp_path):

@@ -23,7 +23,7 @@ from forte.exceptions import InfeasibleTaskError, InvalidInputError, TaskFileErr
 from forte.ik import follow_path, solve_pose
 from forte.metrics import capability_margin, yoshikawa
 from forte.optimizer import OPTIMIZED_METHODS, Solution, TrajectoryOptimizer
-from forte.polytope import directional_capacity, halfspaces, inscribed_radius, residual_margins, trajectory_rfp
+from forte.polytope import directional_capacity, inscribed_radius, trajectory_rfp
 from forte.robot import MobileManipulator
 from forte.taskforce import TaskForce
 from forte.tasks import Task
@@ -69,14 +69,12 @@ def evaluate(
     the inscribed radius are those of the paper's RFP ``P_r,k`` itself (``alpha = 1``).
     """
     rfp = trajectory_rfp(robot, q, t, alpha=1.0)
-    plus, minus = residual_margins(rfp.tau_nom, robot.torque_limits)
-    A, b = halfspaces(rfp.J, plus, minus, alpha=alpha)
     capacity = directional_capacity(rfp.A, rfp.b, force.direction)
     return {
         "t": np.asarray(t, dtype=float),
         "fx": force.f[:, 0], "fy": force.f[:, 1], "fz": force.f[:, 2],
         "radius": force.r,
-        "d": capability_margin(A, b, force.f, force.r),
+        "d": capability_margin(rfp.A, alpha * rfp.b, force.f, force.r),  # b scales with alpha
         "directional_capacity": capacity,
         "capacity_margin": capacity - (force.magnitude + force.r),
         "inscribed_radius": inscribed_radius(rfp.A, rfp.b),

@@ -23,6 +23,7 @@ import numpy as np
 from forte.metrics import ellipsoid_axes
 from forte.planner import PlanResult
 from forte.polytope import halfspaces, residual_margins, trajectory_rfp, vertices
+from forte.trajectory import trajectory_header
 
 METRIC_COLUMNS = ("t", "fx", "fy", "fz", "radius", "d", "directional_capacity", "capacity_margin",
                   "inscribed_radius", "manipulability", "max_torque_ratio", "max_torque_ratio_with_force")
@@ -37,10 +38,6 @@ def package_versions() -> dict[str, str]:
         except metadata.PackageNotFoundError:
             out[name] = "not installed"
     return out
-
-
-def trajectory_header(result: PlanResult) -> list[str]:
-    return ["t", "x_b", "y_b", "yaw", *[f"q{i + 1}" for i in range(result.task.robot.n_arm)]]
 
 
 def _write_csv(path: Path, header: list[str], rows: np.ndarray) -> None:
@@ -229,10 +226,9 @@ def plot_ellipsoid(result: PlanResult, path: Path) -> None:
 # -- plan directories ---------------------------------------------------------------------
 def _fill(result: PlanResult, directory: Path, figures: bool) -> None:
     task = result.task
-    if result.success:
-        _write_csv(directory / "trajectory.csv", trajectory_header(result), np.column_stack([task.t, result.q]))
-    else:
-        _write_csv(directory / "last_iterate.csv", trajectory_header(result), np.column_stack([task.t, result.q]))
+    # a failed optimization keeps its last iterate, never under the name of a plan
+    name = "trajectory.csv" if result.success else "last_iterate.csv"
+    _write_csv(directory / name, trajectory_header(task.robot.n_arm), np.column_stack([task.t, result.q]))
     rows = np.column_stack([result.metrics[c] for c in METRIC_COLUMNS])
     _write_csv(directory / "metrics.csv", list(METRIC_COLUMNS), rows)
     (directory / "plan.json").write_text(json.dumps(plan_document(result), indent=2))

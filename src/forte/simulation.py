@@ -70,6 +70,7 @@ from forte.robot import (
     example_robot_data_dir,
     robot_from_description,
 )
+from forte.trajectory import trajectory_header
 from forte.validation import FloatArray, as_array, as_positive, as_vector, check_times
 
 #: Default base mass (kg) and yaw inertia (kg m^2): a MOCA-like omnidirectional platform.
@@ -427,11 +428,6 @@ class Plan:
     force: FloatArray | None
     method: str
     status: str
-
-
-def trajectory_header(n_arm: int) -> list[str]:
-    """``t,x_b,y_b,yaw,q1..qn``: the columns of ``trajectory.csv``."""
-    return ["t", "x_b", "y_b", "yaw", *(f"q{i}" for i in range(1, n_arm + 1))]
 
 
 def _atomic_write(path: Path, text: str) -> None:

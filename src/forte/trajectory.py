@@ -19,6 +19,11 @@ from forte.exceptions import InvalidInputError
 from forte.validation import FloatArray, as_array, check_times
 
 
+def trajectory_header(n_arm: int) -> list[str]:
+    """``t, x_b, y_b, yaw, q1..qn``: the columns of a plan's ``trajectory.csv``."""
+    return ["t", "x_b", "y_b", "yaw", *(f"q{i}" for i in range(1, n_arm + 1))]
+
+
 def backward_differences(x: Any, t: Any, name: str = "x") -> tuple[FloatArray, FloatArray]:
     """Velocities and accelerations of samples ``x`` (N x d) at times ``t`` (N).
 
