@@ -14,12 +14,12 @@ import time
 import casadi as ca
 import numpy as np
 
-from forte.costs import CostWeights, capability_stage
-from forte.metrics import CapabilityParameters, capability_margin, capability_penalty, normalization
-from forte.optimizer import SolverOptions, load_kernels
-from forte.polytope import trajectory_rfp
-from forte.robot import default_robot
-from forte.twin import CasadiTwin
+from forte.capability.metrics import CapabilityParameters, capability_margin, capability_penalty, normalization
+from forte.capability.polytope import trajectory_rfp
+from forte.model.robot import default_robot
+from forte.model.twin import CasadiTwin
+from forte.planning.costs import CostWeights, capability_stage
+from forte.planning.optimizer import SolverOptions, load_kernels
 
 
 def best_of(fn, repeat: int = 7, number: int = 1) -> float:

@@ -27,7 +27,7 @@ LIFT = ROOT / "examples" / "tasks" / "lift.yaml"
 def cold_run(extra: list[str], env: dict[str, str] | None = None) -> float:
     with tempfile.TemporaryDirectory() as out:
         start = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "forte.cli", "plan", str(LIFT), "--waypoints", "100", "--out",
+        subprocess.run([sys.executable, "-m", "forte.cli.main", "plan", str(LIFT), "--waypoints", "100", "--out",
                         str(Path(out) / "plan"), "--quiet", *extra], check=True, env=env)
         return time.perf_counter() - start
 
@@ -50,8 +50,8 @@ def main() -> None:
             first = cold_run(["--no-figures"], env)
             print(f"first-ever run (empty kernel cache, compiles the forte kernels): {first:.2f} s")
 
-    from forte.planner import plan
-    from forte.tasks import load_task
+    from forte.planning.planner import plan
+    from forte.planning.tasks import load_task
 
     print("\nforte NLP solve times (IPOPT, exact derivatives, lift.yaml, 2.7 kg):")
     print("   N | iterations | solve (s) | coarse pass (s) | status")

@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize
 
-from forte.optimizer import SolverOptions, TrajectoryOptimizer
-from forte.planner import initial_guess, plan
-from forte.tasks import load_task
+from forte.planning.optimizer import SolverOptions, TrajectoryOptimizer
+from forte.planning.planner import initial_guess, plan
+from forte.planning.tasks import load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 

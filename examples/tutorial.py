@@ -12,12 +12,12 @@ from pathlib import Path
 
 import numpy as np
 
-from forte.metrics import CapabilityParameters, capability_margin, manipulability
-from forte.planner import plan
-from forte.polytope import directional_capacity, halfspaces, residual_margins, vertices
-from forte.robot import default_robot
-from forte.taskforce import payload_force
-from forte.tasks import load_task
+from forte.capability.metrics import CapabilityParameters, capability_margin, manipulability
+from forte.capability.polytope import directional_capacity, halfspaces, residual_margins, vertices
+from forte.force.taskforce import payload_force
+from forte.model.robot import default_robot
+from forte.planning.planner import plan
+from forte.planning.tasks import load_task
 
 HERE = Path(__file__).parent
 

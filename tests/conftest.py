@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from forte.robot import MobileManipulator, default_robot
+from forte.model.robot import MobileManipulator, default_robot
 
 
 @pytest.fixture(scope="session")

@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from forte.cli import main
-from forte.estimation import (
+from forte.cli.main import main
+from forte.exceptions import EstimationError, InvalidInputError
+from forte.force.estimation import (
     MassEstimate,
     MassEstimator,
     OfflineEstimator,
@@ -24,7 +25,6 @@ from forte.estimation import (
     parse_quantities,
     radius_from_estimate,
 )
-from forte.exceptions import EstimationError, InvalidInputError
 
 IMAGE = Path(__file__).resolve().parents[1] / "examples" / "massbench" / "images" / "dumbbell.png"
 

@@ -8,12 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from forte import cli_experiment
-from forte.experiments import run_continuous, run_hold, run_lift
-from forte.planner import plan
-from forte.reports import write_plan
-from forte.simulation import simulate_plan
-from forte.tasks import load_task
+from forte.cli import experiment as cli_experiment
+from forte.execution.simulation import simulate_plan
+from forte.experiments.paper import run_continuous, run_hold, run_lift
+from forte.io.reports import write_plan
+from forte.planning.planner import plan
+from forte.planning.tasks import load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 

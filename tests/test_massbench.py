@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from forte.cli import main
-from forte.estimation import ImageInput, MassEstimate
+from forte.cli.main import main
 from forte.exceptions import EstimationError, InvalidInputError
-from forte.massbench import (
+from forte.force.estimation import ImageInput, MassEstimate
+from forte.force.massbench import (
     PAPER_ROWS,
     BenchItem,
     alde,

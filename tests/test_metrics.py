@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 from conftest import TWO_LINK_J, TWO_LINK_TAU_MAX, TWO_LINK_TAU_NOM, random_configuration
 
-from forte.exceptions import InvalidInputError
-from forte.metrics import (
+from forte.capability.metrics import (
     CapabilityParameters,
     capability_cost,
     capability_margin,
@@ -22,7 +21,8 @@ from forte.metrics import (
     smooth_penalty_expr,
     yoshikawa,
 )
-from forte.polytope import contains, halfspaces, residual_margins
+from forte.capability.polytope import contains, halfspaces, residual_margins
+from forte.exceptions import InvalidInputError
 
 J2, TAU_MAX, TAU_NOM = TWO_LINK_J, TWO_LINK_TAU_MAX, TWO_LINK_TAU_NOM
 

@@ -7,7 +7,10 @@ import numpy as np
 import pytest
 from scipy.fft import dct
 
-from forte.costs import (
+from forte.exceptions import InvalidInputError
+from forte.force.taskforce import payload_force
+from forte.model.trajectory import quintic_path
+from forte.planning.costs import (
     CostWeights,
     base_spectral_cost,
     dct_matrix,
@@ -15,11 +18,8 @@ from forte.costs import (
     high_frequencies,
     smoothness_cost,
 )
-from forte.exceptions import InvalidInputError
-from forte.ik import follow_path
-from forte.optimizer import SolverOptions, TrajectoryOptimizer
-from forte.taskforce import payload_force
-from forte.trajectory import quintic_path
+from forte.planning.ik import follow_path
+from forte.planning.optimizer import SolverOptions, TrajectoryOptimizer
 
 
 def lift_problem(robot, n, duration=3.0, drop=0.2):
@@ -141,7 +141,7 @@ def test_dct_matches_scipy_and_penalizes_only_high_frequencies():
 
 
 def test_kinematic_limits_bound_the_backward_differences(robot):
-    from forte.optimizer import KinematicLimits
+    from forte.planning.optimizer import KinematicLimits
 
     n = 12
     t, targets, q0 = lift_problem(robot, n, duration=1.2, drop=0.3)

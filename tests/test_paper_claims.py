@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from forte.planner import plan
-from forte.tasks import load_task
+from forte.planning.planner import plan
+from forte.planning.tasks import load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 N = 30

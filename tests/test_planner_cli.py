@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 import yaml
 
-from forte.cli import main
+from forte.cli.main import main
 from forte.exceptions import InfeasibleTaskError
-from forte.planner import plan
-from forte.tasks import load_task
+from forte.planning.planner import plan
+from forte.planning.tasks import load_task
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 
@@ -39,7 +39,7 @@ def test_plan_writes_every_output(tmp_path):
     # the metrics in the CSV are the exact ones, recomputed from the trajectory
     task = load_task(EXAMPLES / "lift.yaml", waypoints=14)
     q = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)[:, 1:]
-    from forte.planner import evaluate
+    from forte.planning.planner import evaluate
     m = evaluate(task.robot, q, task.t, task.force(), 0.8)
     np.testing.assert_allclose(np.loadtxt(out / "metrics.csv", delimiter=",", skiprows=1)[:, header.index("d")],
                                m["d"], rtol=1e-9)

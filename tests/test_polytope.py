@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 from conftest import TWO_LINK_J, TWO_LINK_TAU_MAX, TWO_LINK_TAU_NOM, random_configuration
 
-from forte.exceptions import InvalidInputError
-from forte.polytope import (
+from forte.capability.polytope import (
     cone_directions,
     cone_measure,
     contains,
@@ -19,8 +18,9 @@ from forte.polytope import (
     trajectory_rfp,
     vertices,
 )
-from forte.robot import MobileManipulator
-from forte.trajectory import backward_differences
+from forte.exceptions import InvalidInputError
+from forte.model.robot import MobileManipulator
+from forte.model.trajectory import backward_differences
 
 J2, TAU_MAX, TAU_NOM = TWO_LINK_J, TWO_LINK_TAU_MAX, TWO_LINK_TAU_NOM
 

@@ -8,7 +8,7 @@ import pytest
 from conftest import random_configuration
 
 from forte.exceptions import InvalidInputError, RobotModelError
-from forte.robot import (
+from forte.model.robot import (
     PAPER_TORQUE_LIMITS,
     MobileManipulator,
     ToolLoad,

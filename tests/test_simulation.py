@@ -9,21 +9,21 @@ import mujoco
 import numpy as np
 import pytest
 
-from forte.cli import main
-from forte.control import DEFAULT_D_A, DEFAULT_K_A, sampled_loop_spectral_radius
+from forte.cli.main import main
 from forte.exceptions import SimulationError, TaskFileError
-from forte.planner import plan
-from forte.reports import write_plan
-from forte.robot import MobileManipulator, default_robot
-from forte.simulation import (
+from forte.execution.control import DEFAULT_D_A, DEFAULT_K_A, sampled_loop_spectral_radius
+from forte.execution.simulation import (
     ARM_ARMATURE,
     Thresholds,
     build_sim_model,
     combined_tool,
     simulate_plan,
-    write_plan_dir,
 )
-from forte.tasks import load_task
+from forte.io.plandir import write_plan_dir
+from forte.io.reports import write_plan
+from forte.model.robot import MobileManipulator, default_robot
+from forte.planning.planner import plan
+from forte.planning.tasks import load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 

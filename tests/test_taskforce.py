@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from forte.exceptions import InvalidInputError
-from forte.taskforce import given_force, payload_force
-from forte.trajectory import backward_differences, quintic_path
+from forte.force.taskforce import given_force, payload_force
+from forte.model.trajectory import backward_differences, quintic_path
 
 
 def test_static_payload_needs_upward_gravity_compensation():

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from forte.exceptions import ForteError, TaskFileError
-from forte.tasks import load_task
+from forte.planning.tasks import load_task
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from conftest import random_configuration
 
-from forte.twin import CasadiTwin
+from forte.model.twin import CasadiTwin
 
 
 @pytest.mark.parametrize("which", ["robot", "ur5"])

@@ -21,9 +21,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from forte.cli import main
-from forte.estimation import PROMPT_VERSION, VLMConfig, VLMEstimator
+from forte.cli.main import main
 from forte.exceptions import EstimationError
+from forte.force.estimation import PROMPT_VERSION, VLMConfig, VLMEstimator
 
 FAKE_KEY = "sk-forte-FAKE-KEY-must-never-leak-8c1f2e"
 KEY_ENV = "FORTE_TEST_VLM_KEY"

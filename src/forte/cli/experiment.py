@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-#: Sub-command -> (function name in :mod:`forte.experiments`, paper section).
+#: Sub-command -> (function name in :mod:`forte.experiments.paper`, paper section).
 EXPERIMENTS: dict[str, tuple[str, str]] = {
     "continuous": ("run_continuous", "5.2, continuous trajectory with a time-varying force"),
     "lift": ("run_lift", "5.3, lifting with 0.33 L and 2.7 L payloads"),
@@ -34,7 +34,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run_experiment(args: argparse.Namespace) -> int:
     """Run the chosen experiment; print its summary.md unless ``--quiet``."""
-    from forte import experiments  # heavy imports (planner, MuJoCo) only when the command runs
+    from forte.experiments import paper as experiments  # heavy: planner, MuJoCo
 
     if args.trials < 0:
         print("forte: error: --trials must be >= 0", file=sys.stderr)

@@ -3,7 +3,7 @@
 Each ``run_*`` function plans the task with every compared method, simulates the plans where it
 applies, draws the paper's figures and writes ``summary.json`` and ``summary.md`` (with a "paper
 claim vs our result" table) to its output directory. The directory is built in a temporary
-sibling and renamed into place (:func:`forte.reports.replace_directory`), so an interrupted run
+sibling and renamed into place (:func:`forte.io.reports.replace_directory`), so an interrupted run
 never leaves a half-written result.
 
 Planning is deterministic, so "trials" repeat only what is random: the simulated execution with a
@@ -23,8 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from forte.planner import PlanResult, plan
-from forte.reports import (
+from forte.execution.simulation import simulate_plan
+from forte.io.reports import (
     draw_polytope,
     jsonable,
     package_versions,
@@ -33,10 +33,10 @@ from forte.reports import (
     replace_directory,
     write_plan,
 )
-from forte.simulation import simulate_plan
-from forte.tasks import load_task
+from forte.planning.planner import PlanResult, plan
+from forte.planning.tasks import load_task
 
-TASKS_DIR = Path(__file__).resolve().parents[2] / "examples" / "tasks"
+TASKS_DIR = Path(__file__).resolve().parents[3] / "examples" / "tasks"
 OPTIMIZED = ("forte", "manipulability", "rfp-radius", "rfp-cone")
 LIFT_METHODS = (*OPTIMIZED, "quintic")
 HOLD_METHODS = (*OPTIMIZED, "teaching")

@@ -12,7 +12,8 @@ import json
 import sys
 from pathlib import Path
 
-from forte.estimation import (
+from forte.exceptions import InvalidInputError
+from forte.force.estimation import (
     DEFAULT_R_MIN,
     MassEstimator,
     OfflineEstimator,
@@ -22,8 +23,7 @@ from forte.estimation import (
     estimate_payload,
     radius_from_estimate,
 )
-from forte.exceptions import InvalidInputError
-from forte.massbench import load_dataset, markdown_table, run_benchmark, summarize_results, write_per_item_csv
+from forte.force.massbench import load_dataset, markdown_table, run_benchmark, summarize_results, write_per_item_csv
 
 
 def _add_vlm_options(p: argparse.ArgumentParser) -> None:

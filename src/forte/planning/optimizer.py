@@ -34,7 +34,11 @@ import numpy as np
 from scipy import sparse
 
 from forte import __version__
-from forte.costs import (
+from forte.capability.polytope import cone_directions
+from forte.exceptions import InvalidInputError, SolverError
+from forte.model.robot import N_BASE, MobileManipulator
+from forte.model.twin import CasadiTwin
+from forte.planning.costs import (
     N_CONE_RAYS,
     CostWeights,
     capability_stage,
@@ -45,10 +49,6 @@ from forte.costs import (
     manipulability_stage,
     smoothness_weights,
 )
-from forte.exceptions import InvalidInputError, SolverError
-from forte.polytope import cone_directions
-from forte.robot import N_BASE, MobileManipulator
-from forte.twin import CasadiTwin
 from forte.validation import FloatArray
 
 #: Methods solved by this optimizer (the quintic and teaching baselines are not optimized).
@@ -595,8 +595,11 @@ def _compile(functions: dict[str, ca.Function], lib: Path, compiler: str) -> Non
 
 def _source_digest() -> str:
     """Hash of the modules that define the NLP, so editing them invalidates the cache."""
-    here = Path(__file__).parent
+    from forte.capability import metrics
+    from forte.model import twin
+    from forte.planning import costs
+
     digest = hashlib.sha256()
-    for name in ("optimizer.py", "costs.py", "metrics.py", "twin.py"):
-        digest.update((here / name).read_bytes())
+    for path in (__file__, costs.__file__, metrics.__file__, twin.__file__):
+        digest.update(Path(path).read_bytes())
     return digest.hexdigest()[:12]

@@ -20,10 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from forte.metrics import ellipsoid_axes
-from forte.planner import PlanResult
-from forte.polytope import halfspaces, residual_margins, trajectory_rfp, vertices
-from forte.trajectory import trajectory_header
+from forte.capability.metrics import ellipsoid_axes
+from forte.capability.polytope import halfspaces, residual_margins, trajectory_rfp, vertices
+from forte.model.trajectory import trajectory_header
+from forte.planning.planner import PlanResult
 
 METRIC_COLUMNS = ("t", "fx", "fy", "fz", "radius", "d", "directional_capacity", "capacity_margin",
                   "inscribed_radius", "manipulability", "max_torque_ratio", "max_torque_ratio_with_force")

@@ -33,8 +33,8 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from forte.capability.polytope import ZERO_NORMAL
 from forte.exceptions import InvalidInputError
-from forte.polytope import ZERO_NORMAL
 from forte.validation import FloatArray
 
 

@@ -5,7 +5,7 @@ the optimizer can ``map`` them over the horizon; the backward differences of the
 two previous configurations. The first samples start at rest: the optimizer pads the trajectory
 with two copies of ``q_1``, which makes ``dq_1 = ddq_1 = 0`` and ``dq_1 = 0`` inside ``ddq_2``.
 
-- :func:`capability_stage`: ``c_k`` of J1 (smooth surrogate, :mod:`forte.metrics`);
+- :func:`capability_stage`: ``c_k`` of J1 (smooth surrogate, :mod:`forte.capability.metrics`);
 - :func:`inscribed_radius_stage`, :func:`cone_stage`: capability terms of the RFP baselines,
   ``1 / max(|value|, eps)``;
 - :func:`manipulability_stage`: ``1 / max(mu_k, eps_m)`` of J2;
@@ -20,15 +20,15 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from forte.exceptions import InvalidInputError
-from forte.metrics import (
+from forte.capability.metrics import (
     CapabilityParameters,
     inverse_capacity_expr,
     manipulability_expr,
     smooth_penalty_expr,
 )
-from forte.robot import N_BASE
-from forte.twin import CasadiTwin
+from forte.exceptions import InvalidInputError
+from forte.model.robot import N_BASE
+from forte.model.twin import CasadiTwin
 from forte.validation import FloatArray
 
 N_CONE_RAYS = 25

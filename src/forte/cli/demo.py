@@ -7,22 +7,22 @@ import json
 
 import numpy as np
 
-from forte.metrics import (
+from forte.capability.metrics import (
     CapabilityParameters,
     capability_margin,
     capability_penalty,
     manipulability,
     normalization,
 )
-from forte.polytope import (
+from forte.capability.polytope import (
     directional_capacity,
     halfspaces,
     inscribed_radius,
     residual_margins,
     vertices,
 )
-from forte.robot import default_robot
-from forte.taskforce import DEFAULT_RADIUS, payload_force
+from forte.force.taskforce import DEFAULT_RADIUS, payload_force
+from forte.model.robot import default_robot
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -1,4 +1,4 @@
-"""Planning: from a validated :class:`~forte.tasks.Task` to a whole-body plan and its metrics.
+"""Planning: from a validated :class:`~forte.planning.tasks.Task` to a whole-body plan and its metrics.
 
 Methods (paper, Section 5):
 
@@ -19,14 +19,14 @@ from typing import Any
 
 import numpy as np
 
+from forte.capability.metrics import capability_margin, yoshikawa
+from forte.capability.polytope import directional_capacity, inscribed_radius, trajectory_rfp
 from forte.exceptions import InfeasibleTaskError, InvalidInputError, TaskFileError
-from forte.ik import follow_path, solve_pose
-from forte.metrics import capability_margin, yoshikawa
-from forte.optimizer import OPTIMIZED_METHODS, Solution, TrajectoryOptimizer
-from forte.polytope import directional_capacity, inscribed_radius, trajectory_rfp
-from forte.robot import MobileManipulator
-from forte.taskforce import TaskForce
-from forte.tasks import Task
+from forte.force.taskforce import TaskForce
+from forte.model.robot import MobileManipulator
+from forte.planning.ik import follow_path, solve_pose
+from forte.planning.optimizer import OPTIMIZED_METHODS, Solution, TrajectoryOptimizer
+from forte.planning.tasks import Task
 from forte.validation import FloatArray
 
 TRAJECTORY_METHODS: tuple[str, ...] = (*OPTIMIZED_METHODS, "quintic")
@@ -92,7 +92,7 @@ def resolve_mass(task: Task, estimator_options: dict[str, Any] | None = None) ->
         return task.payload.get("estimate")
     if not (task.payload.get("description") or task.payload.get("image")):
         raise TaskFileError(f"{task.source}: payload: give a mass, a description or an image")
-    from forte.estimation import estimate_payload
+    from forte.force.estimation import estimate_payload
 
     estimate = estimate_payload(task.payload.get("description"), task.payload.get("image"),
                                 **(estimator_options or {}))
@@ -125,7 +125,7 @@ def coarse_guess(task: Task, method: str) -> tuple[FloatArray, dict[str, Any]] |
     """
     if task.mode != "trajectory" or task.n <= 2 * COARSE_WAYPOINTS or not task.raw:
         return None
-    from forte.tasks import task_from_dict
+    from forte.planning.tasks import task_from_dict
 
     coarse = task_from_dict(task.raw, task.source, mass=task.payload.get("mass"), waypoints=COARSE_WAYPOINTS)
     coarse.weights, coarse.solver = task.weights, task.solver

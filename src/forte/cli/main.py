@@ -17,11 +17,11 @@ from forte.exceptions import ForteError
 
 #: Modules that add sub-commands (each has ``register(subparsers)``).
 COMMAND_MODULES: tuple[str, ...] = (
-    "forte.cli_core",
-    "forte.cli_plan",
-    "forte.cli_estimation",
-    "forte.cli_simulation",
-    "forte.cli_experiment",
+    "forte.cli.demo",
+    "forte.cli.plan",
+    "forte.cli.estimation",
+    "forte.cli.simulate",
+    "forte.cli.experiment",
 )
 
 

@@ -18,13 +18,13 @@ import numpy as np
 import pinocchio as pin
 import yaml
 
-from forte.costs import CostWeights
+from forte.capability.metrics import CapabilityParameters
 from forte.exceptions import ForteError, TaskFileError
-from forte.metrics import CapabilityParameters
-from forte.optimizer import KinematicLimits, SolverOptions
-from forte.robot import MobileManipulator, ToolLoad, default_robot
-from forte.taskforce import DEFAULT_RADIUS, TaskForce, given_force, payload_force
-from forte.trajectory import quintic_blend, quintic_path
+from forte.force.taskforce import DEFAULT_RADIUS, TaskForce, given_force, payload_force
+from forte.model.robot import MobileManipulator, ToolLoad, default_robot
+from forte.model.trajectory import quintic_blend, quintic_path
+from forte.planning.costs import CostWeights
+from forte.planning.optimizer import KinematicLimits, SolverOptions
 from forte.validation import FloatArray
 
 MODES = ("trajectory", "hold")

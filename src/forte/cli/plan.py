@@ -8,9 +8,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from forte.planner import ALL_METHODS, PlanResult, methods_for, plan
-from forte.reports import plan_summary, replace_directory, write_comparison, write_plan
-from forte.tasks import load_task
+from forte.io.reports import plan_summary, replace_directory, write_comparison, write_plan
+from forte.planning.planner import ALL_METHODS, PlanResult, methods_for, plan
+from forte.planning.tasks import load_task
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -43,7 +43,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _estimator_options(args: argparse.Namespace) -> dict[str, Any]:
     if not args.vlm_base_url:
         return {}
-    from forte.estimation import VLMConfig
+    from forte.force.estimation import VLMConfig
 
     return {"vlm": VLMConfig(base_url=args.vlm_base_url, model=args.model, api_key_env=args.api_key_env)}
 

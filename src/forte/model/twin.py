@@ -1,4 +1,4 @@
-"""Differentiable twin of :class:`~forte.robot.MobileManipulator` as CasADi expressions.
+"""Differentiable twin of :class:`~forte.model.robot.MobileManipulator` as CasADi expressions.
 
 The PyPI build of Pinocchio has no CasADi bindings, so the forward kinematics, the world-frame
 translational Jacobian and the recursive Newton-Euler algorithm are rebuilt here from the
@@ -20,7 +20,7 @@ import numpy as np
 import pinocchio as pin
 
 from forte.exceptions import RobotModelError
-from forte.robot import N_BASE, MobileManipulator
+from forte.model.robot import N_BASE, MobileManipulator
 
 Expr = ca.SX
 

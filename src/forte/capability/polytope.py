@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 
 from forte.exceptions import InvalidInputError
-from forte.robot import MobileManipulator
-from forte.trajectory import backward_differences
+from forte.model.robot import MobileManipulator
+from forte.model.trajectory import backward_differences
 from forte.validation import FloatArray, as_array, check_times
 
 #: Normals shorter than this are treated as zero (units of the Jacobian, m).

@@ -29,8 +29,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from forte.estimation import MassEstimate, MassEstimator
 from forte.exceptions import ForteError, InvalidInputError
+from forte.force.estimation import MassEstimate, MassEstimator
 
 METRICS: tuple[str, ...] = ("mALDE", "mAPE", "r2_ls", "mMnRE", "q")
 #: Direction of improvement of each metric (for the table header).

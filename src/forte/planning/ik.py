@@ -17,7 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from forte.exceptions import InfeasibleTaskError
-from forte.robot import N_BASE, MobileManipulator
+from forte.model.robot import N_BASE, MobileManipulator
 from forte.validation import FloatArray
 
 

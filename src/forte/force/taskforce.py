@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 
 from forte.exceptions import InvalidInputError
-from forte.robot import STANDARD_GRAVITY
-from forte.trajectory import backward_differences
+from forte.model.robot import STANDARD_GRAVITY
+from forte.model.trajectory import backward_differences
 from forte.validation import FloatArray, as_array, as_positive, check_times
 
 #: The paper's task-force uncertainty radius (N).
@@ -66,7 +66,7 @@ def payload_force(
     """``f_k = m (p''_k - g)`` from end-effector positions (N x 3) at times ``t``.
 
     Accelerations are the paper's backward differences with the trajectory starting at rest
-    (see :func:`forte.trajectory.backward_differences`).
+    (see :func:`forte.model.trajectory.backward_differences`).
     """
     m = as_positive(mass, "mass")
     times = check_times(t)
