@@ -13,8 +13,9 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize
 
+from forte.planning.ik import initial_guess
 from forte.planning.optimizer import SolverOptions, TrajectoryOptimizer
-from forte.planning.planner import initial_guess, plan
+from forte.planning.planner import plan
 from forte.planning.tasks import load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"

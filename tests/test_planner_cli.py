@@ -33,7 +33,9 @@ def test_plan_writes_every_output(tmp_path):
     doc = json.loads((out / "plan.json").read_text())
     assert doc["status"] == "success" and doc["method"] == "forte"
     assert doc["robot"]["torque_limits"] == [60, 60, 60, 60, 12, 12, 12]
-    assert doc["robot"]["alpha"] == 0.8 and doc["robot"]["tool"]["mass"] > 0
+    # alpha has one place in plan.json: the capability parameters
+    assert doc["weights"]["capability_params"]["alpha"] == 0.8 and doc["robot"]["tool"]["mass"] > 0
+    assert "alpha" not in doc["robot"] and doc["generator"] == "forte" and doc["format_version"] == 2
     assert doc["solver"]["iterations"] > 0 and doc["solver"]["constraint_violation"] < 1e-6
     assert doc["weights"]["capability"] == 5.0 and "casadi" in doc["versions"]
     # the metrics in the CSV are the exact ones, recomputed from the trajectory

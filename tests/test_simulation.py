@@ -19,8 +19,7 @@ from forte.execution.simulation import (
     combined_tool,
     simulate_plan,
 )
-from forte.io.plandir import write_plan_dir
-from forte.io.reports import write_plan
+from forte.io.plandir import write_plan, write_plan_dir
 from forte.model.robot import MobileManipulator, default_robot
 from forte.planning.planner import plan
 from forte.planning.tasks import load_task

@@ -17,7 +17,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 def test_lift_example_loads():
     task = load_task(EXAMPLES / "lift.yaml", waypoints=20)
     assert task.mode == "trajectory" and task.n == 20
-    assert task.payload["mass"] == 2.7
+    assert task.payload.mass == 2.7
     np.testing.assert_allclose(task.targets[0], task.robot.ee_pose(task.q_init), atol=1e-9)
     # the path goes down then up, orientation fixed
     z = task.targets[:, 2, 3]

@@ -42,3 +42,7 @@ class EstimationError(ForteError):
 
 class SimulationError(ForteError):
     """The simulation could not be built or run."""
+
+
+class OutputError(ForteError):
+    """An output path forte may not write: a file or folder it did not create, or not writable."""

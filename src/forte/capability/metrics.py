@@ -14,9 +14,9 @@ Two guards change nothing where the formula is defined: a zero normal gives ``+i
 never binds) or ``-inf`` (the polytope is empty), and the exponent is capped at
 ``max_exponent`` (40) so the penalty stays finite.
 
-**Smooth surrogate** (for IPOPT, which stalls on the hard ``min`` and on the kink at ``d = 0``,
-see ``shared/NOTES.md``). With ``x_i = -d_i / rho`` the normalized violations, the exact
-exponent ``kappa max(0, max_i x_i)`` is replaced by the log-sum-exp
+**Smooth surrogate** (for IPOPT, which stalls on the hard ``min`` and on the kink at ``d = 0``
+whenever the capability term is active at the optimum). With ``x_i = -d_i / rho`` the
+normalized violations, the exact exponent ``kappa max(0, max_i x_i)`` is replaced by the log-sum-exp
 
     s_beta = (1/beta) log(1 + sum_i exp(beta x_i))
 
@@ -27,44 +27,14 @@ exact metric.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
 from forte.capability.polytope import ZERO_NORMAL
-from forte.exceptions import InvalidInputError
+from forte.settings import CapabilityParameters
 from forte.validation import FloatArray
-
-
-@dataclass(frozen=True)
-class CapabilityParameters:
-    """Parameters of the capability penalty (defaults: the authors' implementation).
-
-    Attributes:
-        alpha: Scale of the residual torque interval, 0 < alpha <= 1.
-        kappa: Growth rate of the penalty.
-        eps: Lower bound of the normalization ``rho``.
-        max_exponent: Cap on ``kappa (-d) / rho``.
-        beta: Sharpness of the smooth surrogate (dimensionless, per unit of ``d / rho``).
-        eps_normal: Regularization of zero normals in the surrogate (m).
-    """
-
-    alpha: float = 0.8
-    kappa: float = 3.0
-    eps: float = 1e-6
-    max_exponent: float = 40.0
-    beta: float = 50.0
-    eps_normal: float = 1e-6
-
-    def __post_init__(self) -> None:
-        if not 0.0 < self.alpha <= 1.0:
-            raise InvalidInputError(f"alpha: expected 0 < alpha <= 1, got {self.alpha}")
-        for name in ("kappa", "eps", "max_exponent", "beta", "eps_normal"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise InvalidInputError(f"{name}: expected a finite number > 0, got {value}")
 
 
 # -- exact metric (numpy, vectorized over waypoints) --------------------------------------
@@ -153,7 +123,7 @@ def smooth_penalty_expr(
 def inverse_capacity_expr(value: Any, eps: float = 1e-6) -> Any:
     """Baseline cost term ``1 / max(|value|, eps)`` (RFP radius and cone baselines).
 
-    The absolute value is the authors' implementation (see ``shared/NOTES.md``). It makes the
+    The absolute value is the authors' implementation (their public code). It makes the
     term *decrease* again when the value turns negative (origin outside the RFP), so a baseline
     started where the value is negative can be pushed further out; kept as written for fidelity.
     """

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
-from typing import Any
+from functools import cached_property
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -54,7 +55,14 @@ def residual_margins(tau_nom: Any, tau_max: Any, tau_min: Any = None) -> tuple[F
     return tau_max - tau_nom, tau_min - tau_nom
 
 
-def halfspaces(J: Any, tau_plus: Any, tau_minus: Any, alpha: float = 1.0) -> tuple[FloatArray, FloatArray]:
+class HalfSpaces(NamedTuple):
+    """A polytope ``{f : A f <= b}`` (``A``: ... x m x 3, ``b``: ... x m); unpacks as ``A, b``."""
+
+    A: FloatArray
+    b: FloatArray
+
+
+def halfspaces(J: Any, tau_plus: Any, tau_minus: Any, alpha: float = 1.0) -> HalfSpaces:
     """Half-space form ``A f <= b`` of the RFP from ``J`` (... x 3 x n) and the margins."""
     if not 0.0 < alpha <= 1.0:
         raise InvalidInputError(f"alpha: expected 0 < alpha <= 1, got {alpha}")
@@ -62,7 +70,68 @@ def halfspaces(J: Any, tau_plus: Any, tau_minus: Any, alpha: float = 1.0) -> tup
     Jt = np.swapaxes(J, -1, -2)
     A = np.concatenate([Jt, -Jt], axis=-2)
     b = alpha * np.concatenate([np.asarray(tau_plus), -np.asarray(tau_minus)], axis=-1)
-    return A, b
+    return HalfSpaces(A, b)
+
+
+@dataclass(frozen=True)
+class ResidualForcePolytope:
+    """The dynamic RFP at one configuration, in pycapacity's vocabulary: ``{f : H f <= d}``.
+
+    Attributes:
+        H, d: half-space form (``2n x 3``, ``2n``), ``H = [J_t; -J_t]^T``,
+            ``d = alpha [tau_max - tau_nom; tau_max + tau_nom]``.
+        J: world-frame translational Jacobian (3 x n); tau_nom: nominal torque (n).
+        alpha: scale of the residual torque interval.
+    """
+
+    H: FloatArray
+    d: FloatArray
+    J: FloatArray
+    tau_nom: FloatArray
+    alpha: float = 1.0
+
+    @cached_property
+    def vertices(self) -> FloatArray:
+        """Vertices (V x 3); empty when the polytope is empty."""
+        return vertices(self.H, self.d)
+
+    @cached_property
+    def faces(self) -> FloatArray:
+        """Triangles of the convex hull as rows of vertex indices (F x 3)."""
+        from scipy.spatial import ConvexHull
+
+        return ConvexHull(self.vertices).simplices if len(self.vertices) >= 4 else np.zeros((0, 3), int)
+
+    def contains(self, f: Any, tol: float = 1e-9) -> bool:
+        return bool(contains(self.H, self.d, f, tol))
+
+    def capacity_along(self, u: Any) -> float:
+        """Distance from the origin to the boundary along ``u`` (the paper's directional capacity)."""
+        return float(directional_capacity(self.H, self.d, u))
+
+    @property
+    def inscribed_radius(self) -> float:
+        """Radius of the largest ball centred at the origin inside the polytope."""
+        return float(inscribed_radius(self.H, self.d))
+
+
+def residual_force_polytope(robot: MobileManipulator, q: Any, dq_a: Any = None, ddq_a: Any = None,
+                            alpha: float = 1.0) -> ResidualForcePolytope:
+    """The RFP at whole-body configuration ``q`` with arm velocity and acceleration (default rest).
+
+    Example:
+        >>> import forte
+        >>> robot = forte.default_robot()
+        >>> rfp = forte.residual_force_polytope(robot, robot.home())
+        >>> rfp.H.shape, bool(rfp.contains([0.0, 0.0, 20.0]))
+        ((14, 3), True)
+    """
+    q = robot.check_configuration(q)
+    zeros = np.zeros(robot.n_arm)
+    tau = robot.rnea(q[3:], zeros if dq_a is None else dq_a, zeros if ddq_a is None else ddq_a)
+    J = robot.arm_jacobian(q)
+    H, d = halfspaces(J, *residual_margins(tau, robot.torque_limits), alpha=alpha)
+    return ResidualForcePolytope(H, d, J, tau, alpha)
 
 
 @dataclass(frozen=True)
@@ -74,6 +143,10 @@ class TrajectoryRFP:
     A: FloatArray  # N x 2n x 3
     b: FloatArray  # N x 2n
     alpha: float
+
+    def at(self, k: int) -> ResidualForcePolytope:
+        """The polytope of waypoint ``k``."""
+        return ResidualForcePolytope(self.A[k], self.b[k], self.J[k], self.tau_nom[k], self.alpha)
 
 
 def trajectory_rfp(robot: MobileManipulator, q: Any, t: Any, alpha: float = 1.0) -> TrajectoryRFP:

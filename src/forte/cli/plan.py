@@ -8,8 +8,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-from forte.io.reports import plan_summary, replace_directory, write_comparison, write_plan
-from forte.planning.planner import ALL_METHODS, PlanResult, methods_for, plan
+from forte.io.plandir import check_output, plan_summary, replace_directory, write_plan
+from forte.io.reports import write_comparison
+from forte.planning.methods import method_names
+from forte.planning.planner import Plan, methods_for, plan, resolve_payload
 from forte.planning.tasks import load_task
 
 
@@ -29,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Plan a task with one method and write trajectory.csv, metrics.csv, "
                        "plan.json and figures to --out.")
     _common(p)
-    p.add_argument("--method", default="forte", choices=ALL_METHODS, help="planning method (default forte)")
+    p.add_argument("--method", default="forte", choices=method_names(), help="planning method (default forte)")
     p.add_argument("--out", type=Path, help="output directory (default runs/<task>-<method>)")
     p.set_defaults(func=run_plan)
     c = sub.add_parser("compare", help="plan a task with every method and compare them",
@@ -53,7 +55,7 @@ def _say(args: argparse.Namespace, text: str) -> None:
         print(text, file=sys.stderr, flush=True)
 
 
-def _describe(res: PlanResult) -> str:
+def _describe(res: Plan) -> str:
     s = plan_summary(res)
     solve = res.solver.get("solve_time_s")
     timing = f", solved in {solve:.2f} s ({res.solver.get('iterations')} it.)" if solve is not None else ""
@@ -65,6 +67,7 @@ def run_plan(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     task = load_task(args.task, mass=args.mass, waypoints=args.waypoints)
     out = args.out or Path("runs") / f"{task.name}-{args.method}"
+    check_output(out)  # before any work: never plan for minutes and then refuse
     _say(args, f"planning {task.name} ({task.mode}, {task.n} waypoints) with {args.method} ...")
     res = plan(task, args.method, _estimator_options(args))
     where = write_plan(res, out, figures=not args.no_figures)
@@ -80,19 +83,20 @@ def run_plan(args: argparse.Namespace) -> int:
 def run_compare(args: argparse.Namespace) -> int:
     task = load_task(args.task, mass=args.mass, waypoints=args.waypoints)
     out = args.out or Path("runs") / f"{task.name}-compare"
+    check_output(out)
+    task = resolve_payload(task, _estimator_options(args))  # one estimate for every method
     methods = methods_for(task)
-    results: list[PlanResult] = []
-    options = _estimator_options(args)
+    results: list[Plan] = []
     for i, method in enumerate(methods, 1):
         _say(args, f"[{i}/{len(methods)}] {method} ...")
-        res = plan(task, method, options)
+        res = plan(task, method)
         results.append(res)
         _say(args, "      " + _describe(res))
 
     def build(tmp: Path) -> None:
         for res in results:
             write_plan(res, tmp / res.method, figures=not args.no_figures)
-        write_comparison(results, tmp)
+        write_comparison(results, tmp, figures=not args.no_figures)
 
     if not any(r.success for r in results) and (out / "summary.csv").exists():
         out = out.with_name(out.name + ".failed")  # never replace an earlier comparison with a total failure

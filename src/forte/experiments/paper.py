@@ -24,15 +24,9 @@ from typing import Any
 import numpy as np
 
 from forte.execution.simulation import simulate_plan
-from forte.io.reports import (
-    draw_polytope,
-    jsonable,
-    package_versions,
-    plan_summary,
-    pyplot,
-    replace_directory,
-    write_plan,
-)
+from forte.io.figures import draw_polytope, pyplot
+from forte.io.plandir import plan_summary, replace_directory, write_plan
+from forte.io.reports import jsonable, package_versions
 from forte.planning.planner import PlanResult, plan
 from forte.planning.tasks import load_task
 

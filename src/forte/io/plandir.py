@@ -1,45 +1,56 @@
-"""Plan directories: the files a plan is stored in, written atomically and read back with precise errors.
+"""Plan directories: the one owner of the files a plan is stored in.
 
-A plan directory holds ``trajectory.csv`` (``t, x_b, y_b, yaw, q1..qn`` per waypoint) and
-``plan.json`` (robot description, payload, force sequence, method, status, ...).
+A plan directory holds
+
+- ``trajectory.csv``: ``t, x_b, y_b, yaw, q1..qn`` per waypoint (``last_iterate.csv`` instead
+  when the optimization failed, so a failed plan never carries the name of a plan);
+- ``metrics.csv``: the columns of :data:`METRIC_COLUMNS`;
+- ``plan.json``: :func:`plan_document`, with ``"generator": "forte"`` and
+  ``"format_version"`` (:data:`FORMAT_VERSION`);
+- figures (PNG), when asked for.
+
+:func:`write_plan` is the only writer and :func:`read_plan_dir` the only reader. Writing goes to a
+temporary sibling that is renamed into place, so a crash never leaves a half-written directory;
+an existing ``--out`` is replaced only when forte wrote it (:func:`is_forte_output`): anything
+else (a user's folder, a plain file) is refused with :class:`~forte.exceptions.OutputError`.
 """
 
 from __future__ import annotations
 
 import csv
-import io
 import json
 import os
+import shutil
 import tempfile
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from forte.exceptions import ForteError, InvalidInputError, TaskFileError
+from forte.exceptions import ForteError, InvalidInputError, OutputError, TaskFileError
+from forte.force.payload import Payload
+from forte.force.taskforce import TaskForce, payload_force
 from forte.model.robot import MobileManipulator, robot_from_description
 from forte.model.trajectory import trajectory_header
+from forte.planning.planner import Plan
 from forte.validation import FloatArray, as_array, as_positive, check_times
 
 TRAJECTORY_FILE = "trajectory.csv"
+LAST_ITERATE_FILE = "last_iterate.csv"
+METRICS_FILE = "metrics.csv"
 PLAN_FILE = "plan.json"
+#: Top-level record of a directory of several plans (``forte compare``).
+COMPARISON_FILE = "comparison.json"
+#: Version of the plan.json schema; 1 is the unversioned layout of forte 0.1 (still read).
+FORMAT_VERSION = 2
+GENERATOR = "forte"
+METRIC_COLUMNS = ("t", "fx", "fy", "fz", "radius", "d", "directional_capacity", "capacity_margin",
+                  "inscribed_radius", "manipulability", "max_torque_ratio", "max_torque_ratio_with_force")
 
 
-@dataclass(frozen=True)
-class Plan:
-    """The content of a plan directory."""
-
-    robot: MobileManipulator
-    t: FloatArray
-    q: FloatArray
-    mass: float | None
-    force_t: FloatArray | None
-    force: FloatArray | None
-    method: str
-    status: str
-
-
+# -- writing ----------------------------------------------------------------------------------
 def atomic_write(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -52,130 +63,261 @@ def atomic_write(path: Path, text: str) -> None:
         raise
 
 
-def write_plan_dir(
-    plan_dir: str | Path,
-    robot: MobileManipulator,
-    t: Any,
-    q: Any,
-    *,
-    mass: float | None = None,
-    force: Any = None,
-    radius: Any = 10.0,
-    method: str = "manual",
-    status: str = "success",
-    extra: dict[str, Any] | None = None,
-) -> Path:
-    """Write ``trajectory.csv`` and ``plan.json`` for waypoints ``q`` (N x nq) at times ``t``.
+def write_csv(path: Path, header: list[str], rows: np.ndarray) -> None:
+    """A CSV of floats written with full precision (``repr``)."""
+    with path.open("w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(header)
+        for row in rows:
+            writer.writerow([repr(float(v)) for v in row])
+
+
+def is_forte_output(path: Path) -> bool:
+    """True when ``path`` is a directory forte wrote (a plan, a comparison, an experiment)."""
+    for name in (PLAN_FILE, COMPARISON_FILE, "summary.json"):
+        try:
+            doc = json.loads((path / name).read_text())
+        except (OSError, ValueError):
+            continue
+        if isinstance(doc, dict) and (doc.get("generator") == GENERATOR or _legacy_plan(doc)):
+            return True
+    return False
+
+
+def _legacy_plan(doc: dict[str, Any]) -> bool:
+    """plan.json of forte 0.1 (no generator field): package versions name forte."""
+    versions = doc.get("versions")
+    return isinstance(versions, dict) and "forte" in versions and "method" in doc
+
+
+def check_output(out: Path, option: str = "--out") -> Path:
+    """Refuse an output path forte may not replace; returns it. Checked before any work starts."""
+    out = Path(out)
+    if str(out) in ("", "."):
+        raise OutputError(f"{option} {str(out)!r}: expected a new directory name")
+    if out.is_symlink() or (out.exists() and not out.is_dir()):
+        raise OutputError(f"{option} {out}: exists and is not a directory forte wrote; choose another path")
+    if out.is_dir() and any(out.iterdir()) and not is_forte_output(out):
+        raise OutputError(f"{option} {out}: exists and holds files forte did not write (no forte plan.json); "
+                          "choose another path or empty it yourself")
+    parent = out.parent if str(out.parent) else Path(".")
+    probe = parent
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
+        raise OutputError(f"{option} {out}: {probe} is not a writable directory")
+    return out
+
+
+def replace_directory(build: Callable[[Path], None], out: Path) -> None:
+    """Build a directory with ``build(tmp_path)`` and move it to ``out`` (never a foreign one)."""
+    out = check_output(Path(out))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        os.chmod(tmp, 0o777 & ~_umask())
+        build(tmp)
+        if out.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
+            os.replace(out, old / "previous")
+            os.replace(tmp, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def holds_success(directory: Path) -> bool:
+    """True when ``directory`` holds a successful plan."""
+    try:
+        return json.loads((directory / PLAN_FILE).read_text()).get("status") == "success"
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def write_plan(plan: Plan, out: Path, figures: bool = True) -> Path:
+    """Write a plan directory atomically; returns where it went (``out`` or ``out.failed``).
+
+    A failed plan never replaces a directory that holds a successful one: it goes to
+    ``DIR.failed``.
+    """
+    out = Path(out)
+    target = out.with_name(out.name + ".failed") if not plan.success and holds_success(out) else out
+    replace_directory(lambda d: fill_plan_dir(plan, d, figures), target)
+    return target
+
+
+def fill_plan_dir(plan: Plan, directory: Path, figures: bool = True) -> None:
+    """Write the files of ``plan`` into the (new, empty) ``directory``."""
+    name = TRAJECTORY_FILE if plan.success else LAST_ITERATE_FILE
+    write_csv(directory / name, trajectory_header(plan.robot.n_arm), np.column_stack([plan.t, plan.q]))
+    if plan.metrics:
+        write_csv(directory / METRICS_FILE, list(METRIC_COLUMNS),
+                  np.column_stack([plan.metrics[c] for c in METRIC_COLUMNS]))
+    atomic_write(directory / PLAN_FILE, json.dumps(plan_document(plan), indent=2) + "\n")
+    if figures and plan.metrics:
+        from forte.io.figures import plan_figures  # matplotlib only when figures are drawn
+
+        plan_figures(plan, directory)
+
+
+def write_plan_dir(plan_dir: str | Path, robot: MobileManipulator, t: Any, q: Any, *, mass: float | None = None,
+                   force: Any = None, radius: Any = 10.0, method: str = "manual", status: str = "success",
+                   extra: dict[str, Any] | None = None) -> Path:
+    """Write a plan directory for waypoints ``q`` (N x nq) at times ``t`` given by hand.
 
     ``force`` (N x 3, world frame) defaults to ``m (a - g)`` of the end-effector waypoints when
     ``mass`` is given (:func:`forte.force.taskforce.payload_force`), else to zero.
     """
-    from forte.force.taskforce import payload_force  # local: keeps this module light to import
-
     times = check_times(t, "t")
     Q = as_array(q, "q", (times.size, robot.nq))
     if force is None and mass:
         positions = np.array([robot.ee_position(qk) for qk in Q])
         tf = payload_force(times, positions, mass, radius=radius, gravity=robot.gravity)
-        f, r = tf.f, tf.r
     else:
         f = np.zeros((times.size, 3)) if force is None else as_array(force, "force", (times.size, 3))
-        r = np.broadcast_to(np.asarray(radius, dtype=float), (times.size,))
-    out = Path(plan_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    buf = io.StringIO()
-    writer = csv.writer(buf)
-    writer.writerow(trajectory_header(robot.n_arm))
-    for tk, qk in zip(times, Q, strict=True):
-        writer.writerow([repr(float(tk)), *(repr(float(v)) for v in qk)])
-    plan: dict[str, Any] = {
-        "robot": robot.describe(),
-        "payload": {"mass": None if mass is None else float(mass)},
-        "force": {"t": times.tolist(), "f": f.tolist(), "r": [float(v) for v in r]},
-        "method": method,
-        "status": status,
+        tf = TaskForce(times, f, np.array(np.broadcast_to(np.asarray(radius, dtype=float), (times.size,))))
+    payload = Payload(mass=float(mass), source="given") if mass else Payload(source="none")
+    plan = Plan(method=method, robot=robot, t=times, q=Q, force=tf, payload=payload,
+                success=status == "success", status=status, solver=dict(extra or {}))
+    replace_directory(lambda d: fill_plan_dir(plan, d, figures=False), Path(plan_dir))
+    return Path(plan_dir)
+
+
+# -- plan.json --------------------------------------------------------------------------------
+def plan_summary(plan: Plan) -> dict[str, float]:
+    """The quantities the paper discusses, for one plan."""
+    m = plan.metrics
+    return {
+        "min_d": float(np.min(m["d"])),
+        "min_capacity_margin": float(np.min(m["capacity_margin"])),
+        "mean_manipulability": float(np.mean(m["manipulability"])),
+        "min_manipulability": float(np.min(m["manipulability"])),
+        "max_torque_ratio": float(np.max(m["max_torque_ratio"])),
+        "max_torque_ratio_with_force": float(np.max(m["max_torque_ratio_with_force"])),
+        "waypoints_with_d_negative": int(np.sum(m["d"] < 0)),
     }
-    plan.update(extra or {})
-    atomic_write(out / TRAJECTORY_FILE, buf.getvalue())
-    atomic_write(out / PLAN_FILE, json.dumps(plan, indent=1) + "\n")
-    return out
 
 
+def plan_document(plan: Plan) -> dict[str, Any]:
+    """Everything ``plan.json`` records (schema version :data:`FORMAT_VERSION`)."""
+    from forte.io.reports import jsonable, package_versions
+
+    task = plan.task
+    doc: dict[str, Any] = {"generator": GENERATOR, "format_version": FORMAT_VERSION}
+    if task is not None:
+        doc["task"] = {"name": task.name, "file": str(task.source) if task.source else None, "mode": task.mode,
+                       "waypoints": task.n, "duration_s": float(task.t[-1] - task.t[0]), "definition": task.raw}
+    doc |= {"method": plan.method, "status": "success" if plan.success else "failure",
+            "solver_status": plan.status, "solver": plan.solver}
+    if task is not None:
+        doc |= {"weights": asdict(task.weights), "solver_options": asdict(task.solver),
+                "kinematic_limits": asdict(task.limits)}
+    doc |= {"robot": plan.robot.describe(), "payload": plan.payload.to_dict()}
+    if plan.force is not None:
+        doc["force"] = {"t": plan.force.t, "f": plan.force.f, "r": plan.force.r,
+                        "given_profile": task is not None and task.force_profile is not None}
+    if task is not None:
+        doc["q_init"] = task.q_init
+    if plan.metrics:
+        doc["summary"] = plan_summary(plan)
+    doc["versions"] = package_versions()
+    return jsonable(doc)
+
+
+# -- reading ----------------------------------------------------------------------------------
 def read_plan_dir(plan_dir: str | Path) -> Plan:
     """Load and validate a plan directory; errors name the file and the field."""
     root = Path(plan_dir)
     if not root.is_dir():
         raise TaskFileError(f"plan directory {root}: does not exist or is not a directory")
-    plan_path = root / PLAN_FILE
-    traj_path = root / TRAJECTORY_FILE
+    plan_path, traj_path = root / PLAN_FILE, root / TRAJECTORY_FILE
     for path in (plan_path, traj_path):
         if not path.is_file():
             raise TaskFileError(f"{path}: file missing (expected the output of 'forte plan')")
     try:
-        meta = json.loads(plan_path.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
+        meta = json.loads(plan_path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise TaskFileError(f"{plan_path}: not valid JSON: {exc}") from exc
     if not isinstance(meta, dict) or not isinstance(meta.get("robot"), dict):
         raise TaskFileError(f"{plan_path}: field 'robot': expected the robot description object")
     try:
         robot = robot_from_description(meta["robot"])
-    except ForteError as exc:
+    except (ForteError, TypeError, ValueError) as exc:
         raise TaskFileError(f"{plan_path}: field 'robot': {exc}") from exc
-    payload = meta.get("payload") or {}
-    mass = payload.get("mass") if isinstance(payload, dict) else None
-    if mass is not None:
-        try:
-            mass = as_positive(mass, "payload.mass", allow_zero=True)
-        except InvalidInputError as exc:
-            raise TaskFileError(f"{plan_path}: field {exc}") from exc
-    force_t = force = None
-    fmeta = meta.get("force")
-    if fmeta is not None:
-        try:
-            force_t = check_times(fmeta["t"], "force.t")
-            force = as_array(fmeta["f"], "force.f", (force_t.size, 3))
-        except (KeyError, TypeError) as exc:
-            raise TaskFileError(f"{plan_path}: field 'force': expected {{'t': [...], 'f': [...]}}") from exc
-        except InvalidInputError as exc:
-            raise TaskFileError(f"{plan_path}: field {exc}") from exc
+    payload = _read_payload(plan_path, meta.get("payload"))
     t, q = _read_trajectory(traj_path, robot)
-    return Plan(robot, t, q, mass, force_t, force, str(meta.get("method", "unknown")),
-                str(meta.get("status", "unknown")))
+    force = _read_force(plan_path, meta.get("force"))
+    status = str(meta.get("status", "unknown"))
+    return Plan(method=str(meta.get("method", "unknown")), robot=robot, t=t, q=q, force=force, payload=payload,
+                success=status == "success", status=status)
+
+
+def _read_payload(plan_path: Path, payload: Any) -> Payload:
+    mass = payload.get("mass") if isinstance(payload, dict) else None
+    if mass is None:
+        return Payload(source="none")
+    try:
+        mass = as_positive(mass, "payload.mass", allow_zero=True)
+    except InvalidInputError as exc:
+        raise TaskFileError(f"{plan_path}: field {exc}") from exc
+    return Payload(mass=mass, source=str(payload.get("source", "given"))) if mass > 0 else Payload(source="none")
+
+
+def _read_force(plan_path: Path, fmeta: Any) -> TaskForce | None:
+    if fmeta is None:
+        return None
+    try:
+        t = check_times(fmeta["t"], "force.t")
+        f = as_array(fmeta["f"], "force.f", (t.size, 3))
+        r = fmeta.get("r", np.zeros(t.size))
+        return TaskForce(t, f, as_array(r, "force.r", (t.size,)))
+    except (KeyError, TypeError, AttributeError) as exc:
+        raise TaskFileError(f"{plan_path}: field 'force': expected {{'t': [...], 'f': [...], 'r': [...]}}") from exc
+    except InvalidInputError as exc:
+        raise TaskFileError(f"{plan_path}: field {exc}") from exc
 
 
 def _read_trajectory(path: Path, robot: MobileManipulator) -> tuple[FloatArray, FloatArray]:
     expected = trajectory_header(robot.n_arm)
     try:
-        rows = list(csv.reader(path.read_text().splitlines()))
+        rows = list(csv.reader(path.read_text(encoding="utf-8").splitlines()))
     except (OSError, csv.Error, UnicodeDecodeError) as exc:
         raise TaskFileError(f"{path}: cannot read: {exc}") from exc
     if not rows:
         raise TaskFileError(f"{path}: empty file (expected header {','.join(expected)})")
     header = [h.strip() for h in rows[0]]
     if header != expected:
-        raise TaskFileError(
-            f"{path}: header: expected {len(expected)} columns {','.join(expected)}, "
-            f"got {len(header)}: {','.join(header)}"
-        )
+        raise TaskFileError(f"{path}: header: expected {len(expected)} columns {','.join(expected)}, "
+                            f"got {len(header)}: {','.join(header)}")
     body = [r for r in rows[1:] if any(c.strip() for c in r)]
     if not body:
         raise TaskFileError(f"{path}: no waypoint rows after the header")
     data = np.empty((len(body), len(expected)))
     for i, row in enumerate(body):
-        line = i + 2
         if len(row) != len(expected):
-            raise TaskFileError(f"{path}: line {line}: expected {len(expected)} values, got {len(row)}")
-        for j, cell in enumerate(row):
-            try:
-                data[i, j] = float(cell)
-            except ValueError:
-                raise TaskFileError(
-                    f"{path}: line {line}, column '{expected[j]}': expected a number, got {cell!r}"
-                ) from None
-            if not np.isfinite(data[i, j]):
-                raise TaskFileError(f"{path}: line {line}, column '{expected[j]}': not finite ({cell})")
+            raise TaskFileError(f"{path}: line {i + 2}: expected {len(expected)} values, got {len(row)}")
+        data[i] = [_cell(path, i + 2, name, cell) for name, cell in zip(expected, row, strict=True)]
     try:
         t = check_times(data[:, 0], "t")
     except InvalidInputError as exc:
         raise TaskFileError(f"{path}: column {exc}") from exc
     return t, data[:, 1:]
+
+
+def _cell(path: Path, line: int, column: str, cell: str) -> float:
+    try:
+        value = float(cell)
+    except ValueError:
+        raise TaskFileError(f"{path}: line {line}, column '{column}': expected a number, got {cell!r}") from None
+    if not np.isfinite(value):
+        raise TaskFileError(f"{path}: line {line}, column '{column}': not finite ({cell})")
+    return value

@@ -32,6 +32,13 @@ PAPER_TORQUE_LIMITS: tuple[float, ...] = (60.0, 60.0, 60.0, 60.0, 12.0, 12.0, 12
 PANDA_ARM_JOINTS: tuple[str, ...] = tuple(f"panda_joint{i}" for i in range(1, 8))
 #: The Panda's usual "ready" pose.
 PANDA_HOME: tuple[float, ...] = (0.0, -np.pi / 4, 0.0, -3 * np.pi / 4, 0.0, np.pi / 2, np.pi / 4)
+#: Franka Panda joint acceleration limits (rad/s^2, datasheet).
+PANDA_ACCELERATION_LIMITS: tuple[float, ...] = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
+#: Defaults that come with a known arm description (example-robot-data path): home pose and
+#: acceleration limits, which a URDF does not carry.
+KNOWN_ARMS: dict[str, dict[str, tuple[float, ...]]] = {
+    "panda_description/urdf/panda.urdf": {"home": PANDA_HOME, "acceleration_limits": PANDA_ACCELERATION_LIMITS},
+}
 N_BASE = 3
 STANDARD_GRAVITY = 9.81
 
@@ -119,6 +126,10 @@ class MobileManipulator:
         torque_limits: Symmetric limits tau_max per arm joint (Nm); default: the URDF efforts.
         gravity: Gravitational acceleration magnitude (m/s^2), acting along -z.
         name: A label for reports.
+        home_arm: Arm part of :meth:`home` (rad); default: the known arm's home pose, else
+            the neutral configuration clipped to the joint range.
+        acceleration_limits: Arm joint acceleration limits (rad/s^2) used by the planner's
+            kinematic limits; default: the known arm's, else none.
     """
 
     urdf: str | Path
@@ -129,6 +140,8 @@ class MobileManipulator:
     torque_limits: Any = None
     gravity: float = STANDARD_GRAVITY
     name: str = "robot"
+    home_arm: Any = None
+    acceleration_limits: Any = None
 
     def __post_init__(self) -> None:
         self.urdf_path = resolve_urdf(self.urdf)
@@ -175,8 +188,29 @@ class MobileManipulator:
         if np.any(limits <= 0):
             raise InvalidInputError(f"torque_limits: expected every limit > 0 Nm, got {limits}")
         self.torque_limits = limits
+        self._apply_arm_defaults()
 
     # -- construction -------------------------------------------------------------------
+    def _apply_arm_defaults(self) -> None:
+        """Home pose and acceleration limits: given, from :data:`KNOWN_ARMS`, or none."""
+        known: dict[str, tuple[float, ...]] = {}
+        try:
+            shipped = self.urdf_path.resolve().relative_to(example_robot_data_dir().resolve()).as_posix()
+        except ValueError:  # not one of example-robot-data's descriptions
+            shipped = ""
+        if self.n_arm == 7:
+            known = KNOWN_ARMS.get(shipped, {})
+        home = self.home_arm if self.home_arm is not None else known.get("home")
+        if home is None:
+            home = np.clip(pin.neutral(self.model), self.lower, self.upper)
+        self.home_arm = as_vector(home, "home_arm", self.n_arm)
+        acc = self.acceleration_limits if self.acceleration_limits is not None else known.get("acceleration_limits")
+        if acc is not None:
+            acc = as_vector(acc, "acceleration_limits", self.n_arm)
+            if np.any(acc <= 0):
+                raise InvalidInputError(f"acceleration_limits: expected every limit > 0 rad/s^2, got {acc}")
+        self.acceleration_limits = acc
+
     def _supporting_joints(self, full: pin.Model) -> tuple[str, ...]:
         parent = full.frames[full.getFrameId(self.ee_frame)].parentJoint
         return tuple(full.names[j] for j in full.supports[parent][1:])
@@ -223,6 +257,8 @@ class MobileManipulator:
             "gravity": self.gravity,
             "joint_lower": self.lower.tolist(),
             "joint_upper": self.upper.tolist(),
+            "home_arm": self.home_arm.tolist(),
+            "acceleration_limits": None if self.acceleration_limits is None else self.acceleration_limits.tolist(),
         }
 
     @cached_property
@@ -242,12 +278,8 @@ class MobileManipulator:
         return q[:N_BASE], q[N_BASE:]
 
     def home(self, base: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> FloatArray:
-        """A neutral whole-body configuration: the Panda home pose, or the joint-range centre."""
-        if self.arm_joints == PANDA_ARM_JOINTS:
-            arm = np.array(PANDA_HOME)
-        else:
-            arm = np.clip(pin.neutral(self.model), self.lower, self.upper)
-        return np.concatenate([np.asarray(base, dtype=float), arm])
+        """The whole-body home configuration: ``base`` and :attr:`home_arm`."""
+        return np.concatenate([np.asarray(base, dtype=float), self.home_arm])
 
     @staticmethod
     def base_transform(q_b: FloatArray) -> FloatArray:
@@ -321,6 +353,8 @@ def default_robot(torque_limits: Any = PAPER_TORQUE_LIMITS, **overrides: Any) ->
         "tool": MOCA_TOOL,
         "torque_limits": torque_limits,
         "name": "moca-panda",
+        "home_arm": PANDA_HOME,
+        "acceleration_limits": PANDA_ACCELERATION_LIMITS,
     }
     kwargs.update(overrides)
     return MobileManipulator(**kwargs)
@@ -342,6 +376,8 @@ def robot_from_description(desc: dict[str, Any]) -> MobileManipulator:
             torque_limits=desc["torque_limits"],
             gravity=desc.get("gravity", STANDARD_GRAVITY),
             name=desc.get("name", "robot"),
+            home_arm=desc.get("home_arm"),
+            acceleration_limits=desc.get("acceleration_limits"),
         )
     except KeyError as exc:
         raise RobotModelError(f"robot description: missing field {exc}") from exc

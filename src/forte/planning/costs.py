@@ -1,107 +1,158 @@
-"""Cost terms of the whole-body NLP (paper, Section 4.3) as CasADi functions, one per concept.
+"""Cost terms of the whole-body NLP (paper, Section 4.3): one small class per term, in a registry.
 
-Per-waypoint terms are ``casadi.Function`` objects of the *stage* ``(q_{k-2}, q_{k-1}, q_k)`` so
-the optimizer can ``map`` them over the horizon; the backward differences of the paper need the
-two previous configurations. The first samples start at rest: the optimizer pads the trajectory
-with two copies of ``q_1``, which makes ``dq_1 = ddq_1 = 0`` and ``dq_1 = 0`` inside ``ddq_2``.
+The objective is ``J = sum_i w_i J_i``. A term is one of two kinds:
 
-- :func:`capability_stage`: ``c_k`` of J1 (smooth surrogate, :mod:`forte.capability.metrics`);
-- :func:`inscribed_radius_stage`, :func:`cone_stage`: capability terms of the RFP baselines,
-  ``1 / max(|value|, eps)``;
-- :func:`manipulability_stage`: ``1 / max(mu_k, eps_m)`` of J2;
-- :func:`joint_limit_stage`: ``sum_i e_i^2 + v_i^4`` of J3;
-- :func:`smoothness_weights` and :func:`dct_penalty_matrix`: the quadratic J4 and J5.
+- a **stage term** ``J_i = sum_k c_i(q_{k-2}, q_{k-1}, q_k, dt_{k-1}, dt_k, f_k, r_k, ...)``: its
+  per-waypoint expression is compiled into the optimizer's kernels (so everything it bakes in
+  is part of the kernel cache key, see :meth:`CostTerm.baked`) and mapped over the horizon. The
+  backward differences of the paper need the two previous configurations; the first samples
+  start at rest (the optimizer pads the trajectory with two copies of ``q_1``);
+- a **quadratic term** ``J_i = x^T Q_i x / 2`` over ``x = vec(q_1..q_N)`` (J4, J5): a constant
+  sparse matrix, assembled once per horizon.
+
+Built-in terms (``name``: weight field of :class:`~forte.settings.CostWeights`):
+
+- ``capability`` (w1): ``c_k`` of J1, the smooth surrogate of :mod:`forte.capability.metrics`;
+- ``rfp_radius``, ``rfp_cone`` (w1 of the RFP baselines): ``1 / max(|value|, eps)`` of the
+  centred inscribed radius or the cone measure of the RFP (Ferrolho et al. 2021);
+- ``manipulability`` (w2): ``1 / max(mu_k, eps_m)``;
+- ``joint_limits`` (w3): ``sum_i e_i^2 + v_i^4``;
+- ``smoothness`` (w4): ``sum_k 1/2 ||W_s (q_k - q_{k-1})||^2``;
+- ``base_spectral`` (w5): ``1/2 sum_xi eta_xi sum_{l in H} gamma_l bhat_{xi,l}^2``.
+
+A new term is a subclass registered with :func:`register_term`; a method
+(:mod:`forte.planning.methods`) lists the terms it uses by name.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any, ClassVar
 
 import casadi as ca
 import numpy as np
+from scipy import sparse
 
-from forte.capability.metrics import (
-    CapabilityParameters,
-    inverse_capacity_expr,
-    manipulability_expr,
-    smooth_penalty_expr,
-)
+from forte.capability.metrics import inverse_capacity_expr, manipulability_expr, smooth_penalty_expr
+from forte.capability.polytope import cone_directions
 from forte.exceptions import InvalidInputError
-from forte.model.robot import N_BASE
+from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.twin import CasadiTwin
+from forte.settings import CapabilityParameters, CostWeights
 from forte.validation import FloatArray
 
-N_CONE_RAYS = 25
 
-
-@dataclass(frozen=True)
-class CostWeights:
-    """Weights ``w_1..w_5`` and the parameters of each term (defaults: the authors').
+@dataclass
+class Stage:
+    """The symbols of one waypoint's stage and the quantities several terms share.
 
     Attributes:
-        capability, manipulability, joint_limits, smoothness, base_spectral: ``w_1..w_5``.
-        manipulability_lambda: ``lambda`` of the regularized manipulability.
-        manipulability_eps: ``eps_m`` in ``1 / max(mu, eps_m)``.
-        joint_margin: ``delta_i`` (rad), the safety margin of J3 (one value for every joint).
-        joint_eps: ``eps_h``.
-        smoothness_base, smoothness_arm: diagonal of ``W_s`` for (x, y, yaw) and the arm joints.
-        dct_cutoff: frequencies ``l >= ceil(cutoff N)`` form the high-frequency set ``H``.
-        dct_axis: ``eta_xi`` for x, y, yaw.
-        dct_power: ``gamma_l = (l / (N - 1)) ** power`` (0: every high frequency weighs 1).
+        twin: CasADi kinematics and dynamics of the robot.
+        q2, q1, q0: ``q_{k-2}``, ``q_{k-1}``, ``q_k`` (whole body).
+        dt1, dt0: ``dt_{k-1}``, ``dt_k``.
+        f, r: desired force (3) and uncertainty radius at waypoint k.
+        parameters: further per-waypoint parameters declared by terms (name -> symbol).
     """
 
-    capability: float = 5.0
-    manipulability: float = 2.0
-    joint_limits: float = 3.0
-    smoothness: float = 10.0
-    base_spectral: float = 1.0
-    manipulability_lambda: float = 1e-6
-    manipulability_eps: float = 1e-4
-    joint_margin: float = 0.1
-    joint_eps: float = 1e-3
-    smoothness_base: tuple[float, float, float] = (1.0, 1.0, 0.5)
-    smoothness_arm: float = 1.0
-    dct_cutoff: float = 0.35
-    dct_axis: tuple[float, float, float] = (1.0, 1.0, 0.5)
-    dct_power: float = 0.0
-    capability_params: CapabilityParameters = field(default_factory=CapabilityParameters)
+    twin: CasadiTwin
+    q2: ca.SX
+    q1: ca.SX
+    q0: ca.SX
+    dt1: ca.SX
+    dt0: ca.SX
+    f: ca.SX
+    r: ca.SX
+    parameters: dict[str, ca.SX] = field(default_factory=dict)
 
-    def __post_init__(self) -> None:
-        for name in ("capability", "manipulability", "joint_limits", "smoothness", "base_spectral", "dct_power"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0):
-                raise InvalidInputError(f"{name}: expected a finite number >= 0, got {value}")
-        for name in ("manipulability_lambda", "manipulability_eps", "joint_margin", "joint_eps", "smoothness_arm"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise InvalidInputError(f"{name}: expected a finite number > 0, got {value}")
-        if not 0.0 < self.dct_cutoff < 1.0:
-            raise InvalidInputError(f"dct_cutoff: expected 0 < cutoff < 1, got {self.dct_cutoff}")
-        for name in ("smoothness_base", "dct_axis"):
-            values = np.asarray(getattr(self, name), dtype=float)
-            if values.shape != (3,) or not np.all(np.isfinite(values) & (values >= 0)):
-                raise InvalidInputError(f"{name}: expected 3 finite numbers >= 0, got {getattr(self, name)}")
+    @property
+    def robot(self) -> MobileManipulator:
+        return self.twin.robot
+
+    @cached_property
+    def tau(self) -> ca.SX:
+        """Nominal arm torque at ``q_k`` with the paper's backward differences."""
+        return stage_dynamics(self.twin, self.q2, self.q1, self.q0, self.dt1, self.dt0)
+
+    @cached_property
+    def J(self) -> ca.SX:
+        """World-frame translational arm Jacobian at ``q_k``."""
+        return self.twin.arm_jacobian(self.q0)
 
 
-def _stage_symbols(nq: int) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX, ca.SX]:
-    return (ca.SX.sym("q_prev2", nq), ca.SX.sym("q_prev", nq), ca.SX.sym("q", nq),
-            ca.SX.sym("dt_prev"), ca.SX.sym("dt"))
+class CostTerm:
+    """Base class of a cost term; subclasses set the class attributes and one method.
+
+    Attributes:
+        name: unique key in the registry (and in reports).
+        kind: ``"stage"`` (implements :meth:`stage`) or ``"quadratic"`` (implements :meth:`matrix`).
+        weight_field: the :class:`~forte.settings.CostWeights` field that holds the weight
+            (default: ``name``); a term without one uses ``default_weight``.
+        default_weight: the weight when neither the method nor ``CostWeights`` gives one.
+        parameters: per-waypoint NLP parameters the term needs, ``(name, size)`` pairs, filled
+            by :meth:`parameter_values`.
+    """
+
+    name: ClassVar[str] = ""
+    kind: ClassVar[str] = "stage"
+    weight_field: ClassVar[str | None] = None
+    default_weight: ClassVar[float] = 1.0
+    parameters: ClassVar[tuple[tuple[str, int], ...]] = ()
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> CostTerm:
+        """The term with its parameters taken from ``weights`` (default: no parameters)."""
+        return cls()
+
+    def weight(self, weights: CostWeights) -> float:
+        """``w_i`` from ``weights`` (methods may override it, see ``Method.weights``)."""
+        return float(getattr(weights, self.weight_field or self.name, self.default_weight))
+
+    def baked(self) -> tuple[Any, ...]:
+        """Everything compiled into the kernels (the dataclass fields): part of the cache key."""
+        if dataclasses.is_dataclass(self):
+            return tuple((f.name, getattr(self, f.name)) for f in dataclasses.fields(self))
+        return ()
+
+    def stage(self, s: Stage) -> ca.SX:  # pragma: no cover - abstract
+        raise NotImplementedError(f"{type(self).__name__} is not a stage term")
+
+    def matrix(self, n_arm: int, n: int) -> sparse.csr_matrix:  # pragma: no cover - abstract
+        raise NotImplementedError(f"{type(self).__name__} is not a quadratic term")
+
+    def parameter_values(self, name: str, f: FloatArray, r: FloatArray) -> FloatArray:  # pragma: no cover
+        raise NotImplementedError(f"{type(self).__name__} declares no parameter '{name}'")
 
 
+#: The registry: term name -> term class.
+COST_TERMS: dict[str, type[CostTerm]] = {}
+
+
+def register_term(cls: type[CostTerm], *, replace: bool = False) -> type[CostTerm]:
+    """Add a term class to :data:`COST_TERMS` (usable as a class decorator)."""
+    if not cls.name or cls.kind not in ("stage", "quadratic"):
+        raise InvalidInputError(f"cost term {cls.__name__}: needs a name and kind 'stage' or 'quadratic'")
+    if cls.name in COST_TERMS and COST_TERMS[cls.name] is not cls and not replace:
+        raise InvalidInputError(f"cost term '{cls.name}' is already registered")
+    COST_TERMS[cls.name] = cls
+    return cls
+
+
+def make_terms(names: tuple[str, ...], weights: CostWeights) -> tuple[CostTerm, ...]:
+    """Instances of the named terms with their parameters from ``weights``."""
+    unknown = [n for n in names if n not in COST_TERMS]
+    if unknown:
+        raise InvalidInputError(f"cost term '{unknown[0]}': not registered; known: {', '.join(COST_TERMS)}")
+    return tuple(COST_TERMS[n].from_weights(weights) for n in names)
+
+
+# -- stage terms ---------------------------------------------------------------------------
 def stage_dynamics(twin: CasadiTwin, q2: ca.SX, q1: ca.SX, q0: ca.SX, dt1: ca.SX, dt0: ca.SX) -> ca.SX:
     """Nominal arm torque at ``q0`` with the paper's backward differences."""
     dq0 = (q0[N_BASE:] - q1[N_BASE:]) / dt0
     dq1 = (q1[N_BASE:] - q2[N_BASE:]) / dt1
     return twin.rnea(q0[N_BASE:], dq0, (dq0 - dq1) / dt0)
-
-
-def capability_stage(twin: CasadiTwin, tau_max: FloatArray, params: CapabilityParameters) -> ca.Function:
-    """``c_k(q_{k-2}, q_{k-1}, q_k, dt_{k-1}, dt_k, f_k, r_k)``: smooth capability penalty."""
-    q2, q1, q0, dt1, dt0 = _stage_symbols(twin.robot.nq)
-    f, r = ca.SX.sym("f", 3), ca.SX.sym("r")
-    tau = stage_dynamics(twin, q2, q1, q0, dt1, dt0)
-    c = smooth_penalty_expr(twin.arm_jacobian(q0), tau, ca.DM(tau_max), f, r, params)
-    return ca.Function("capability", [q2, q1, q0, dt1, dt0, f, r], [c])
 
 
 def _softplus(x: ca.SX) -> ca.SX:
@@ -114,76 +165,197 @@ def _smooth_min(values: ca.SX, scale: ca.SX, beta: float) -> ca.SX:
     return -scale / beta * ca.logsumexp(-beta * values / scale)
 
 
-def inscribed_radius_stage(twin: CasadiTwin, tau_max: FloatArray, params: CapabilityParameters) -> ca.Function:
-    """RFP-radius baseline: ``1 / max(|R_k|, eps)`` with ``R_k = min_i b_i / ||a_i||`` (smoothed)."""
-    q2, q1, q0, dt1, dt0 = _stage_symbols(twin.robot.nq)
-    f, r = ca.SX.sym("f", 3), ca.SX.sym("r")
-    tau = stage_dynamics(twin, q2, q1, q0, dt1, dt0)
-    J = twin.arm_jacobian(q0)
-    norms = ca.sqrt(ca.sum1(J**2).T + params.eps_normal**2)
-    tm = ca.DM(tau_max)
-    dist = ca.vertcat((tm - tau) / norms, (tm + tau) / norms)
-    scale = ca.fmax(ca.norm_2(f) + r, params.eps)
-    radius = _smooth_min(dist, scale, params.beta)
-    return ca.Function("rfp_radius", [q2, q1, q0, dt1, dt0, f, r], [inverse_capacity_expr(radius)])
+@register_term
+@dataclass(frozen=True)
+class Capability(CostTerm):
+    """J1 (paper, Section 4.2): ``c_k`` of the force ball against the dynamic RFP (smooth surrogate)."""
+
+    name: ClassVar[str] = "capability"
+    params: CapabilityParameters = field(default_factory=CapabilityParameters)
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> Capability:
+        return cls(weights.capability_params)
+
+    def stage(self, s: Stage) -> ca.SX:
+        return smooth_penalty_expr(s.J, s.tau, ca.DM(s.robot.torque_limits), s.f, s.r, self.params)
 
 
-def cone_stage(twin: CasadiTwin, tau_max: FloatArray, params: CapabilityParameters,
-               half_angle: float = 0.35) -> ca.Function:
+@register_term
+@dataclass(frozen=True)
+class InscribedRadius(CostTerm):
+    """RFP-radius baseline: ``1 / max(|R_k|, eps)``, ``R_k = min_i b_i / ||a_i||`` (smoothed minimum).
+
+    ``R_k`` is the radius of the largest ball centred at the origin inside the RFP (Ferrolho et
+    al. 2021), from the residual margins ``tau_max -+ tau_nom``; the task force is unused, the
+    soft minimum's temperature is ``max(|f| + r, eps)``.
+    """
+
+    name: ClassVar[str] = "rfp_radius"
+    weight_field: ClassVar[str | None] = "capability"
+    params: CapabilityParameters = field(default_factory=CapabilityParameters)
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> InscribedRadius:
+        return cls(weights.capability_params)
+
+    def stage(self, s: Stage) -> ca.SX:
+        p = self.params
+        norms = ca.sqrt(ca.sum1(s.J**2).T + p.eps_normal**2)
+        tm = ca.DM(s.robot.torque_limits)
+        dist = ca.vertcat((tm - s.tau) / norms, (tm + s.tau) / norms)
+        scale = ca.fmax(ca.norm_2(s.f) + s.r, p.eps)
+        return inverse_capacity_expr(_smooth_min(dist, scale, p.beta))
+
+
+@register_term
+@dataclass(frozen=True)
+class ConeVolume(CostTerm):
     """RFP-cone baseline: ``1 / max(|V_k|, eps)``, ``V_k = Omega/(3M) sum_j rho_j^3``.
 
-    ``rho_j``, the capacity along ray ``d_j``, is the smoothed minimum of ``b_i / (a_i . d_j)``
-    over rows with ``a_i . d_j > 0``; the row selection uses a softplus of ``a_i . d_j`` so rows
-    pointing away give huge ratios that the soft minimum ignores. The rays (M x 3) are inputs.
+    ``rho_j``, the capacity along ray ``d_j`` of the cone of half-angle ``half_angle`` around the
+    desired force (``rings x azimuths`` rays plus the axis, an NLP parameter per waypoint), is the
+    smoothed minimum of ``b_i / (a_i . d_j)`` over rows with ``a_i . d_j > 0``; the row selection
+    uses a softplus of ``a_i . d_j`` so rows pointing away give huge ratios that the soft minimum
+    ignores; ``Omega = 2 pi (1 - cos half_angle)``.
     """
-    q2, q1, q0, dt1, dt0 = _stage_symbols(twin.robot.nq)
-    f, r = ca.SX.sym("f", 3), ca.SX.sym("r")
-    rays = ca.SX.sym("rays", N_CONE_RAYS, 3)
-    tau = stage_dynamics(twin, q2, q1, q0, dt1, dt0)
-    J = twin.arm_jacobian(q0)
-    tm = ca.DM(tau_max)
-    A = ca.vertcat(J.T, -J.T)
-    b = ca.vertcat(tm - tau, tm + tau)
-    scale = ca.fmax(ca.norm_2(f) + r, params.eps)
-    total = 0
-    sharp = 1e-3  # softplus width of a_i . d (m)
-    for j in range(N_CONE_RAYS):
-        proj = A @ rays[j, :].T
-        pos = sharp * _softplus(proj / sharp)
-        rho = _smooth_min(b / (pos + 1e-9), scale, params.beta)
-        total += ca.fmax(rho, 0) ** 3
-    omega = 2 * np.pi * (1 - np.cos(half_angle))
-    volume = omega / (3 * N_CONE_RAYS) * total
-    return ca.Function("rfp_cone", [q2, q1, q0, dt1, dt0, f, r, rays], [inverse_capacity_expr(volume)])
+
+    name: ClassVar[str] = "rfp_cone"
+    weight_field: ClassVar[str | None] = "capability"
+    params: CapabilityParameters = field(default_factory=CapabilityParameters)
+    half_angle: float = 0.35
+    rings: int = 3
+    azimuths: int = 8
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> ConeVolume:
+        return cls(weights.capability_params)
+
+    @property
+    def rays(self) -> int:
+        return 1 + self.rings * self.azimuths
+
+    @property
+    def parameters(self) -> tuple[tuple[str, int], ...]:  # type: ignore[override]
+        return (("rays", 3 * self.rays),)
+
+    def stage(self, s: Stage) -> ca.SX:
+        rays = ca.reshape(s.parameters["rays"], self.rays, 3)
+        A = ca.vertcat(s.J.T, -s.J.T)
+        tm = ca.DM(s.robot.torque_limits)
+        b = ca.vertcat(tm - s.tau, tm + s.tau)
+        scale = ca.fmax(ca.norm_2(s.f) + s.r, self.params.eps)
+        total = 0
+        sharp = 1e-3  # softplus width of a_i . d (m)
+        for j in range(self.rays):
+            pos = sharp * _softplus(A @ rays[j, :].T / sharp)
+            rho = _smooth_min(b / (pos + 1e-9), scale, self.params.beta)
+            total += ca.fmax(rho, 0) ** 3
+        omega = 2 * np.pi * (1 - np.cos(self.half_angle))
+        return inverse_capacity_expr(omega / (3 * self.rays) * total)
+
+    def parameter_values(self, name: str, f: FloatArray, r: FloatArray) -> FloatArray:
+        """The rays around each desired force (straight up where it vanishes), column-major M x 3."""
+        out = []
+        for fk in np.asarray(f, dtype=float):
+            u = fk if np.linalg.norm(fk) > 1e-9 else np.array([0.0, 0.0, 1.0])
+            out.append(cone_directions(u, self.half_angle, self.rings, self.azimuths).ravel(order="F"))
+        return np.concatenate(out)
 
 
-def manipulability_stage(twin: CasadiTwin, weights: CostWeights) -> ca.Function:
-    """``1 / max(mu(q_k), eps_m)`` with the regularized translational manipulability."""
-    q = ca.SX.sym("q", twin.robot.nq)
-    mu = manipulability_expr(twin.arm_jacobian(q), weights.manipulability_lambda)
-    return ca.Function("manipulability", [q], [1 / ca.fmax(mu, weights.manipulability_eps)])
+@register_term
+@dataclass(frozen=True)
+class Manipulability(CostTerm):
+    """J2: ``1 / max(mu_k, eps_m)``, ``mu_k = sqrt(det(J_t J_t^T + lambda I_3))`` (arm Jacobian)."""
+
+    name: ClassVar[str] = "manipulability"
+    lam: float = 1e-6
+    eps: float = 1e-4
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> Manipulability:
+        return cls(weights.manipulability_lambda, weights.manipulability_eps)
+
+    def stage(self, s: Stage) -> ca.SX:
+        return 1 / ca.fmax(manipulability_expr(s.J, self.lam), self.eps)
 
 
-def joint_limit_stage(lower: FloatArray, upper: FloatArray, weights: CostWeights) -> ca.Function:
-    """``sum_i e_i^2 + v_i^4`` with ``e_i = (q_i - mid_i)/h_i``, ``v_i = max(0, (|q_i - mid_i| - h_i)/delta)``."""
-    q = ca.SX.sym("q", len(lower) + N_BASE)
-    mid, half = joint_limit_geometry(lower, upper, weights)
-    dev = q[N_BASE:] - ca.DM(mid)
-    e = dev / ca.DM(half)
-    v = ca.fmax(0, (ca.fabs(dev) - ca.DM(half)) / weights.joint_margin)
-    return ca.Function("joint_limits", [q], [ca.sumsqr(e) + ca.sum1(v**4)])
+@register_term
+@dataclass(frozen=True)
+class JointLimits(CostTerm):
+    """J3: ``sum_i e_i^2 + v_i^4``, ``e_i = (q_i - mid_i)/h_i``, ``v_i = max(0, (|q_i - mid_i| - h_i)/delta)``."""
+
+    name: ClassVar[str] = "joint_limits"
+    margin: float = 0.1
+    eps: float = 1e-3
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> JointLimits:
+        return cls(weights.joint_margin, weights.joint_eps)
+
+    def stage(self, s: Stage) -> ca.SX:
+        mid, half = joint_limit_geometry(s.robot.lower, s.robot.upper, self.margin, self.eps)
+        dev = s.q0[N_BASE:] - ca.DM(mid)
+        e = dev / ca.DM(half)
+        v = ca.fmax(0, (ca.fabs(dev) - ca.DM(half)) / self.margin)
+        return ca.sumsqr(e) + ca.sum1(v**4)
 
 
-def joint_limit_geometry(lower: FloatArray, upper: FloatArray, weights: CostWeights) -> tuple[FloatArray, FloatArray]:
+def joint_limit_geometry(lower: FloatArray, upper: FloatArray, margin: float,
+                         eps: float) -> tuple[FloatArray, FloatArray]:
     """Joint centres and safe half-widths ``h_i = max(eps_h, (max - min)/2 - delta)``."""
     mid = (np.asarray(upper) + np.asarray(lower)) / 2
-    half = np.maximum(weights.joint_eps, (np.asarray(upper) - np.asarray(lower)) / 2 - weights.joint_margin)
+    half = np.maximum(eps, (np.asarray(upper) - np.asarray(lower)) / 2 - margin)
     return mid, half
 
 
-def smoothness_weights(n_arm: int, weights: CostWeights) -> FloatArray:
-    """Diagonal of ``W_s`` (base x, y, yaw, then the arm joints)."""
-    return np.concatenate([weights.smoothness_base, np.full(n_arm, weights.smoothness_arm)])
+# -- quadratic terms -------------------------------------------------------------------------
+@register_term
+@dataclass(frozen=True)
+class Smoothness(CostTerm):
+    """J4 = ``sum_k 1/2 ||W_s (q_k - q_{k-1})||^2`` with ``W_s = diag(base, arm...)``."""
+
+    name: ClassVar[str] = "smoothness"
+    kind: ClassVar[str] = "quadratic"
+    base: tuple[float, float, float] = (1.0, 1.0, 0.5)
+    arm: float = 1.0
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> Smoothness:
+        return cls(tuple(weights.smoothness_base), weights.smoothness_arm)
+
+    def matrix(self, n_arm: int, n: int) -> sparse.csr_matrix:
+        size = (n_arm + N_BASE) * n
+        if n == 1:
+            return sparse.csr_matrix((size, size))
+        D = sparse.diags([-np.ones(n - 1), np.ones(n - 1)], [0, 1], shape=(n - 1, n))  # q_{k+1} - q_k
+        Ws = sparse.diags(np.concatenate([self.base, np.full(n_arm, self.arm)]) ** 2)
+        return sparse.kron(D.T @ D, Ws).tocsr()
+
+
+@register_term
+@dataclass(frozen=True)
+class BaseSpectral(CostTerm):
+    """J5 = ``1/2 sum_xi eta_xi sum_{l in H} gamma_l bhat_{xi,l}^2`` (orthonormal DCT-II per base axis)."""
+
+    name: ClassVar[str] = "base_spectral"
+    kind: ClassVar[str] = "quadratic"
+    cutoff: float = 0.35
+    axis: tuple[float, float, float] = (1.0, 1.0, 0.5)
+    power: float = 0.0
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> BaseSpectral:
+        return cls(weights.dct_cutoff, tuple(weights.dct_axis), weights.dct_power)
+
+    def matrix(self, n_arm: int, n: int) -> sparse.csr_matrix:
+        nq = n_arm + N_BASE
+        if n == 1:
+            return sparse.csr_matrix((nq, nq))
+        E = np.zeros((nq, nq))
+        E[:N_BASE, :N_BASE] = np.diag(self.axis)
+        P = dct_penalty(n, self.cutoff, self.power)
+        return sparse.kron(sparse.csr_matrix(P), sparse.csr_matrix(E)).tocsr()
 
 
 def dct_matrix(n: int) -> FloatArray:
@@ -200,15 +372,26 @@ def high_frequencies(n: int, cutoff: float) -> FloatArray:
     return np.arange(max(1, int(np.ceil(cutoff * n))), n)
 
 
-def dct_penalty_matrix(n: int, weights: CostWeights) -> FloatArray:
-    """``P`` with ``b^T P b = sum_{l in H} gamma_l bhat_l^2`` for one base coordinate."""
+def dct_penalty(n: int, cutoff: float, power: float) -> FloatArray:
+    """``P`` with ``b^T P b = sum_{l in H} gamma_l bhat_l^2``, ``gamma_l = (l / (N - 1))^power``."""
     C = dct_matrix(n)
-    H = high_frequencies(n, weights.dct_cutoff)
+    H = high_frequencies(n, cutoff)
     if H.size == 0:
         return np.zeros((n, n))
-    gamma = (H / max(n - 1, 1)) ** weights.dct_power
+    gamma = (H / max(n - 1, 1)) ** power
     CH = C[H]
     return CH.T @ (gamma[:, None] * CH)
+
+
+def dct_penalty_matrix(n: int, weights: CostWeights) -> FloatArray:
+    """:func:`dct_penalty` with the cutoff and power of ``weights`` (one base coordinate)."""
+    return dct_penalty(n, weights.dct_cutoff, weights.dct_power)
+
+
+# -- numeric references (tests, reports) -----------------------------------------------------
+def smoothness_weights(n_arm: int, weights: CostWeights) -> FloatArray:
+    """Diagonal of ``W_s`` (base x, y, yaw, then the arm joints)."""
+    return np.concatenate([weights.smoothness_base, np.full(n_arm, weights.smoothness_arm)])
 
 
 def base_spectral_cost(base: FloatArray, weights: CostWeights) -> float:
@@ -223,3 +406,12 @@ def smoothness_cost(q: FloatArray, weights: CostWeights) -> float:
     q = np.asarray(q, dtype=float)
     W = smoothness_weights(q.shape[1] - N_BASE, weights)
     return 0.5 * float(np.sum((np.diff(q, axis=0) * W) ** 2))
+
+
+def capability_stage(twin: CasadiTwin, tau_max: FloatArray, params: CapabilityParameters) -> ca.Function:
+    """``c_k(q_{k-2}, q_{k-1}, q_k, dt_{k-1}, dt_k, f_k, r_k)``: the smooth capability penalty alone."""
+    nq = twin.robot.nq
+    s = Stage(twin, ca.SX.sym("q_prev2", nq), ca.SX.sym("q_prev", nq), ca.SX.sym("q", nq),
+              ca.SX.sym("dt_prev"), ca.SX.sym("dt"), ca.SX.sym("f", 3), ca.SX.sym("r"))
+    c = smooth_penalty_expr(s.J, s.tau, ca.DM(tau_max), s.f, s.r, params)
+    return ca.Function("capability", [s.q2, s.q1, s.q0, s.dt1, s.dt0, s.f, s.r], [c])

@@ -12,6 +12,7 @@ pose error ``e = [p_d - p; log(R_d R^T)]``, then a clamp to the arm joint limits
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -84,3 +85,17 @@ def follow_path(
             )
         out[k] = q
     return out
+
+
+def initial_guess(task: Any) -> FloatArray:
+    """Feasible, smooth start for a task: IK along the path (trajectory) or onto the pose (hold).
+
+    Also the ``quintic`` baseline (the interpolated path followed without optimization).
+    """
+    if task.mode == "hold":
+        q, err = solve_pose(task.robot, task.targets[0], task.q_init)
+        if np.linalg.norm(err[:3]) > 1e-4:
+            raise InfeasibleTaskError(f"hold pose unreachable from initial_configuration: position error "
+                                      f"{np.linalg.norm(err[:3]):.4f} m")
+        return q[None]
+    return follow_path(task.robot, task.targets, task.q_init)

@@ -1,14 +1,8 @@
-"""Planning: from a validated :class:`~forte.planning.tasks.Task` to a whole-body plan and its metrics.
+"""Planning: from a validated :class:`~forte.planning.tasks.Task` to a :class:`Plan` and its metrics.
 
-Methods (paper, Section 5):
-
-- ``forte``: the full cost ``J1 + J2 + J3 + J4 + J5``;
-- ``manipulability``: the same problem without ``J1``;
-- ``rfp-radius`` / ``rfp-cone``: ``J1`` replaced by ``1 / max(|value|, eps)`` of the centred
-  inscribed radius or the cone measure of the RFP (Ferrolho et al. 2021);
-- ``quintic`` (trajectory mode): the interpolated path followed by damped least-squares IK,
-  no optimization (also the optimizer's initial guess);
-- ``teaching`` (hold mode): the user's teaching configuration, no optimization.
+The methods are the entries of :data:`forte.planning.methods.METHODS`: optimized ones solve the
+NLP of :mod:`forte.planning.optimizer` with their cost terms, the others produce their
+configurations directly (the quintic path + IK, the teaching configuration).
 """
 
 from __future__ import annotations
@@ -21,53 +15,71 @@ import numpy as np
 
 from forte.capability.metrics import capability_margin, yoshikawa
 from forte.capability.polytope import directional_capacity, inscribed_radius, trajectory_rfp
-from forte.exceptions import InfeasibleTaskError, InvalidInputError, TaskFileError
+from forte.exceptions import InvalidInputError, TaskFileError
+from forte.force.payload import Payload
 from forte.force.taskforce import TaskForce
 from forte.model.robot import MobileManipulator
-from forte.planning.ik import follow_path, solve_pose
-from forte.planning.optimizer import OPTIMIZED_METHODS, Solution, TrajectoryOptimizer
+from forte.planning.ik import initial_guess
+from forte.planning.methods import METHODS, Method, get_method, method_names
+from forte.planning.optimizer import SolverResult, TrajectoryOptimizer
 from forte.planning.tasks import Task
+from forte.settings import CapabilityParameters
 from forte.validation import FloatArray
-
-TRAJECTORY_METHODS: tuple[str, ...] = (*OPTIMIZED_METHODS, "quintic")
-HOLD_METHODS: tuple[str, ...] = (*OPTIMIZED_METHODS, "teaching")
-ALL_METHODS: tuple[str, ...] = (*OPTIMIZED_METHODS, "quintic", "teaching")
 
 
 @dataclass
-class PlanResult:
-    """A plan: configurations, the desired force, per-waypoint metrics and solver facts."""
+class Plan:
+    """A whole-body plan: configurations at times ``t``, the desired force, metrics, solver facts.
 
-    task: Task
+    Attributes:
+        method: the method's name.
+        robot: the robot it was planned for.
+        t, q: sample times (N) and whole-body configurations (N x nq).
+        force: desired forces and ball radii (``None`` when unknown, e.g. a plan read from disk
+            without one).
+        payload: the payload the force was computed for.
+        metrics: exact per-waypoint metrics (:func:`evaluate`; empty when not computed).
+        success, status: whether the plan is usable, and the solver's or producer's status.
+        solver: solver facts (iterations, times, cost terms, ...).
+        task: the task it solves (``None`` for a plan read from disk).
+    """
+
     method: str
+    robot: MobileManipulator
+    t: FloatArray
     q: FloatArray
-    force: TaskForce
-    metrics: dict[str, FloatArray]
-    success: bool
-    status: str
+    force: TaskForce | None
+    payload: Payload
+    metrics: dict[str, FloatArray] = field(default_factory=dict)
+    success: bool = True
+    status: str = "success"
     solver: dict[str, Any] = field(default_factory=dict)
-    estimate: dict[str, Any] | None = None
+    task: Task | None = None
 
     @property
-    def t(self) -> FloatArray:
-        return self.task.t
+    def estimate(self) -> dict[str, Any] | None:
+        """The mass estimator's record, when the payload mass was estimated."""
+        return None if self.payload.estimate is None else dict(self.payload.estimate)
+
+
+#: The name used before there was one plan type.
+PlanResult = Plan
 
 
 def methods_for(task: Task) -> tuple[str, ...]:
-    """Methods that apply to the task (``teaching`` only with a teaching configuration)."""
-    if task.mode == "hold":
-        return HOLD_METHODS if task.teaching is not None else OPTIMIZED_METHODS
-    return TRAJECTORY_METHODS
+    """Registered methods that apply to the task (``given`` ones only with what they need)."""
+    return tuple(name for name in method_names(task.mode)
+                 if METHODS[name].production != "given" or task.teaching is not None)
 
 
-def evaluate(
-    robot: MobileManipulator, q: FloatArray, t: FloatArray, force: TaskForce, alpha: float
-) -> dict[str, FloatArray]:
-    """Exact per-waypoint metrics of a plan (the quantities reported in metrics.csv).
+def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: TaskForce,
+             params: CapabilityParameters | float = CapabilityParameters()) -> dict[str, FloatArray]:
+    """Exact per-waypoint metrics of a plan (the columns of metrics.csv).
 
     ``d`` uses the metric's ``alpha``; the directional capacity (along the desired force) and
     the inscribed radius are those of the paper's RFP ``P_r,k`` itself (``alpha = 1``).
     """
+    alpha = params.alpha if isinstance(params, CapabilityParameters) else float(params)
     rfp = trajectory_rfp(robot, q, t, alpha=1.0)
     capacity = directional_capacity(rfp.A, rfp.b, force.direction)
     return {
@@ -86,49 +98,32 @@ def evaluate(
     }
 
 
-def resolve_mass(task: Task, estimator_options: dict[str, Any] | None = None) -> dict[str, Any] | None:
-    """Fill ``task.payload['mass']`` from the estimator when only a description/image is given."""
-    if task.force_profile is not None or task.payload.get("mass") is not None:
-        return task.payload.get("estimate")
-    if not (task.payload.get("description") or task.payload.get("image")):
+def resolve_payload(task: Task, estimator_options: dict[str, Any] | None = None) -> Task:
+    """The task with its payload mass known: estimated when only a description/image is given."""
+    if task.force_profile is not None or not task.payload.needs_estimate:
+        return task
+    if not (task.payload.description or task.payload.image):
         raise TaskFileError(f"{task.source}: payload: give a mass, a description or an image")
     from forte.force.estimation import estimate_payload
 
-    estimate = estimate_payload(task.payload.get("description"), task.payload.get("image"),
-                                **(estimator_options or {}))
-    task.payload["mass"] = float(estimate.mass_kg)
-    task.payload["estimate"] = estimate.to_dict()  # every later plan of this task reports it too
-    return task.payload["estimate"]
-
-
-def initial_guess(task: Task) -> FloatArray:
-    """Feasible, smooth start: IK along the path (trajectory) or onto the pose (hold)."""
-    if task.mode == "hold":
-        q, err = solve_pose(task.robot, task.targets[0], task.q_init)
-        if np.linalg.norm(err[:3]) > 1e-4:
-            raise InfeasibleTaskError(f"hold pose unreachable from initial_configuration: position error "
-                                      f"{np.linalg.norm(err[:3]):.4f} m")
-        return q[None]
-    return follow_path(task.robot, task.targets, task.q_init)
+    estimate = estimate_payload(task.payload.description, task.payload.image, **(estimator_options or {}))
+    return task.with_payload(task.payload.with_estimate(estimate))
 
 
 #: Trajectories longer than this are solved coarse-to-fine (see :func:`coarse_guess`).
 COARSE_WAYPOINTS = 25
 
 
-def coarse_guess(task: Task, method: str) -> tuple[FloatArray, dict[str, Any]] | None:
+def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]] | None:
     """Solve the same task on ``COARSE_WAYPOINTS`` samples and interpolate the result in time.
 
     A fine horizon makes the finite-difference accelerations stiff (``1 / dt^2``) and IPOPT slow
     from the IK guess; starting from the interpolated coarse optimum halves the iterations at
     N = 100 (see ``benchmarks/bench_planner.py``). Returns ``None`` when it does not apply.
     """
-    if task.mode != "trajectory" or task.n <= 2 * COARSE_WAYPOINTS or not task.raw:
+    if task.mode != "trajectory" or task.n <= 2 * COARSE_WAYPOINTS or task.targets_at is None:
         return None
-    from forte.planning.tasks import task_from_dict
-
-    coarse = task_from_dict(task.raw, task.source, mass=task.payload.get("mass"), waypoints=COARSE_WAYPOINTS)
-    coarse.weights, coarse.solver = task.weights, task.solver
+    coarse = task.resampled(COARSE_WAYPOINTS)
     force = coarse.force()
     opt = TrajectoryOptimizer(task.robot, coarse.n, method, task.weights, options=task.solver, limits=task.limits)
     sol = opt.solve(coarse.t, coarse.targets, force.f, force.r, coarse.q_init, initial_guess(coarse))
@@ -139,47 +134,69 @@ def coarse_guess(task: Task, method: str) -> tuple[FloatArray, dict[str, Any]] |
     return q, {"waypoints": coarse.n, "iterations": sol.iterations, "solve_time_s": sol.solve_time}
 
 
-def plan(task: Task, method: str = "forte", estimator_options: dict[str, Any] | None = None,
-         guess: FloatArray | None = None) -> PlanResult:
-    """Plan ``task`` with ``method``; never raises for a solver failure (see ``success``)."""
-    if method == "teaching" and task.mode == "hold" and task.teaching is None:
-        raise TaskFileError(f"{task.source}: teaching_configuration: required for method 'teaching'")
-    allowed = methods_for(task)
-    if method not in allowed:
-        raise InvalidInputError(f"method: '{method}' does not apply to mode '{task.mode}'; "
-                                f"expected one of {', '.join(allowed)}")
-    estimate = resolve_mass(task, estimator_options)
+def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None) -> tuple[SolverResult, dict]:
+    """Solve the method's NLP (coarse-to-fine unless a guess is given); returns the result and facts."""
+    q_guess = initial_guess(task) if guess is None else guess
+    options, info = task.solver, {}
+    warm = coarse_guess(task, method) if guess is None else None
+    if warm is not None:
+        q_guess, info["coarse"] = warm
+        # a near-optimal start: begin with a small barrier parameter
+        options = replace(options, extra={"mu_strategy": "monotone", "mu_init": 1e-4} | options.extra)
+    opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
+                              options=options, limits=task.limits)
+    sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess)
+    info |= {
+        "status": sol.status, "success": sol.success, "iterations": sol.iterations,
+        "objective": sol.objective, "constraint_violation": sol.constraint_violation,
+        "build_time_s": sol.build_time, "solve_time_s": sol.solve_time, "kernels": sol.codegen,
+        "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, force.f, force.r),
+        "term_weights": opt.term_weights(),
+    }
+    return sol, info
+
+
+def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,
+         guess: FloatArray | None = None) -> Plan:
+    """Plan ``task`` with ``method``; never raises for a solver failure (see ``Plan.success``).
+
+    Example:
+        >>> import forte
+        >>> task = forte.load_task("examples/tasks/hold.yaml", mass=0.35)
+        >>> result = forte.plan(task, "teaching")
+        >>> result.q.shape, result.success
+        ((1, 10), True)
+    """
+    spec = get_method(method)
+    if task.mode not in spec.modes or spec.name not in methods_for(task):
+        if spec.production == "given" and task.mode in spec.modes:
+            spec.produce(task)  # raises the precise error (e.g. no teaching configuration)
+        raise InvalidInputError(f"method: '{spec.name}' does not apply to mode '{task.mode}'; "
+                                f"expected one of {', '.join(methods_for(task))}")
+    task = resolve_payload(task, estimator_options)
     force = task.force()
-    robot = task.robot
     start = time.perf_counter()
-    solver_info: dict[str, Any] = {}
-    if method == "teaching":
-        if task.teaching is None:
-            raise TaskFileError(f"{task.source}: teaching_configuration: required for method 'teaching'")
-        q, success, status = task.teaching[None], True, "not optimized (teaching point)"
+    info: dict[str, Any] = {}
+    if spec.optimized:
+        sol, info = _optimize(task, spec, force, guess)
+        q, success, status = sol.q, sol.success, sol.status
     else:
-        q_guess = initial_guess(task) if guess is None else guess
-        if method == "quintic":
-            q, success, status = q_guess, True, "not optimized (quintic path + IK)"
-        else:
-            options = task.solver
-            warm = coarse_guess(task, method) if guess is None else None
-            if warm is not None:
-                q_guess = warm[0]
-                solver_info["coarse"] = warm[1]
-                # a near-optimal start: begin with a small barrier parameter
-                options = replace(options, extra={"mu_strategy": "monotone", "mu_init": 1e-4} | options.extra)
-            opt = TrajectoryOptimizer(robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
-                                      options=options, limits=task.limits)
-            sol: Solution = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess)
-            q, success, status = sol.q, sol.success, sol.status
-            solver_info |= {
-                "status": sol.status, "success": sol.success, "iterations": sol.iterations,
-                "objective": sol.objective, "constraint_violation": sol.constraint_violation,
-                "build_time_s": sol.build_time, "solve_time_s": sol.solve_time, "kernels": sol.codegen,
-                "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, force.f, force.r),
-            }
-    solver_info["wall_time_s"] = time.perf_counter() - start
-    metrics = evaluate(robot, q, task.t, force, task.weights.capability_params.alpha)
-    return PlanResult(task=task, method=method, q=q, force=force, metrics=metrics, success=success,
-                      status=status, solver=solver_info, estimate=estimate)
+        q, success, status = spec.produce(task), True, spec.status
+    info["wall_time_s"] = time.perf_counter() - start
+    metrics = evaluate(task.robot, q, task.t, force, task.weights.capability_params)
+    return Plan(method=spec.name, robot=task.robot, t=task.t, q=q, force=force, payload=task.payload,
+                metrics=metrics, success=success, status=status, solver=info, task=task)
+
+
+def compare(task: Task, methods: tuple[str, ...] | None = None,
+            estimator_options: dict[str, Any] | None = None) -> list[Plan]:
+    """Plan ``task`` with every method that applies (or ``methods``); the payload is resolved once.
+
+    Example:
+        >>> import forte
+        >>> task = forte.load_task("examples/tasks/hold.yaml", mass=0.35)
+        >>> [p.method for p in forte.compare(task, methods=("teaching",))]
+        ['teaching']
+    """
+    task = resolve_payload(task, estimator_options)
+    return [plan(task, name) for name in (methods or methods_for(task))]

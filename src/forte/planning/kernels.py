@@ -1,0 +1,168 @@
+"""Per-waypoint kernels of the NLP, built from a method's cost terms, compiled once and cached.
+
+For one method the stage cost is ``sum_i w_i c_i(z_k, dt_{k-1}, dt_k, f_k, r_k, ...)`` over its
+stage terms (:mod:`forte.planning.costs`), with the window ``z_k = [q_{k-2}; q_{k-1}; q_k]``
+and the weights ``w`` an input, so one compiled library serves every weight set. The kernels
+are the stage cost, its gradient and Hessian in ``z``, the per-term values, and the pose
+residual ``[p - p_d; vee(R_d^T R - R^T R_d) / 2]`` with its Jacobian and Lagrangian Hessian.
+
+With a C compiler the kernels are generated as C, compiled and cached on disk
+(``$FORTE_CACHE`` or ``~/.cache/forte``) under a key made of the robot's fingerprint, the
+method, what each term bakes in (:meth:`~forte.planning.costs.CostTerm.baked`), the source of
+the modules and term classes involved, and the CasADi and forte versions; without one they run
+in CasADi's virtual machine (same results, slower).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import os
+import shutil
+import subprocess
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import casadi as ca
+
+from forte import __version__
+from forte.exceptions import SolverError
+from forte.model.robot import MobileManipulator
+from forte.model.twin import CasadiTwin
+from forte.planning.costs import CostTerm, Stage
+from forte.planning.methods import Method, get_method
+from forte.settings import CostWeights, SolverOptions
+
+KERNEL_NAMES = ("stage_cost", "stage_grad", "stage_hess", "stage_terms", "pose", "pose_jac", "pose_hess")
+
+
+@dataclass
+class Kernels:
+    """Per-waypoint functions the NLP is assembled from (SX, or compiled C loaded back)."""
+
+    cost: ca.Function  # (z, dt_prev, dt, f, r, *term parameters, w) -> weighted stage cost
+    grad: ca.Function  # same inputs -> gradient w.r.t. z (3nq)
+    hess: ca.Function  # same inputs -> Hessian w.r.t. z (3nq x 3nq, dense)
+    terms: ca.Function  # same inputs without w -> value of each stage term
+    pose: ca.Function  # (q, p_d, R_d) -> 6 pose residuals
+    pose_jac: ca.Function  # -> 6 x nq
+    pose_hess: ca.Function  # (q, p_d, R_d, lambda) -> nq x nq
+    origin: str  # "compiled", "cached" or "virtual-machine"
+
+
+def cache_root(options: SolverOptions) -> Path:
+    """Folder of the compiled kernels."""
+    root = options.cache_dir or os.environ.get("FORTE_CACHE") or Path.home() / ".cache" / "forte"
+    return Path(root)
+
+
+def rotation_error_expr(R: Any, R_d: Any) -> Any:
+    """``vee(R_d^T R - R^T R_d) / 2`` (zero iff R = R_d near the solution)."""
+    E = R_d.T @ R - R.T @ R_d
+    return ca.vertcat(E[2, 1], E[0, 2], E[1, 0]) / 2
+
+
+def stage_terms(method: Method, weights: CostWeights) -> tuple[CostTerm, ...]:
+    """The method's stage terms (compiled into the kernels), in summation order."""
+    return tuple(t for t in method.cost_terms(weights) if t.kind == "stage")
+
+
+def build_kernels(robot: MobileManipulator, method: str | Method, w: CostWeights) -> dict[str, ca.Function]:
+    """SX kernels of one method: a loop over its stage terms."""
+    method = get_method(method)
+    twin = CasadiTwin(robot)
+    nq = robot.nq
+    z = ca.SX.sym("z", 3 * nq)
+    terms = stage_terms(method, w)
+    params = {name: ca.SX.sym(name, size) for t in terms for name, size in t.parameters}
+    s = Stage(twin, z[:nq], z[nq:2 * nq], z[2 * nq:], ca.SX.sym("dt_prev"), ca.SX.sym("dt"),
+              ca.SX.sym("f", 3), ca.SX.sym("r"), params)
+    values = [t.stage(s) for t in terms]
+    weights = ca.SX.sym("w", len(terms))
+    cost = ca.SX(0)
+    for i, value in enumerate(values):
+        cost = weights[i] * value if i == 0 else cost + weights[i] * value
+    inputs = [z, s.dt1, s.dt0, s.f, s.r, *params.values()]
+    H, grad = ca.hessian(cost, z)
+    q, pd, Rd, lam = ca.SX.sym("q", nq), ca.SX.sym("p_d", 3), ca.SX.sym("R_d", 9), ca.SX.sym("lam", 6)
+    R, p = twin.ee_pose(q)
+    res = ca.vertcat(p - pd, rotation_error_expr(R, ca.reshape(Rd, 3, 3)))
+    Hp, _ = ca.hessian(ca.dot(lam, res), q)
+    return {
+        "stage_cost": ca.Function("stage_cost", [*inputs, weights], [cost]),
+        "stage_grad": ca.Function("stage_grad", [*inputs, weights], [grad]),
+        "stage_hess": ca.Function("stage_hess", [*inputs, weights], [ca.densify(H)]),
+        "stage_terms": ca.Function("stage_terms", inputs, [ca.vertcat(*values) if values else ca.SX(0, 1)]),
+        "pose": ca.Function("pose", [q, pd, Rd], [res]),
+        "pose_jac": ca.Function("pose_jac", [q, pd, Rd], [ca.densify(ca.jacobian(res, q))]),
+        "pose_hess": ca.Function("pose_hess", [q, pd, Rd, lam], [ca.densify(Hp)]),
+    }
+
+
+def kernel_key(robot: MobileManipulator, method: str | Method, w: CostWeights) -> str:
+    """Cache key: changes whenever anything compiled into the kernels changes."""
+    method = get_method(method)
+    baked = tuple((t.name, t.baked(), _class_digest(type(t))) for t in stage_terms(method, w))
+    text = repr((__version__, robot.fingerprint, method.name, baked, ca.__version__, _source_digest()))
+    return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+def load_kernels(robot: MobileManipulator, method: str | Method, w: CostWeights, options: SolverOptions) -> Kernels:
+    """Kernels from the on-disk cache, compiling them first when needed (and possible)."""
+    method = get_method(method)
+    compiler = shutil.which("gcc") or shutil.which("cc")
+    if options.codegen and compiler:
+        lib = cache_root(options) / f"kernels_{method.name}_{kernel_key(robot, method, w)}.so"
+        origin = "cached"
+        if not lib.exists():
+            _compile(build_kernels(robot, method, w), lib, compiler)
+            origin = "compiled"
+        fns = {name: ca.external(name, str(lib)) for name in KERNEL_NAMES}
+    else:
+        fns, origin = build_kernels(robot, method, w), "virtual-machine"
+    return Kernels(*(fns[name] for name in KERNEL_NAMES), origin)
+
+
+def _compile(functions: dict[str, ca.Function], lib: Path, compiler: str) -> None:
+    lib.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
+        gen = ca.CodeGenerator("kernels.c", {"with_header": False})
+        for fn in functions.values():
+            gen.add(fn)
+        for name in ("stage_cost", "pose"):  # reverse mode, found by name by casadi.external
+            gen.add(functions[name].reverse(1))
+        cwd = os.getcwd()
+        try:
+            os.chdir(tmp)
+            gen.generate()
+        finally:
+            os.chdir(cwd)
+        src, out = Path(tmp) / "kernels.c", Path(tmp) / "kernels.so"
+        cmd = [compiler, "-O1", "-fPIC", "-shared", str(src), "-o", str(out), "-lm"]
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        if proc.returncode != 0:
+            raise SolverError(f"compiling the NLP kernels failed: {proc.stderr[-2000:]}", status="codegen")
+        os.replace(out, lib)  # atomic: a concurrent run never loads a half-written library
+
+
+def _class_digest(cls: type) -> str:
+    """Hash of a term class's source (terms defined outside forte invalidate their kernels too)."""
+    try:
+        text = inspect.getsource(cls)
+    except (OSError, TypeError):
+        text = cls.__qualname__
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def _source_digest() -> str:
+    """Hash of the modules that define the kernels, so editing them invalidates the cache."""
+    from forte.capability import metrics
+    from forte.model import twin
+    from forte.planning import costs
+
+    digest = hashlib.sha256()
+    for path in (__file__, costs.__file__, metrics.__file__, twin.__file__):
+        digest.update(Path(path).read_bytes())
+    return digest.hexdigest()[:12]

@@ -1,0 +1,211 @@
+"""Readers of the task-file schema: typed access to YAML mappings with errors that name the file,
+the dotted field and what was expected, and the sections shared by every task (robot, options).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from forte.exceptions import ForteError, TaskFileError
+from forte.model.robot import MobileManipulator, ToolLoad, default_robot
+from forte.settings import CapabilityParameters
+from forte.validation import FloatArray
+
+
+class Reader:
+    """Typed access to a mapping with errors that name file and dotted key."""
+
+    def __init__(self, data: Any, path: Path | None, prefix: str = "") -> None:
+        self.path, self.prefix = path, prefix
+        if not isinstance(data, dict):
+            raise self.error("", f"expected a mapping, got {type(data).__name__}")
+        self.data = data
+
+    def key(self, name: str) -> str:
+        return f"{self.prefix}{name}" if self.prefix else name
+
+    def error(self, name: str, message: str) -> TaskFileError:
+        where = self.key(name).rstrip(".") or "(top level)"
+        return TaskFileError(f"{self.path or '<task>'}: {where}: {message}")
+
+    def has(self, name: str) -> bool:
+        return self.data.get(name) is not None
+
+    def get(self, name: str, default: Any = None) -> Any:
+        return self.data.get(name, default)
+
+    def sub(self, name: str) -> Reader:
+        return Reader(self.data[name], self.path, f"{self.key(name)}.")
+
+    def number(self, name: str, default: float | None = None, positive: bool = False,
+               nonnegative: bool = False) -> float:
+        value = self.data.get(name, default)
+        if value is None:
+            raise self.error(name, "required field is missing")
+        if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value):
+            raise self.error(name, f"expected a finite number, got {value!r}")
+        if positive and value <= 0:
+            raise self.error(name, f"expected a number > 0, got {value!r}")
+        if nonnegative and value < 0:
+            raise self.error(name, f"expected a number >= 0, got {value!r}")
+        return float(value)
+
+    def vector(self, name: str, size: int | None = None, default: Any = None) -> FloatArray:
+        value = self.data.get(name, default)
+        if value is None:
+            raise self.error(name, "required field is missing")
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise self.error(name, f"expected a list of numbers, got {value!r}") from None
+        if arr.ndim != 1 or (size is not None and arr.size != size):
+            expected = f"a list of {size} numbers" if size else "a list of numbers"
+            raise self.error(name, f"expected {expected}, got {value!r}")
+        if not np.all(np.isfinite(arr)):
+            raise self.error(name, f"expected finite numbers, got {value!r}")
+        return arr
+
+    def integer(self, name: str, default: int | None = None, minimum: int = 1) -> int:
+        value = self.data.get(name, default)
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            raise self.error(name, f"expected an integer >= {minimum}, got {value!r}")
+        return value
+
+    def unknown(self, allowed: set[str]) -> None:
+        extra = sorted(set(self.data) - allowed)
+        if extra:
+            raise self.error(extra[0], f"unknown field; expected one of {', '.join(sorted(allowed))}")
+
+
+def rotation(reader: Reader, name: str, default: FloatArray) -> FloatArray:
+    if not reader.has(name):
+        return default
+    value = reader.get(name)
+    if isinstance(value, dict):
+        r = reader.sub(name)
+        r.unknown({"rpy", "matrix"})
+        if r.has("rpy"):
+            return pin.rpy.rpyToMatrix(*r.vector("rpy", 3))
+        try:
+            R = np.asarray(r.get("matrix"), dtype=float)
+        except (TypeError, ValueError):
+            raise r.error("matrix", f"expected a 3x3 matrix of numbers, got {r.get('matrix')!r}") from None
+        if R.shape != (3, 3) or not np.all(np.isfinite(R)) or not np.allclose(R @ R.T, np.eye(3), atol=1e-6):
+            raise r.error("matrix", "expected an orthonormal 3x3 rotation matrix")
+        return R
+    raise reader.error(name, "expected a mapping with 'rpy' (radians) or 'matrix'")
+
+
+def robot_section(reader: Reader, base: Path) -> MobileManipulator:
+    if not reader.has("robot"):
+        overrides: dict[str, Any] = {}
+        if reader.has("torque_limits"):
+            overrides["torque_limits"] = reader.vector("torque_limits", 7)
+        return default_robot(**overrides)
+    r = reader.sub("robot")
+    r.unknown({"urdf", "ee_frame", "arm_joints", "mount", "tool", "torque_limits", "gravity", "name"})
+    kwargs: dict[str, Any] = {}
+    if r.has("urdf"):
+        urdf = str(r.get("urdf"))
+        if not urdf.startswith("erd:") and not Path(urdf).is_absolute():
+            urdf = str(base / urdf)
+        kwargs["urdf"] = urdf
+        if not r.has("ee_frame"):
+            raise r.error("ee_frame", "required when urdf is given")
+        kwargs["ee_frame"] = str(r.get("ee_frame"))
+    elif r.has("ee_frame"):
+        kwargs["ee_frame"] = str(r.get("ee_frame"))
+    if r.has("arm_joints"):
+        joints = r.get("arm_joints")
+        if not isinstance(joints, list) or not all(isinstance(j, str) for j in joints):
+            raise r.error("arm_joints", "expected a list of joint names")
+        kwargs["arm_joints"] = tuple(joints)
+    if r.has("mount"):
+        m = r.sub("mount")
+        m.unknown({"xyz", "rpy"})
+        T = np.eye(4)
+        T[:3, 3] = m.vector("xyz", 3, default=[0, 0, 0])
+        T[:3, :3] = pin.rpy.rpyToMatrix(*m.vector("rpy", 3, default=[0, 0, 0]))
+        kwargs["mount"] = T
+    if "tool" in r.data:
+        if r.get("tool") is None:
+            kwargs["tool"] = None
+        else:
+            tl = r.sub("tool")
+            tl.unknown({"mass", "com", "inertia"})
+            inertia = tl.get("inertia", [[0, 0, 0]] * 3)
+            if np.shape(inertia) == (3,):
+                inertia = np.diag(inertia)
+            kwargs["tool"] = ToolLoad(mass=tl.number("mass", positive=True), com=tuple(tl.vector("com", 3, [0, 0, 0])),
+                                      inertia=tuple(map(tuple, np.asarray(inertia, dtype=float))))
+    limits_key = "torque_limits" if r.has("torque_limits") else None
+    if limits_key:
+        kwargs["torque_limits"] = r.vector("torque_limits")
+    elif reader.has("torque_limits"):
+        kwargs["torque_limits"] = reader.vector("torque_limits")
+    if r.has("gravity"):
+        kwargs["gravity"] = r.number("gravity", positive=True)
+    if r.has("name"):
+        kwargs["name"] = str(r.get("name"))
+    try:
+        if "urdf" in kwargs:
+            return MobileManipulator(**kwargs)
+        return default_robot(**kwargs)
+    except ForteError as exc:
+        raise r.error("", str(exc)) from exc
+
+
+def dataclass_from(reader: Reader, name: str, cls: type, base: Any) -> Any:
+    """Override fields of the dataclass instance ``base`` from ``reader[name]``, by field type."""
+    if not reader.has(name):
+        return base
+    r = reader.sub(name)
+    fields = {f.name: str(f.type) for f in dataclasses.fields(cls)}
+    r.unknown(set(fields) - {"extra"})
+    values: dict[str, Any] = {}
+    try:
+        for key, value in r.data.items():
+            kind = fields[key]
+            if key == "capability_params":
+                sub = r.sub(key)
+                sub.unknown({f.name for f in dataclasses.fields(CapabilityParameters)})
+                try:
+                    values[key] = CapabilityParameters(**{k: sub.number(k) for k in sub.data})
+                except ForteError as exc:
+                    raise sub.error("", str(exc)) from exc
+            elif kind.startswith("tuple"):
+                default = getattr(base, key)
+                values[key] = tuple(r.vector(key, len(default) if default is not None else None))
+            elif kind == "bool":
+                if not isinstance(value, bool):
+                    raise r.error(key, f"expected true or false, got {value!r}")
+                values[key] = value
+            elif kind == "int":
+                values[key] = r.integer(key, minimum=0)
+            elif kind == "float":
+                values[key] = r.number(key, nonnegative=True)
+            elif kind.startswith("str"):
+                if not isinstance(value, str):
+                    raise r.error(key, f"expected a string, got {value!r}")
+                values[key] = value
+            else:  # pragma: no cover - every field type is handled above
+                raise r.error(key, "cannot be set from a task file")
+        return dataclasses.replace(base, **values)
+    except ForteError as exc:
+        if isinstance(exc, TaskFileError):
+            raise
+        raise r.error("", str(exc)) from exc
+
+
+def check_joint_limits(reader: Reader, name: str, robot: MobileManipulator, q: FloatArray) -> None:
+    arm = q[3:]
+    bad = np.flatnonzero((arm < robot.lower - 1e-9) | (arm > robot.upper + 1e-9))
+    if bad.size:
+        i = int(bad[0])
+        raise reader.error(f"{name}[{i + 3}]", f"joint {robot.arm_joints[i]} = {arm[i]} is outside its limits "
+                           f"[{robot.lower[i]}, {robot.upper[i]}]")

@@ -1,0 +1,200 @@
+"""Settings: the plain option values every stage shares (one owner for each setting).
+
+Nothing here builds or solves anything, so the task schema, the cost terms, the optimizer and
+the reports can all import these dataclasses without importing one another:
+
+- :class:`CapabilityParameters`: the force-capability metric (``alpha``, ``kappa``, the smooth
+  surrogate's ``beta``); ``alpha`` lives here and nowhere else;
+- :class:`CostWeights`: the weights ``w_1..w_5`` and the parameters of the cost terms;
+- :class:`SolverOptions`: IPOPT and code-generation options;
+- :class:`KinematicLimits`: joint velocity and acceleration limits of the planned motion.
+
+Robot-specific defaults (a robot's home pose, its acceleration limits) belong to the robot
+description (:class:`forte.model.robot.MobileManipulator`), not here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from forte.exceptions import InvalidInputError
+
+FloatArray = np.ndarray
+
+
+def _require(condition: bool, name: str, expected: str, value: Any) -> None:
+    if not condition:
+        raise InvalidInputError(f"{name}: expected {expected}, got {value!r}")
+
+
+def _finite(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and bool(np.isfinite(value))
+
+
+@dataclass(frozen=True)
+class CapabilityParameters:
+    """Parameters of the capability penalty (defaults: the authors' implementation).
+
+    Attributes:
+        alpha: Scale of the residual torque interval, 0 < alpha <= 1.
+        kappa: Growth rate of the penalty.
+        eps: Lower bound of the normalization ``rho``.
+        max_exponent: Cap on ``kappa (-d) / rho``.
+        beta: Sharpness of the smooth surrogate (dimensionless, per unit of ``d / rho``).
+        eps_normal: Regularization of zero normals in the surrogate (m).
+    """
+
+    alpha: float = 0.8
+    kappa: float = 3.0
+    eps: float = 1e-6
+    max_exponent: float = 40.0
+    beta: float = 50.0
+    eps_normal: float = 1e-6
+
+    def __post_init__(self) -> None:
+        if not (_finite(self.alpha) and 0.0 < self.alpha <= 1.0):
+            raise InvalidInputError(f"alpha: expected 0 < alpha <= 1, got {self.alpha}")
+        for name in ("kappa", "eps", "max_exponent", "beta", "eps_normal"):
+            value = getattr(self, name)
+            _require(_finite(value) and value > 0, name, "a finite number > 0", value)
+
+
+@dataclass(frozen=True)
+class CostWeights:
+    """Weights ``w_1..w_5`` and the parameters of each term (defaults: the authors').
+
+    Attributes:
+        capability, manipulability, joint_limits, smoothness, base_spectral: ``w_1..w_5``.
+        manipulability_lambda: ``lambda`` of the regularized manipulability.
+        manipulability_eps: ``eps_m`` in ``1 / max(mu, eps_m)``.
+        joint_margin: ``delta_i`` (rad), the safety margin of J3 (one value for every joint).
+        joint_eps: ``eps_h``.
+        smoothness_base, smoothness_arm: diagonal of ``W_s`` for (x, y, yaw) and the arm joints.
+        dct_cutoff: frequencies ``l >= ceil(cutoff N)`` form the high-frequency set ``H``.
+        dct_axis: ``eta_xi`` for x, y, yaw.
+        dct_power: ``gamma_l = (l / (N - 1)) ** power`` (0: every high frequency weighs 1).
+        capability_params: the metric's parameters, ``alpha`` among them.
+    """
+
+    capability: float = 5.0
+    manipulability: float = 2.0
+    joint_limits: float = 3.0
+    smoothness: float = 10.0
+    base_spectral: float = 1.0
+    manipulability_lambda: float = 1e-6
+    manipulability_eps: float = 1e-4
+    joint_margin: float = 0.1
+    joint_eps: float = 1e-3
+    smoothness_base: tuple[float, float, float] = (1.0, 1.0, 0.5)
+    smoothness_arm: float = 1.0
+    dct_cutoff: float = 0.35
+    dct_axis: tuple[float, float, float] = (1.0, 1.0, 0.5)
+    dct_power: float = 0.0
+    capability_params: CapabilityParameters = field(default_factory=CapabilityParameters)
+
+    def __post_init__(self) -> None:
+        for name in ("capability", "manipulability", "joint_limits", "smoothness", "base_spectral", "dct_power"):
+            value = getattr(self, name)
+            if not (_finite(value) and value >= 0):
+                raise InvalidInputError(f"{name}: expected a finite number >= 0, got {value}")
+        for name in ("manipulability_lambda", "manipulability_eps", "joint_margin", "joint_eps", "smoothness_arm"):
+            value = getattr(self, name)
+            if not (_finite(value) and value > 0):
+                raise InvalidInputError(f"{name}: expected a finite number > 0, got {value}")
+        if not (_finite(self.dct_cutoff) and 0.0 < self.dct_cutoff < 1.0):
+            raise InvalidInputError(f"dct_cutoff: expected 0 < cutoff < 1, got {self.dct_cutoff}")
+        for name in ("smoothness_base", "dct_axis"):
+            values = np.asarray(getattr(self, name), dtype=float)
+            if values.shape != (3,) or not np.all(np.isfinite(values) & (values >= 0)):
+                raise InvalidInputError(f"{name}: expected 3 finite numbers >= 0, got {getattr(self, name)}")
+
+    @property
+    def alpha(self) -> float:
+        """The metric's ``alpha`` (owned by :attr:`capability_params`)."""
+        return self.capability_params.alpha
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """IPOPT and build options.
+
+    Attributes:
+        max_iter: IPOPT iteration limit.
+        tol: IPOPT convergence tolerance.
+        constraint_tol: accepted constraint violation for a result to count as a success.
+        codegen: generate, compile and cache C code for the NLP functions (needs a C compiler;
+            falls back to the CasADi virtual machine when none is found).
+        cache_dir: where compiled problems are kept; default ``$FORTE_CACHE`` or ``~/.cache/forte``.
+        print_level: IPOPT verbosity (0 = silent).
+        extra: further IPOPT options by name (``ipopt.`` may be omitted).
+    """
+
+    max_iter: int = 500
+    tol: float = 1e-6
+    constraint_tol: float = 1e-6
+    codegen: bool = True
+    cache_dir: str | None = None
+    print_level: int = 0
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.max_iter, int) and self.max_iter >= 1):
+            raise InvalidInputError(f"max_iter: expected an integer >= 1, got {self.max_iter!r}")
+        for name in ("tol", "constraint_tol"):
+            value = getattr(self, name)
+            if not (_finite(value) and value > 0):
+                raise InvalidInputError(f"{name}: expected a finite number > 0, got {value!r}")
+        if not (isinstance(self.print_level, int) and 0 <= self.print_level <= 12):
+            raise InvalidInputError(f"print_level: expected an integer in 0..12, got {self.print_level!r}")
+
+
+@dataclass(frozen=True)
+class KinematicLimits:
+    """Joint velocity and acceleration limits of the planned motion.
+
+    Not part of the paper's NLP, which only bounds joint positions: without them the optimizer
+    may leave ``q_init`` for a better posture within one or two waypoints (3-4 rad/s, 20+ rad/s^2
+    on the lift task), which no robot can execute. They are linear constraints on the same
+    backward differences as the dynamics (the motion starts at rest, so the first steps ramp up).
+
+    Attributes:
+        enabled: ``False`` gives the paper's NLP exactly.
+        arm_velocity: rad/s per arm joint; ``None``: the URDF's velocity limits.
+        arm_acceleration: rad/s^2 per arm joint; ``None``: the robot description's
+            ``acceleration_limits`` (the Panda datasheet's for the built-in robot), else none.
+        base_velocity: (x, y, yaw) in m/s, m/s, rad/s.
+        base_acceleration: (x, y, yaw) in m/s^2, m/s^2, rad/s^2.
+    """
+
+    enabled: bool = True
+    arm_velocity: tuple[float, ...] | None = None
+    arm_acceleration: tuple[float, ...] | None = None
+    base_velocity: tuple[float, float, float] = (1.0, 1.0, 1.5)
+    base_acceleration: tuple[float, float, float] = (1.0, 1.0, 2.0)
+
+    def __post_init__(self) -> None:
+        for name in ("arm_velocity", "arm_acceleration", "base_velocity", "base_acceleration"):
+            values = getattr(self, name)
+            if values is not None and not np.all(np.asarray(values, dtype=float) > 0):
+                raise InvalidInputError(f"{name}: expected limits > 0 (use enabled: false for none), got {values}")
+
+    def resolve(self, robot: Any) -> tuple[FloatArray, FloatArray]:
+        """Whole-body velocity and acceleration limits of ``robot`` (inf where unlimited)."""
+        n = robot.n_arm
+        if self.arm_velocity is not None:
+            vel = np.asarray(self.arm_velocity, dtype=float)
+        else:  # URDFs use 0 for "no limit"
+            urdf = np.asarray(robot.model.velocityLimit, dtype=float)
+            vel = np.where(urdf > 0, urdf, np.inf)
+        if self.arm_acceleration is not None:
+            acc = np.asarray(self.arm_acceleration, dtype=float)
+        elif robot.acceleration_limits is not None:
+            acc = np.asarray(robot.acceleration_limits, dtype=float)
+        else:
+            acc = np.full(n, np.inf)
+        if vel.shape != (n,) or acc.shape != (n,):
+            raise InvalidInputError(f"limits: expected {n} arm velocity and acceleration limits")
+        return (np.concatenate([self.base_velocity, vel]), np.concatenate([self.base_acceleration, acc]))
