@@ -12,19 +12,13 @@ import pytest
 
 from forte.cli.main import main
 from forte.exceptions import EstimationError, InvalidInputError
-from forte.force.estimation import (
-    MassEstimate,
-    MassEstimator,
-    OfflineEstimator,
-    VLMConfig,
-    cache_key,
-    data_url,
-    estimate_payload,
-    image_bytes,
-    parse_answer,
-    parse_quantities,
-    radius_from_estimate,
-)
+from forte.force.estimate import MassEstimate, MassEstimator, estimate_payload, radius_from_estimate
+from forte.force.images import data_url, image_bytes
+from forte.force.offline import OfflineEstimator
+from forte.force.quantities import parse_quantities
+from forte.force.vlm import VLMConfig
+from forte.force.vlm_answer import parse_answer
+from forte.force.vlm_cache import cache_key
 
 IMAGE = Path(__file__).resolve().parents[1] / "examples" / "massbench" / "images" / "dumbbell.png"
 

@@ -12,7 +12,8 @@ import pytest
 
 from forte.cli.main import main
 from forte.exceptions import EstimationError, InvalidInputError
-from forte.force.estimation import ImageInput, MassEstimate
+from forte.force.estimate import MassEstimate
+from forte.force.images import ImageInput
 from forte.force.massbench import (
     PAPER_ROWS,
     BenchItem,

@@ -23,7 +23,8 @@ import pytest
 
 from forte.cli.main import main
 from forte.exceptions import EstimationError
-from forte.force.estimation import PROMPT_VERSION, VLMConfig, VLMEstimator
+from forte.force.vlm import VLMConfig, VLMEstimator
+from forte.force.vlm_answer import PROMPT_VERSION
 
 FAKE_KEY = "sk-forte-FAKE-KEY-must-never-leak-8c1f2e"
 KEY_ENV = "FORTE_TEST_VLM_KEY"

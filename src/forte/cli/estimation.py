@@ -13,17 +13,11 @@ import sys
 from pathlib import Path
 
 from forte.exceptions import InvalidInputError
-from forte.force.estimation import (
-    DEFAULT_R_MIN,
-    MassEstimator,
-    OfflineEstimator,
-    VLMConfig,
-    VLMEstimator,
-    default_cache_dir,
-    estimate_payload,
-    radius_from_estimate,
-)
+from forte.force.estimate import DEFAULT_R_MIN, MassEstimator, estimate_payload, radius_from_estimate
 from forte.force.massbench import load_dataset, markdown_table, run_benchmark, summarize_results, write_per_item_csv
+from forte.force.offline import OfflineEstimator
+from forte.force.vlm import VLMConfig, VLMEstimator
+from forte.force.vlm_cache import default_cache_dir
 
 
 def _add_vlm_options(p: argparse.ArgumentParser) -> None:

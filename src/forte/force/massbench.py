@@ -30,7 +30,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from forte.exceptions import ForteError, InvalidInputError
-from forte.force.estimation import MassEstimate, MassEstimator
+from forte.force.estimate import MassEstimate, MassEstimator
 
 METRICS: tuple[str, ...] = ("mALDE", "mAPE", "r2_ls", "mMnRE", "q")
 #: Direction of improvement of each metric (for the table header).

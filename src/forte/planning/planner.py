@@ -92,7 +92,7 @@ def resolve_mass(task: Task, estimator_options: dict[str, Any] | None = None) ->
         return task.payload.get("estimate")
     if not (task.payload.get("description") or task.payload.get("image")):
         raise TaskFileError(f"{task.source}: payload: give a mass, a description or an image")
-    from forte.force.estimation import estimate_payload
+    from forte.force.estimate import estimate_payload
 
     estimate = estimate_payload(task.payload.get("description"), task.payload.get("image"),
                                 **(estimator_options or {}))
