@@ -18,7 +18,7 @@ from forte.force.offline import OfflineEstimator
 from forte.force.quantities import parse_quantities
 from forte.force.vlm import VLMConfig
 from forte.force.vlm_answer import parse_answer
-from forte.force.vlm_cache import cache_key
+from forte.force.vlm_cache import cache_key, server_id, write_entry
 
 IMAGE = Path(__file__).resolve().parents[1] / "examples" / "massbench" / "images" / "dumbbell.png"
 
@@ -171,10 +171,34 @@ def test_parse_answer() -> None:
 
 
 def test_cache_key_depends_on_every_input() -> None:
-    base = cache_key("a" * 64, "desc", "gpt-4o")
-    assert base == cache_key("a" * 64, "desc", "gpt-4o")
-    assert len({base, cache_key("b" * 64, "desc", "gpt-4o"), cache_key("a" * 64, "other", "gpt-4o"),
-                cache_key("a" * 64, "desc", "llava")}) == 4  # fmt: skip
+    request = {
+        "server": "http://127.0.0.1:8000/v1", "model": "gpt-4o", "prompt_version": "v", "system_prompt": "p",
+        "description": "desc", "image_sha256": "a" * 64, "options": {"temperature": 0.0, "max_tokens": 300},
+    }  # fmt: skip
+    base = cache_key(request)
+    assert base == cache_key(dict(reversed(list(request.items()))))  # key order does not matter
+    changed = [
+        {"server": "http://127.0.0.1:8001/v1"}, {"model": "llava"}, {"prompt_version": "w"},
+        {"system_prompt": "q"}, {"description": "other"}, {"image_sha256": "b" * 64},
+        {"options": {"temperature": 0.5, "max_tokens": 300}}, {"options": {"temperature": 0.0, "max_tokens": 301}},
+    ]  # fmt: skip
+    keys = {cache_key({**request, **change}) for change in changed}
+    assert len(keys) == len(changed) and base not in keys
+
+
+def test_server_id_normalizes_and_drops_credentials() -> None:
+    assert server_id("HTTPS://API.OpenAI.com/v1/") == "https://api.openai.com/v1"
+    assert server_id("http://user:secret@127.0.0.1:8000/v1") == "http://127.0.0.1:8000/v1"
+    assert server_id("http://127.0.0.1:8000/v1") != server_id("http://127.0.0.1:8001/v1")
+
+
+def test_cache_write_is_atomic_and_cleans_up(tmp_path: Path) -> None:
+    write_entry(tmp_path, "k", {"estimate": {"mass_kg": 1.0}})
+    assert json.loads((tmp_path / "k.json").read_text()) == {"estimate": {"mass_kg": 1.0}}
+    (tmp_path / "d.json").mkdir()  # the rename onto a folder fails: logged, no temp file left
+    (tmp_path / "d.json" / "x").write_text("")
+    write_entry(tmp_path, "d", {"estimate": {}})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.json", "k.json"]
 
 
 def test_vlm_config_validation() -> None:
@@ -184,6 +208,11 @@ def test_vlm_config_validation() -> None:
         VLMConfig(timeout_s=0)
     with pytest.raises(InvalidInputError, match="max_retries"):
         VLMConfig(max_retries=-1)
+    with pytest.raises(InvalidInputError, match="max_tokens"):
+        VLMConfig(max_tokens=0)
+    with pytest.raises(InvalidInputError, match="temperature"):
+        VLMConfig(temperature=-0.1)
+    assert VLMConfig().request_options()["temperature"] == 0.0  # the authors' setting
     cfg = VLMConfig(backoff_base_s=0.5, backoff_max_s=3.0)
     assert [cfg.backoff(k) for k in range(4)] == [0.5, 1.0, 2.0, 3.0]
 

@@ -334,6 +334,42 @@ def test_corrupt_cache_entry_is_ignored(serve: Any, tmp_path: Path) -> None:
     assert json.loads(entry.read_text())["estimate"]["mass_kg"] == 3.1  # rewritten
 
 
+def answer(mass: float) -> Step:
+    return Step(content=json.dumps({**GOOD, "mass_kg": mass, "low_kg": mass * 0.9, "high_kg": mass * 1.1}))
+
+
+def test_two_servers_with_one_model_name_do_not_share_answers(serve: Any, tmp_path: Path) -> None:
+    first, second = serve(answer(1.234)), serve(answer(2.5))
+    cache = tmp_path / "cache"
+    assert VLMEstimator(config(first.url), cache_dir=cache).estimate("bottles", IMAGE).mass_kg == 1.234
+    from_second = VLMEstimator(config(second.url), cache_dir=cache).estimate("bottles", IMAGE)
+    assert from_second.mass_kg == 2.5 and not from_second.cached
+    assert len(first.requests) == 1 and len(second.requests) == 1  # each server was asked
+    again = VLMEstimator(config(first.url + "/"), cache_dir=cache).estimate("bottles", IMAGE)
+    assert again.cached and again.mass_kg == 1.234 and len(first.requests) == 1  # same server, same answer
+    entries = [json.loads(f.read_text()) for f in cache.glob("*.json")]
+    assert sorted(e["server"] for e in entries) == sorted([first.url, second.url])
+    assert all(e["options"]["temperature"] == 0 and e["image_sha256"] for e in entries)
+    assert not list(cache.glob(".tmp-*"))  # written through a temp file and a rename
+
+
+@pytest.mark.parametrize("change", [{"max_tokens": 512}, {"temperature": 0.7}, {"model": "other-model"}])
+def test_other_request_options_ask_again(serve: Any, tmp_path: Path, change: dict[str, Any]) -> None:
+    srv = serve(answer(1.0), answer(2.0))
+    VLMEstimator(config(srv.url), cache_dir=tmp_path).estimate("bottles", IMAGE)
+    result = VLMEstimator(config(srv.url, **change), cache_dir=tmp_path).estimate("bottles", IMAGE)
+    assert result.mass_kg == 2.0 and len(srv.requests) == 2
+    body = srv.requests[1]["body"]
+    assert all(body[k] == v for k, v in change.items())
+
+
+def test_cache_off_asks_every_time_and_writes_nothing(serve: Any, tmp_path: Path) -> None:
+    srv = serve(answer(1.0), answer(2.0))
+    est = VLMEstimator(config(srv.url, cache=False), cache_dir=tmp_path / "cache")
+    assert [est.estimate("bottles", IMAGE).mass_kg for _ in range(2)] == [1.0, 2.0]
+    assert len(srv.requests) == 2 and not (tmp_path / "cache").exists()
+
+
 def vlm_args(url: str, cache: Path) -> list[str]:
     return [
         "--vlm-base-url", url, "--model", "test-model", "--api-key-env", KEY_ENV,
@@ -390,3 +426,38 @@ def test_cli_bench_mass_against_server(
     out, err = capsys.readouterr()
     assert code == 0 and err == ""
     assert len(srv.requests) == 9
+
+
+def without_cache_dir(args: list[str]) -> list[str]:
+    i = args.index("--cache-dir")
+    return args[:i] + args[i + 2 :]
+
+
+def test_cli_no_cache_asks_the_server_again(
+    serve: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))  # where the default cache would go
+    srv = serve(answer(1.0), answer(2.0))
+    args = ["estimate-mass", "--image", str(IMAGE), "--description", "x", *vlm_args(srv.url, tmp_path / "c")]
+    assert main(args) == 0 and main(args) == 0
+    assert len(srv.requests) == 1  # the second run came from the cache
+    capsys.readouterr()
+    assert main([*without_cache_dir(args), "--no-cache"]) == 0
+    assert json.loads(capsys.readouterr().out)["mass_kg"] == 2.0
+    assert len(srv.requests) == 2 and not (tmp_path / "xdg").exists()
+    assert main([*args, "--no-cache"]) == 2
+    assert capsys.readouterr().err == "forte: error: --no-cache, --cache-dir: give one or the other\n"
+
+
+def test_cli_bench_mass_no_cache(
+    serve: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    srv = serve(Step())
+    args = ["bench-mass", str(EXAMPLE / "dataset.csv"), "--out", str(tmp_path / "out"), "--quiet"]
+    vlm = vlm_args(srv.url, tmp_path / "cache")
+    assert main([*args, *vlm]) == 0 and len(srv.requests) == 8
+    assert main([*args, *without_cache_dir(vlm), "--no-cache"]) == 0
+    assert len(srv.requests) == 16  # every item asked again
+    assert not (tmp_path / "xdg").exists()
+    capsys.readouterr()

@@ -49,6 +49,11 @@ def _add_vlm_options(p: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help=f"cache of VLM answers (default {default_cache_dir()})",
     )
+    g.add_argument(
+        "--no-cache",
+        action="store_true",
+        help="ask the server every time: neither read nor write the cache of VLM answers",
+    )
 
 
 def _vlm_config(args: argparse.Namespace) -> VLMConfig | None:
@@ -56,6 +61,8 @@ def _vlm_config(args: argparse.Namespace) -> VLMConfig | None:
         return None
     if args.retries < 0:
         raise InvalidInputError(f"--retries: expected >= 0, got {args.retries}")
+    if args.no_cache and args.cache_dir is not None:
+        raise InvalidInputError("--no-cache, --cache-dir: give one or the other")
     return VLMConfig(
         base_url=args.vlm_base_url,
         model=args.model,
@@ -63,6 +70,7 @@ def _vlm_config(args: argparse.Namespace) -> VLMConfig | None:
         timeout_s=args.timeout,
         max_retries=args.retries,
         backoff_base_s=args.backoff,
+        cache=not args.no_cache,
     )
 
 

@@ -23,7 +23,7 @@ from forte.exceptions import EstimationError, InvalidInputError
 from forte.force.estimate import MassEstimate
 from forte.force.images import ImageInput, data_url, image_bytes
 from forte.force.vlm_answer import DEFAULT_DESCRIPTION, PROMPT_VERSION, RESPONSE_FORMAT, SYSTEM_PROMPT, parse_answer
-from forte.force.vlm_cache import cache_key, read_entry, write_entry
+from forte.force.vlm_cache import cache_key, read_entry, server_id, write_entry
 
 log = logging.getLogger(__name__)
 
@@ -47,6 +47,9 @@ class VLMConfig:
         backoff_base_s, backoff_max_s: the wait before retry ``k`` (0-based) is
             ``min(backoff_max_s, backoff_base_s 2^k)``, or the server's ``Retry-After`` if longer.
         max_tokens: cap on the answer length (``None`` to leave it to the server).
+        temperature: sampling temperature; 0 as in the authors' setup, for repeatable answers.
+        cache: read and write the answer cache (when the estimator has a ``cache_dir``); False
+            asks the server every time and leaves the cache as it is.
     """
 
     base_url: str = "https://api.openai.com/v1"
@@ -57,6 +60,8 @@ class VLMConfig:
     backoff_base_s: float = 1.0
     backoff_max_s: float = 30.0
     max_tokens: int | None = 300
+    temperature: float = 0.0
+    cache: bool = True
 
     def __post_init__(self) -> None:
         url = urlparse(self.base_url)
@@ -72,10 +77,21 @@ class VLMConfig:
             raise InvalidInputError(f"max_retries: expected >= 0, got {self.max_retries!r}")
         if self.backoff_base_s < 0 or self.backoff_max_s < 0:
             raise InvalidInputError("backoff_base_s, backoff_max_s: expected >= 0 seconds")
+        if self.max_tokens is not None and self.max_tokens < 1:
+            raise InvalidInputError(f"max_tokens: expected >= 1 or None, got {self.max_tokens!r}")
+        if not (math.isfinite(self.temperature) and 0.0 <= self.temperature <= 2.0):
+            raise InvalidInputError(f"temperature: expected a number in [0, 2], got {self.temperature!r}")
 
     def backoff(self, attempt: int) -> float:
         """Seconds to wait before retry ``attempt`` (0-based): ``min(max, base 2^attempt)``."""
         return min(self.backoff_max_s, self.backoff_base_s * 2.0**attempt)
+
+    def request_options(self) -> dict[str, Any]:
+        """The chat-completions options besides model and messages: all of them shape the answer."""
+        options: dict[str, Any] = {"temperature": self.temperature, "response_format": RESPONSE_FORMAT}
+        if self.max_tokens is not None:
+            options["max_tokens"] = self.max_tokens
+        return options
 
 
 def _redact(text: str, secret: str | None) -> str:
@@ -86,11 +102,13 @@ def _redact(text: str, secret: str | None) -> str:
 class VLMEstimator:
     """Payload mass from an OpenAI-compatible vision chat model (the paper's ``Phi_VLM(I, D)``).
 
-    One request per (image, description, model): the image goes as a base64 data URL, the
-    answer is constrained by :data:`~forte.force.vlm_answer.RESPONSE_FORMAT` at temperature 0 and
-    validated with :func:`~forte.force.vlm_answer.parse_answer`. Valid answers are cached under
-    ``cache_dir``; invalid answers are neither retried nor cached. The client's own retries are
-    disabled so that the retry policy is the one of :class:`VLMConfig`.
+    The image goes as a base64 data URL, the answer is constrained by
+    :data:`~forte.force.vlm_answer.RESPONSE_FORMAT` (temperature 0 by default) and validated with
+    :func:`~forte.force.vlm_answer.parse_answer`. Valid answers are cached under ``cache_dir``
+    (unless ``config.cache`` is False), keyed by the server, the model, the prompt, the
+    description, the image and the request options (see :func:`~forte.force.vlm_cache.cache_key`);
+    invalid answers are neither retried nor cached. The client's own retries are disabled so that
+    the retry policy is the one of :class:`VLMConfig`.
     """
 
     config: VLMConfig
@@ -121,37 +139,45 @@ class VLMEstimator:
     def source(self) -> str:
         return f"{self.name}:{self.config.model}"
 
+    @property
+    def active_cache_dir(self) -> Path | None:
+        """Where answers are read and written, or None when caching is off."""
+        return Path(self.cache_dir) if self.cache_dir is not None and self.config.cache else None
+
     def estimate(self, description: str | None, image: ImageInput | None) -> MassEstimate:
         text = (description or "").strip() or DEFAULT_DESCRIPTION
         if image is None and not (description and description.strip()):
             raise InvalidInputError("give an image, a description or both")
         data, mime = image_bytes(image) if image is not None else (b"", "")
-        key = cache_key(hashlib.sha256(data).hexdigest(), text, self.config.model)
-        if self.cache_dir is not None and (cached := read_entry(self.cache_dir, key)) is not None:
+        request = self.request_identity(text, hashlib.sha256(data).hexdigest())
+        key = cache_key(request)
+        cache = self.active_cache_dir
+        if cache is not None and (cached := read_entry(cache, key)) is not None:
             return cached
         content: list[dict[str, Any]] = [{"type": "text", "text": f"Task description: {text}"}]
         if data:
             content.append({"type": "image_url", "image_url": {"url": data_url(data, mime)}})
         messages = [{"role": "system", "content": SYSTEM_PROMPT}, {"role": "user", "content": content}]
         estimate = parse_answer(self._request(messages), self.source)
-        if self.cache_dir is not None:
-            write_entry(self.cache_dir, key, self._cache_entry(estimate, text))
+        if cache is not None:
+            entry = {**request, "estimate": {k: v for k, v in estimate.to_dict().items() if k != "cached"}}
+            write_entry(cache, key, entry)
         return estimate
 
-    def _cache_entry(self, estimate: MassEstimate, description: str) -> dict[str, Any]:
-        # only public facts go to disk: never the key, nor the name of its variable's value
+    def request_identity(self, description: str, image_sha256: str) -> dict[str, Any]:
+        """Everything that shapes the answer, the cache key's input; public facts only (no API key)."""
         return {
-            "prompt_version": PROMPT_VERSION,
+            "server": server_id(self.config.base_url),
             "model": self.config.model,
+            "prompt_version": PROMPT_VERSION,
+            "system_prompt": SYSTEM_PROMPT,
             "description": description,
-            "estimate": {k: v for k, v in estimate.to_dict().items() if k != "cached"},
+            "image_sha256": image_sha256,
+            "options": self.config.request_options(),
         }
 
     def _request(self, messages: list[dict[str, Any]]) -> str | None:
         oa = self._openai
-        extra: dict[str, Any] = {}
-        if self.config.max_tokens is not None:
-            extra["max_tokens"] = self.config.max_tokens
         attempts = self.config.max_retries + 1
         last = ""
         for attempt in range(attempts):
@@ -159,9 +185,7 @@ class VLMEstimator:
                 response = self._client.chat.completions.create(
                     model=self.config.model,
                     messages=messages,  # type: ignore[arg-type]
-                    temperature=0,
-                    response_format=RESPONSE_FORMAT,  # type: ignore[arg-type]
-                    **extra,
+                    **self.config.request_options(),
                 )
             except (
                 oa.RateLimitError,

@@ -7,12 +7,13 @@ import json
 import logging
 import os
 import tempfile
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlparse
 
 from forte.exceptions import EstimationError
 from forte.force.estimate import MassEstimate
-from forte.force.vlm_answer import PROMPT_VERSION
 
 log = logging.getLogger(__name__)
 
@@ -23,9 +24,26 @@ def default_cache_dir() -> Path:
     return Path(base) / "forte" / "vlm"
 
 
-def cache_key(image_sha256: str, description: str, model: str) -> str:
-    """sha256 over the prompt version, the model, the description and the image's sha256."""
-    payload = json.dumps([PROMPT_VERSION, model, description, image_sha256], ensure_ascii=True)
+def server_id(base_url: str) -> str:
+    """The server a base URL names: scheme and host lower-cased, no credentials, no trailing slash.
+
+    ``https://API.openai.com/v1/`` and ``https://api.openai.com/v1`` are one server; a user name or
+    password in the URL is dropped so that it never reaches a cache file.
+    """
+    url = urlparse(base_url.strip())
+    host = (url.hostname or "").lower()
+    port = f":{url.port}" if url.port is not None else ""
+    return f"{url.scheme.lower()}://{host}{port}{url.path.rstrip('/')}"
+
+
+def cache_key(request: Mapping[str, Any]) -> str:
+    """sha256 of the canonical JSON (sorted keys, ASCII) of everything that shapes the answer.
+
+    ``request`` holds the server (:func:`server_id`), the model, the prompt version and text, the
+    task description, the image's sha256 and the request options (temperature, max_tokens,
+    response format): two servers, or one server asked differently, never share an entry.
+    """
+    payload = json.dumps(request, sort_keys=True, ensure_ascii=True, separators=(",", ":"))
     return hashlib.sha256(payload.encode("utf-8")).hexdigest()
 
 
