@@ -103,7 +103,9 @@ def test_mass_estimate_validation_and_dict() -> None:
     est = MassEstimate(2.0, 1.5, 2.5, "test", "why")
     assert est.to_dict() == {
         "mass_kg": 2.0, "low_kg": 1.5, "high_kg": 2.5, "source": "test", "rationale": "why", "cached": False,
+        "objects": [],
     }  # fmt: skip
+    assert MassEstimate.from_dict(est.to_dict()) == est
     assert est.half_width_kg == 0.5
     json.dumps(est.to_dict())
     with pytest.raises(EstimationError, match="low_kg <= mass_kg <= high_kg"):

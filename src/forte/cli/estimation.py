@@ -79,7 +79,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "estimate-mass",
         help="estimate the payload mass from an image and a task description (JSON)",
         description="Estimate the mass the end effector will carry (paper, Section 4.1) and print it "
-        "as JSON with its interval, source and the force-ball radius at rest.",
+        "as JSON: the total, its interval, the objects it is made of (VLM), the source, and the "
+        "force-ball radius at rest by the opt-in rule r = max(r_min, 9.81 (high - low) / 2) (the "
+        "planner keeps the paper's fixed 10 N).",
     )
     p.add_argument("--image", type=Path, metavar="IMG", help="RGB image (PNG, JPEG, WebP)")
     p.add_argument("--description", metavar="TEXT", help="task description, e.g. 'carry two 1.5 L bottles'")
@@ -89,7 +91,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=float,
         default=DEFAULT_R_MIN,
         metavar="N",
-        help="floor of the force-ball radius (default 10 N, the paper's)",
+        help="floor of the opt-in radius rule (default 10 N, the paper's fixed radius)",
     )
     _add_vlm_options(p)
     p.set_defaults(func=run_estimate_mass)
@@ -117,7 +119,7 @@ def run_estimate_mass(args: argparse.Namespace) -> int:
     vlm = _vlm_config(args)
     cache = args.cache_dir if args.cache_dir is not None else (default_cache_dir() if vlm else None)
     estimate = estimate_payload(args.description, args.image, mass=args.mass, vlm=vlm, cache_dir=cache)
-    # at rest |a - g| = 9.81 m/s^2: the radius the planner would use for a static hold
+    # at rest |a - g| = 9.81 m/s^2; informative only: the planner keeps r = 10 N unless told otherwise
     radius = float(radius_from_estimate([[0.0, 0.0, 0.0]], estimate, args.r_min)[0])
     print(json.dumps({**estimate.to_dict(), "radius_at_rest_n": radius}, indent=2))
     return 0

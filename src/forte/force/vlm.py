@@ -46,7 +46,8 @@ class VLMConfig:
             errors; other failures are not retried.
         backoff_base_s, backoff_max_s: the wait before retry ``k`` (0-based) is
             ``min(backoff_max_s, backoff_base_s 2^k)``, or the server's ``Retry-After`` if longer.
-        max_tokens: cap on the answer length (``None`` to leave it to the server).
+        max_tokens: cap on the answer length (``None`` to leave it to the server); a basket of
+            objects takes a few hundred tokens.
         temperature: sampling temperature; 0 as in the authors' setup, for repeatable answers.
         cache: read and write the answer cache (when the estimator has a ``cache_dir``); False
             asks the server every time and leaves the cache as it is.
@@ -59,7 +60,7 @@ class VLMConfig:
     max_retries: int = 3
     backoff_base_s: float = 1.0
     backoff_max_s: float = 30.0
-    max_tokens: int | None = 300
+    max_tokens: int | None = 1024
     temperature: float = 0.0
     cache: bool = True
 

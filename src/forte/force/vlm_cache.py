@@ -54,11 +54,7 @@ def read_entry(cache_dir: Path, key: str) -> MassEstimate | None:
         return None
     try:
         entry = json.loads(path.read_text(encoding="utf-8"))
-        est = entry["estimate"]
-        result = MassEstimate(
-            float(est["mass_kg"]), float(est["low_kg"]), float(est["high_kg"]),
-            str(est["source"]), str(est.get("rationale", "")), cached=True,
-        )  # fmt: skip
+        result = MassEstimate.from_dict(entry["estimate"], cached=True)
     except (OSError, ValueError, KeyError, TypeError, EstimationError) as exc:
         log.warning("ignoring unreadable cache entry %s (%s)", path, exc)
         return None
