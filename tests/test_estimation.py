@@ -15,7 +15,7 @@ from forte.exceptions import EstimationError, InvalidInputError
 from forte.force.estimate import MassEstimate, MassEstimator, estimate_payload, radius_from_estimate
 from forte.force.images import data_url, image_bytes
 from forte.force.offline import OfflineEstimator
-from forte.force.quantities import parse_quantities
+from forte.force.quantities import parse_quantities, states_mass
 from forte.force.vlm import VLMConfig
 from forte.force.vlm_answer import parse_answer
 from forte.force.vlm_cache import cache_key, server_id, write_entry
@@ -47,8 +47,9 @@ def test_offline_table(description: str, mass: float) -> None:
     est = OfflineEstimator().estimate(description, None)
     assert est.mass_kg == pytest.approx(mass, rel=1e-9)
     assert est.low_kg < est.mass_kg < est.high_kg
-    assert est.source == "offline:quantity-table-v1"
+    assert est.source == "offline:quantity-table-v2"  # v2: object classes added
     assert est.rationale
+    assert est.objects and sum(o.mass_kg for o in est.objects) == pytest.approx(est.mass_kg)
 
 
 def test_offline_intervals() -> None:
@@ -74,6 +75,39 @@ def test_offline_unnamed_bottle_contents_taken_as_beverage() -> None:
 def test_offline_refuses_without_a_quantity(description: str) -> None:
     with pytest.raises(EstimationError, match="--mass"):
         OfflineEstimator().estimate(description, None)
+
+
+# description, expected mass (kg) from the typical masses of ITEM_CLASSES
+OBJECT_CASES = [
+    ("Carry the four apples.", 4 * 0.18),
+    ("Lift the dumbbell from the rack.", 5.0),
+    ("Bring the bag of rice to the table.", 1.0),
+    ("a dozen eggs", 12 * 0.06),
+    ("3 red apples and two 1.5 L bottles of water", 3 * 0.18 + 2 * 1.5 * 1.0 * 1.025),
+    ("a 500 g book and a laptop", 0.5 + 1.8),  # the stated book is not counted twice
+]
+
+
+@pytest.mark.parametrize(("description", "mass"), OBJECT_CASES)
+def test_offline_object_classes(description: str, mass: float) -> None:
+    est = OfflineEstimator().estimate(description, None)
+    assert est.mass_kg == pytest.approx(mass, rel=1e-9)
+    assert est.low_kg < est.mass_kg < est.high_kg
+
+
+def test_offline_plural_without_a_count_is_not_guessed() -> None:
+    with pytest.raises(EstimationError, match="no mass or volume stated, and no known object named"):
+        OfflineEstimator().estimate("carry apples", None)
+
+
+def test_offline_can_ignore_stated_masses() -> None:
+    honest = OfflineEstimator(stated_masses=False)
+    assert honest.estimate("Lift a 2 kg dumbbell", None).mass_kg == 5.0  # the class, not the stated 2 kg
+    assert honest.estimate("two 1.5 L bottles", None).mass_kg == pytest.approx(3 * 1.02 * 1.025)
+    with pytest.raises(EstimationError, match=r"looked for mL, L"):
+        honest.estimate("Bring 500 g of flour", None)
+    assert states_mass("Bring 500 g of flour") and states_mass("a 2.5 lb bag") and states_mass("1 KG")
+    assert not states_mass("two 1.5 L bottles") and not states_mass("move it 2 m to the left")
 
 
 def test_offline_refuses_implausible_total() -> None:

@@ -1,8 +1,12 @@
-"""Quantities stated in a task description ("two 1.5 L bottles", "a 2 kg dumbbell") as masses.
+"""What a task description says about the payload's mass, read with small documented tables.
 
-A stated mass is taken as it is; a stated volume becomes contents times density plus packaging,
-from the small documented tables below (:data:`DENSITIES`, :data:`CONTAINERS`). Every quantity
-carries an interval that states its uncertainty; see :func:`parse_quantities` for the rules.
+* stated quantities ("two 1.5 L bottles", "a 2 kg dumbbell"): a stated mass is taken as it is, a
+  stated volume becomes contents times density plus packaging (:data:`DENSITIES`,
+  :data:`CONTAINERS`), see :func:`parse_quantities`;
+* named objects of a known class with their count ("four apples", "the dumbbell"): a typical
+  mass per item from :data:`ITEM_CLASSES`, see :func:`parse_items`.
+
+Every result carries an interval that states its uncertainty.
 """
 
 from __future__ import annotations
@@ -120,9 +124,15 @@ class Quantity:
     low_kg: float
     high_kg: float
     explanation: str
+    span: tuple[int, int] = (0, 0)  # characters of the description that describe it
 
 
-def parse_quantities(description: str) -> list[Quantity]:
+def states_mass(description: str) -> bool:
+    """True when ``description`` states a mass (g, kg, lb, oz ...), which would give the answer away."""
+    return any(re.sub(r"\s+", " ", m["unit"]) in MASS_UNITS for m in _QUANTITY.finditer(description.lower()))
+
+
+def parse_quantities(description: str, stated_masses: bool = True) -> list[Quantity]:
     """Every mass or volume stated in ``description`` converted to a mass interval.
 
     * stated mass ``m`` (g, kg, lb, oz): ``[m (1 - 0.05), m (1 + 0.05)]``;
@@ -132,14 +142,18 @@ def parse_quantities(description: str) -> list[Quantity]:
       container ``c V rho`` from :data:`CONTAINERS`, i.e. ``m = V rho (1 + c)`` with
       ``low = V rho_low (1 + c_low)`` and ``high = V rho_high (1 + c_high)``;
     * a count before the quantity ("two", "3 x", "a six-pack of") multiplies everything;
-    * a hedge before it ("about 2 kg") widens the interval to at least +-20 %.
+    * a hedge before it ("about 2 kg") widens the interval to at least +-20 %;
+    * with ``stated_masses=False`` stated masses are skipped as if absent (a benchmark whose
+      descriptions state the answer would otherwise score the reading of it).
     """
     text = description.lower()
-    matches = list(_QUANTITY.finditer(text))
+    matches = [
+        m for m in _QUANTITY.finditer(text) if stated_masses or re.sub(r"\s+", " ", m["unit"]) not in MASS_UNITS
+    ]
     out: list[Quantity] = []
     for i, match in enumerate(matches):
         count = _count(match)
-        if count <= 0:
+        if count <= 0 or float(match["num"]) <= 0:
             continue
         # the words describing this quantity: up to the next quantity or the end of the clause
         stop = matches[i + 1].start() if i + 1 < len(matches) else len(text)
@@ -153,7 +167,8 @@ def parse_quantities(description: str) -> list[Quantity]:
         else:
             m, low, high, why = _stated_volume(value, unit, context, text, hedged)
         prefix = f"{count} x " if count > 1 else ""
-        out.append(Quantity(match.group(0).strip(), count, count * m, count * low, count * high, prefix + why))
+        span = (match.start(), match.end() + len(context))
+        out.append(Quantity(match.group(0).strip(), count, count * m, count * low, count * high, prefix + why, span))
     return out
 
 
@@ -190,3 +205,75 @@ def _stated_volume(
     what = dens.keywords[0] if dens.keywords else "contents of unknown density"
     box = f"{cont.keywords[0]} +{cont.fraction:.1%}" if cont.keywords else f"container +{cont.fraction:.0%}"
     return m, low, high, f"{value:g} {unit} {what} ({dens.kg_per_l:g} kg/L), {box}"
+
+
+@dataclass(frozen=True)
+class ItemClass:
+    """Typical mass of one item of a class (kg), with the range of common sizes as uncertainty."""
+
+    singular: tuple[str, ...]
+    plural: tuple[str, ...]
+    kg: float
+    low: float
+    high: float
+
+
+#: Typical retail items; only classes whose name pins the mass to a factor of a few. Bottles,
+#: cans and boxes are left out: without a stated volume their mass spans orders of magnitude.
+ITEM_CLASSES: tuple[ItemClass, ...] = (
+    ItemClass(("apple",), ("apples",), 0.18, 0.10, 0.30),
+    ItemClass(("orange",), ("oranges",), 0.15, 0.10, 0.25),
+    ItemClass(("banana",), ("bananas",), 0.12, 0.08, 0.20),
+    ItemClass(("egg",), ("eggs",), 0.06, 0.045, 0.075),
+    ItemClass(("book",), ("books",), 0.5, 0.15, 1.5),
+    ItemClass(("laptop",), ("laptops",), 1.8, 1.0, 3.0),
+    ItemClass(("mug",), ("mugs",), 0.3, 0.2, 0.5),
+    ItemClass(("smartphone", "phone"), ("smartphones", "phones"), 0.19, 0.13, 0.25),
+    ItemClass(("brick",), ("bricks",), 2.5, 1.8, 3.5),
+    ItemClass(("dumbbell",), ("dumbbells",), 5.0, 1.0, 20.0),
+    ItemClass(("bag of rice", "rice bag"), ("bags of rice", "rice bags"), 1.0, 0.5, 5.0),
+    ItemClass(("bag of flour", "flour bag"), ("bags of flour", "flour bags"), 1.0, 0.5, 2.5),
+    ItemClass(("bag of sugar", "sugar bag"), ("bags of sugar", "sugar bags"), 1.0, 0.5, 2.0),
+)
+
+#: A count right before a noun, up to two words in between ("four red apples", "3 small books").
+_COUNT_BEFORE = re.compile(rf"(?:(?<![\d.])(?P<num>\d+)|\b(?P<word>{_COUNT_ALT}))\s+(?:[\w.-]+\s+){{0,2}}$")
+
+
+def parse_items(description: str, exclude: list[tuple[int, int]] | None = None) -> list[Quantity]:
+    """Every named object of a class in :data:`ITEM_CLASSES`, with its count, as a mass interval.
+
+    ``n`` items of a class weigh ``n kg`` within ``[n low, n high]``. The count is the number or
+    count word up to two words before the name ("four red apples", "3 x" is a stated quantity);
+    a singular name without a count is one item; a plural name without a count is skipped (it
+    says nothing about how many). Names inside ``exclude`` (the spans of stated quantities,
+    "a 500 g book") are skipped so that nothing is counted twice.
+    """
+    text = description.lower()
+    taken = list(exclude or [])
+    out: list[Quantity] = []
+    for cls in ITEM_CLASSES:
+        names = [(n, False) for n in cls.singular] + [(n, True) for n in cls.plural]
+        for name, plural in sorted(names, key=lambda x: -len(x[0])):  # "bags of rice" before "bag of rice"
+            for match in re.finditer(rf"(?<![a-z]){re.escape(name)}(?![a-z])", text):
+                if any(a < match.end() and match.start() < b for a, b in taken):
+                    continue
+                count = _count_before(text[max(0, match.start() - 40) : match.start()])
+                if count is None and plural:
+                    continue
+                n = count or 1
+                taken.append(match.span())
+                why = f"{n} x {cls.singular[0]}" if n > 1 else cls.singular[0]
+                why += f" (typical {cls.kg:g} kg, {cls.low:g}-{cls.high:g} kg each)"
+                out.append(Quantity(match.group(0), n, n * cls.kg, n * cls.low, n * cls.high, why, match.span()))
+    return sorted(out, key=lambda q: q.span)
+
+
+def _count_before(window: str) -> int | None:
+    """The count that ends ``window`` (the text before a name), or None."""
+    match = _COUNT_BEFORE.search(window)
+    if match is None:
+        return None
+    if match["num"]:
+        return int(match["num"])
+    return COUNT_WORDS[re.sub(r"\s+", " ", match["word"])]
