@@ -12,19 +12,13 @@ import pytest
 
 from forte.cli.main import main
 from forte.exceptions import EstimationError, InvalidInputError
-from forte.force.estimation import (
-    MassEstimate,
-    MassEstimator,
-    OfflineEstimator,
-    VLMConfig,
-    cache_key,
-    data_url,
-    estimate_payload,
-    image_bytes,
-    parse_answer,
-    parse_quantities,
-    radius_from_estimate,
-)
+from forte.force.estimate import MassEstimate, MassEstimator, estimate_payload, radius_from_estimate
+from forte.force.images import data_url, image_bytes
+from forte.force.offline import OfflineEstimator
+from forte.force.quantities import parse_quantities, states_mass
+from forte.force.vlm import VLMConfig
+from forte.force.vlm_answer import parse_answer
+from forte.force.vlm_cache import cache_key, server_id, write_entry
 
 IMAGE = Path(__file__).resolve().parents[1] / "examples" / "massbench" / "images" / "dumbbell.png"
 
@@ -53,8 +47,9 @@ def test_offline_table(description: str, mass: float) -> None:
     est = OfflineEstimator().estimate(description, None)
     assert est.mass_kg == pytest.approx(mass, rel=1e-9)
     assert est.low_kg < est.mass_kg < est.high_kg
-    assert est.source == "offline:quantity-table-v1"
+    assert est.source == "offline:quantity-table-v2"  # v2: object classes added
     assert est.rationale
+    assert est.objects and sum(o.mass_kg for o in est.objects) == pytest.approx(est.mass_kg)
 
 
 def test_offline_intervals() -> None:
@@ -80,6 +75,39 @@ def test_offline_unnamed_bottle_contents_taken_as_beverage() -> None:
 def test_offline_refuses_without_a_quantity(description: str) -> None:
     with pytest.raises(EstimationError, match="--mass"):
         OfflineEstimator().estimate(description, None)
+
+
+# description, expected mass (kg) from the typical masses of ITEM_CLASSES
+OBJECT_CASES = [
+    ("Carry the four apples.", 4 * 0.18),
+    ("Lift the dumbbell from the rack.", 5.0),
+    ("Bring the bag of rice to the table.", 1.0),
+    ("a dozen eggs", 12 * 0.06),
+    ("3 red apples and two 1.5 L bottles of water", 3 * 0.18 + 2 * 1.5 * 1.0 * 1.025),
+    ("a 500 g book and a laptop", 0.5 + 1.8),  # the stated book is not counted twice
+]
+
+
+@pytest.mark.parametrize(("description", "mass"), OBJECT_CASES)
+def test_offline_object_classes(description: str, mass: float) -> None:
+    est = OfflineEstimator().estimate(description, None)
+    assert est.mass_kg == pytest.approx(mass, rel=1e-9)
+    assert est.low_kg < est.mass_kg < est.high_kg
+
+
+def test_offline_plural_without_a_count_is_not_guessed() -> None:
+    with pytest.raises(EstimationError, match="no mass or volume stated, and no known object named"):
+        OfflineEstimator().estimate("carry apples", None)
+
+
+def test_offline_can_ignore_stated_masses() -> None:
+    honest = OfflineEstimator(stated_masses=False)
+    assert honest.estimate("Lift a 2 kg dumbbell", None).mass_kg == 5.0  # the class, not the stated 2 kg
+    assert honest.estimate("two 1.5 L bottles", None).mass_kg == pytest.approx(3 * 1.02 * 1.025)
+    with pytest.raises(EstimationError, match=r"looked for mL, L"):
+        honest.estimate("Bring 500 g of flour", None)
+    assert states_mass("Bring 500 g of flour") and states_mass("a 2.5 lb bag") and states_mass("1 KG")
+    assert not states_mass("two 1.5 L bottles") and not states_mass("move it 2 m to the left")
 
 
 def test_offline_refuses_implausible_total() -> None:
@@ -109,7 +137,9 @@ def test_mass_estimate_validation_and_dict() -> None:
     est = MassEstimate(2.0, 1.5, 2.5, "test", "why")
     assert est.to_dict() == {
         "mass_kg": 2.0, "low_kg": 1.5, "high_kg": 2.5, "source": "test", "rationale": "why", "cached": False,
+        "objects": [],
     }  # fmt: skip
+    assert MassEstimate.from_dict(est.to_dict()) == est
     assert est.half_width_kg == 0.5
     json.dumps(est.to_dict())
     with pytest.raises(EstimationError, match="low_kg <= mass_kg <= high_kg"):
@@ -177,10 +207,34 @@ def test_parse_answer() -> None:
 
 
 def test_cache_key_depends_on_every_input() -> None:
-    base = cache_key("a" * 64, "desc", "gpt-4o")
-    assert base == cache_key("a" * 64, "desc", "gpt-4o")
-    assert len({base, cache_key("b" * 64, "desc", "gpt-4o"), cache_key("a" * 64, "other", "gpt-4o"),
-                cache_key("a" * 64, "desc", "llava")}) == 4  # fmt: skip
+    request = {
+        "server": "http://127.0.0.1:8000/v1", "model": "gpt-4o", "prompt_version": "v", "system_prompt": "p",
+        "description": "desc", "image_sha256": "a" * 64, "options": {"temperature": 0.0, "max_tokens": 300},
+    }  # fmt: skip
+    base = cache_key(request)
+    assert base == cache_key(dict(reversed(list(request.items()))))  # key order does not matter
+    changed = [
+        {"server": "http://127.0.0.1:8001/v1"}, {"model": "llava"}, {"prompt_version": "w"},
+        {"system_prompt": "q"}, {"description": "other"}, {"image_sha256": "b" * 64},
+        {"options": {"temperature": 0.5, "max_tokens": 300}}, {"options": {"temperature": 0.0, "max_tokens": 301}},
+    ]  # fmt: skip
+    keys = {cache_key({**request, **change}) for change in changed}
+    assert len(keys) == len(changed) and base not in keys
+
+
+def test_server_id_normalizes_and_drops_credentials() -> None:
+    assert server_id("HTTPS://API.OpenAI.com/v1/") == "https://api.openai.com/v1"
+    assert server_id("http://user:secret@127.0.0.1:8000/v1") == "http://127.0.0.1:8000/v1"
+    assert server_id("http://127.0.0.1:8000/v1") != server_id("http://127.0.0.1:8001/v1")
+
+
+def test_cache_write_is_atomic_and_cleans_up(tmp_path: Path) -> None:
+    write_entry(tmp_path, "k", {"estimate": {"mass_kg": 1.0}})
+    assert json.loads((tmp_path / "k.json").read_text()) == {"estimate": {"mass_kg": 1.0}}
+    (tmp_path / "d.json").mkdir()  # the rename onto a folder fails: logged, no temp file left
+    (tmp_path / "d.json" / "x").write_text("")
+    write_entry(tmp_path, "d", {"estimate": {}})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.json", "k.json"]
 
 
 def test_vlm_config_validation() -> None:
@@ -190,6 +244,11 @@ def test_vlm_config_validation() -> None:
         VLMConfig(timeout_s=0)
     with pytest.raises(InvalidInputError, match="max_retries"):
         VLMConfig(max_retries=-1)
+    with pytest.raises(InvalidInputError, match="max_tokens"):
+        VLMConfig(max_tokens=0)
+    with pytest.raises(InvalidInputError, match="temperature"):
+        VLMConfig(temperature=-0.1)
+    assert VLMConfig().request_options()["temperature"] == 0.0  # the authors' setting
     cfg = VLMConfig(backoff_base_s=0.5, backoff_max_s=3.0)
     assert [cfg.backoff(k) for k in range(4)] == [0.5, 1.0, 2.0, 3.0]
 

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import csv
+import importlib.util
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +14,8 @@ import pytest
 
 from forte.cli.main import main
 from forte.exceptions import EstimationError, InvalidInputError
-from forte.force.estimation import ImageInput, MassEstimate
+from forte.force.estimate import MassEstimate
+from forte.force.images import ImageInput
 from forte.force.massbench import (
     PAPER_ROWS,
     BenchItem,
@@ -27,6 +30,7 @@ from forte.force.massbench import (
     summarize_results,
     within_factor_two,
 )
+from forte.force.quantities import states_mass
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "massbench"
 LN2 = math.log(2.0)
@@ -149,22 +153,25 @@ def test_cli_bench_mass_offline_on_example(tmp_path: Path, capsys: pytest.Captur
     assert "8/8 estimated, 0 failed" in stdout and "[8/8]" in stderr
     summary = json.loads((out / "summary.json").read_text())
     assert summary["n_ok"] == 8
+    assert summary["estimator"] == "offline (quantity-table-v2, stated masses ignored)"
+    assert summary["stated_mass_rows"] == []
     m = summary["metrics"]
-    assert m["q"][0] == 1.0 and m["mALDE"][0] < 0.1 and m["r2_ls"][0] > 0.95
+    assert m["q"][0] == 7 / 8  # the dumbbell's typical 5 kg is 2.5 times its true 2 kg
     table = (out / "results.md").read_text()
     assert "Image2Mass (multi-view) | 0.437 | 0.637 | 0.701 | 0.693 | 0.786" in table
-    assert "not distributed" in table
+    assert "not distributed" in table and "not comparable" in stdout
     with (out / "items.csv").open() as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == 8 and all(r["error"] == "" for r in rows)
-    assert float(rows[2]["mass_kg"]) == 2.0 and float(rows[2]["alde"]) == 0.0  # the 2 kg dumbbell
+    # the dumbbell's description names the object only: its estimate is the class's typical mass
+    assert rows[2]["description"] == "Lift the dumbbell from the rack." and float(rows[2]["mass_kg"]) == 5.0
 
 
 def test_cli_bench_mass_reports_failures(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     data = tmp_path / "data.csv"
     image = (EXAMPLE / "images" / "dumbbell.png").as_posix()
     data.write_text(
-        f"image,description,mass_kg\n{image},a 2 kg dumbbell,2\n{image},a dumbbell,2\nnone.png,a 1 kg box,1\n"
+        f"image,description,mass_kg\n{image},a 2 kg dumbbell,2\n{image},a heavy box,2\nnone.png,a 1 kg box,1\n"
     )
     code = main(["bench-mass", str(data), "--out", str(tmp_path / "o"), "--quiet"])
     stdout, stderr = capsys.readouterr()
@@ -173,5 +180,40 @@ def test_cli_bench_mass_reports_failures(tmp_path: Path, capsys: pytest.CaptureF
     with (tmp_path / "o" / "items.csv").open() as fh:
         errors = [r["error"] for r in csv.DictReader(fh)]
     assert errors[0] == "" and "no mass or volume stated" in errors[1] and "image not found" in errors[2]
+    with (tmp_path / "o" / "items.csv").open() as fh:
+        assert float(next(csv.DictReader(fh))["mass_kg"]) == 5.0  # the stated 2 kg was not read
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["stated_mass_rows"] == [2, 4]
+    table = (tmp_path / "o" / "results.md").read_text()
+    assert "Warning: 2 of 3 descriptions state a mass (rows 2, 4)" in table
     assert main(["bench-mass", str(tmp_path / "nope.csv"), "--out", str(tmp_path / "o")]) == 2
     assert main(["bench-mass", str(data), "--workers", "0"]) == 2
+
+
+# any number followed by a mass unit, written independently of forte's own unit table
+MASS_IN_TEXT = re.compile(r"\d\s*(mg|g|gr|grams?|kg|kgs|kilos?|kilograms?|lbs?|pounds?|oz|ounces?)\b", re.IGNORECASE)
+
+
+def test_shipped_descriptions_do_not_state_the_mass() -> None:
+    items = load_dataset(EXAMPLE / "dataset.csv")
+    for item in items:
+        assert not MASS_IN_TEXT.search(item.description), item.description
+        assert not states_mass(item.description), item.description
+    # the generator writes the same descriptions
+    spec = importlib.util.spec_from_file_location("make_dataset", EXAMPLE / "make_dataset.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert [(f"images/{name}", desc, mass) for name, _, desc, mass in module.ITEMS] == [
+        (f"images/{item.image.name}", item.description, item.true_mass_kg) for item in items
+    ]
+
+
+def test_table_says_the_paper_rows_are_not_comparable() -> None:
+    results = run_benchmark([BenchItem(2, EXAMPLE / "images" / "cola_can.png", "ok", 1.0)], Scripted(), progress=None)
+    table = markdown_table(summarize_results(results), "ours", "x.csv")
+    assert "another data set" in table and "another estimator" in table and "not comparable" in table
+    assert "Image2Mass Household test set (56 items / 423 images)" in table and "GPT-4o" in table
+    assert "**" not in table  # nothing in bold, our row least of all
+    ours = table.index("| ours |")
+    assert all(table.index(f"| {name} |") > table.index("Reported in the paper") > ours for name in PAPER_ROWS)

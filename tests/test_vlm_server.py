@@ -23,12 +23,14 @@ import pytest
 
 from forte.cli.main import main
 from forte.exceptions import EstimationError
-from forte.force.estimation import PROMPT_VERSION, VLMConfig, VLMEstimator
+from forte.force.vlm import VLMConfig, VLMEstimator
+from forte.force.vlm_answer import PROMPT_VERSION
 
 FAKE_KEY = "sk-forte-FAKE-KEY-must-never-leak-8c1f2e"
 KEY_ENV = "FORTE_TEST_VLM_KEY"
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "massbench"
 IMAGE = EXAMPLE / "images" / "two_bottles.png"
+# the single-object answer of prompt v1, still accepted
 GOOD = {
     "object": "two water bottles",
     "mass_kg": 3.1,
@@ -38,12 +40,21 @@ GOOD = {
 }
 
 
+def bottle(mass: float = 1.55, low: float = 1.45, high: float = 1.65, **kw: Any) -> dict[str, Any]:
+    return {"description": "1.5 L water bottle", "material": "PET and water", "mass_kg": mass,
+            "mass_kg_range": [low, high], "confidence": "high", "occluded": False, **kw}  # fmt: skip
+
+
+# the answer of prompt v2: one entry per object, the total is summed by forte
+OBJECTS = {"objects": [bottle(), bottle(occluded=True)], "reasoning": "two water bottles in the basket"}
+
+
 @dataclass
 class Step:
     """One scripted reply: HTTP status, assistant content (or a raw body), delay before replying."""
 
     status: int = 200
-    content: str | None = json.dumps(GOOD)
+    content: str | None = json.dumps(OBJECTS)
     delay: float = 0.0
     headers: dict[str, str] = field(default_factory=dict)
     body: dict[str, Any] | None = None
@@ -176,7 +187,8 @@ def test_good_answer_request_shape_and_cache(serve: Any, tmp_path: Path) -> None
     result = est.estimate("Carry two 1.5 L bottles.", IMAGE)
     assert (result.mass_kg, result.low_kg, result.high_kg) == (3.1, 2.9, 3.3)
     assert result.source == "vlm:test-model" and not result.cached
-    assert "two water bottles" in result.rationale
+    assert "two water bottles" in result.rationale and "occluded" in result.rationale
+    assert len(result.objects) == 2 and result.objects[1].occluded
 
     (req,) = srv.requests
     assert req["path"] == "/v1/chat/completions"
@@ -185,7 +197,9 @@ def test_good_answer_request_shape_and_cache(serve: Any, tmp_path: Path) -> None
     assert body["model"] == "test-model" and body["temperature"] == 0
     assert body["response_format"]["type"] == "json_schema"
     schema = body["response_format"]["json_schema"]["schema"]
-    assert set(schema["required"]) >= {"mass_kg", "low_kg", "high_kg"}
+    assert set(schema["required"]) == {"objects", "reasoning"}  # no total: forte sums the objects
+    item = schema["properties"]["objects"]["items"]
+    assert set(item["required"]) == {"description", "material", "mass_kg", "mass_kg_range", "confidence", "occluded"}
     user = body["messages"][-1]["content"]
     url = next(part["image_url"]["url"] for part in user if part["type"] == "image_url")
     prefix = "data:image/png;base64,"
@@ -198,11 +212,12 @@ def test_good_answer_request_shape_and_cache(serve: Any, tmp_path: Path) -> None
     assert len(files) == 1
     entry = json.loads(files[0].read_text())
     assert entry["prompt_version"] == PROMPT_VERSION and entry["estimate"]["mass_kg"] == 3.1
+    assert len(entry["estimate"]["objects"]) == 2
 
     again = VLMEstimator(config(srv.url), cache_dir=tmp_path / "cache").estimate(
         "Carry two 1.5 L bottles.", IMAGE
     )
-    assert again.cached and again.mass_kg == 3.1
+    assert again.cached and again.mass_kg == 3.1 and again.objects == result.objects
     assert len(srv.requests) == 1  # the rerun cost nothing
     VLMEstimator(config(srv.url), cache_dir=tmp_path / "cache").estimate("Carry three 1.5 L bottles.", IMAGE)
     assert len(srv.requests) == 2  # another description is another key
@@ -244,6 +259,55 @@ def test_invalid_answers(serve: Any, tmp_path: Path, answer: Any, message: str) 
         VLMEstimator(config(srv.url), cache_dir=tmp_path / "c").estimate("bottles", IMAGE)
     assert len(srv.requests) == 1
     assert not list(tmp_path.rglob("*.json"))
+
+
+def test_objects_are_summed_in_code_occluded_ones_included(serve: Any, tmp_path: Path) -> None:
+    can = {**bottle(0.35, 0.33, 0.37), "description": "330 mL can of cola", "confidence": "Medium"}
+    hidden = {**bottle(1.2, 0.8, 2.0), "description": "milk carton under the can", "occluded": True}
+    # a total from the model (servers that ignore the schema may add one) is not trusted
+    content = {"objects": [bottle(), can, hidden], "reasoning": "basket", "total_mass_kg": 99.0}
+    srv = serve(Step(content=json.dumps(content)))
+    result = VLMEstimator(config(srv.url), cache_dir=tmp_path).estimate("carry the basket", IMAGE)
+    assert result.mass_kg == pytest.approx(1.55 + 0.35 + 1.2, abs=1e-12)
+    assert result.total_kg == result.mass_kg
+    # the range is the sum of the objects' ranges
+    assert result.range_kg == pytest.approx((1.45 + 0.33 + 0.8, 1.65 + 0.37 + 2.0), abs=1e-12)
+    assert [o.occluded for o in result.objects] == [False, False, True]
+    assert result.objects[1].confidence == "medium"
+    assert "milk carton under the can (1.2 kg, occluded)" in result.rationale
+
+
+def test_single_object_answer_still_accepted(serve: Any) -> None:
+    srv = serve(Step(content=json.dumps(GOOD)))
+    result = VLMEstimator(config(srv.url)).estimate("bottles", IMAGE)
+    assert (result.mass_kg, result.low_kg, result.high_kg) == (3.1, 2.9, 3.3)
+    assert [o.description for o in result.objects] == ["two water bottles"]
+
+
+@pytest.mark.parametrize(
+    ("objects", "message"),
+    [
+        ([], r"objects: expected a non-empty list of objects, got \[\]"),
+        ("two bottles", "objects: expected a non-empty list"),
+        ([bottle(), 3.1], r"objects\[1\]: expected an object, got 3.1"),
+        ([{k: v for k, v in bottle().items() if k != "occluded"}], r"objects\[0\]: field 'occluded' is missing"),
+        ([bottle(mass="1.5")], r"objects\[0\].mass_kg must be a number"),
+        ([bottle(mass=-1.0, low=-2.0)], r"objects\[0\].mass_kg must be positive"),
+        ([bottle(), {**bottle(), "mass_kg_range": [1.4]}], r"objects\[1\].mass_kg_range must be \[low, high\]"),
+        ([bottle(high=1.5)], r"objects\[0\]: expected mass_kg_range\[0\] <= mass_kg <= mass_kg_range\[1\]"),
+        ([{**bottle(), "confidence": "certain"}], r"objects\[0\].confidence must be low, medium or high"),
+        ([{**bottle(), "occluded": "no"}], r"objects\[0\].occluded must be true or false"),
+        ([{**bottle(), "description": None}], r"objects\[0\].description must be a string"),
+        ([bottle(400.0, 300.0, 500.0), bottle(400.0, 300.0, 500.0)], "add up to 800 kg, outside the plausible"),
+    ],
+)
+def test_malformed_objects_are_rejected(serve: Any, tmp_path: Path, objects: Any, message: str) -> None:
+    srv = serve(Step(content=json.dumps({"objects": objects, "reasoning": ""})))
+    with pytest.raises(EstimationError, match=message) as info:
+        VLMEstimator(config(srv.url), cache_dir=tmp_path / "c").estimate("bottles", IMAGE)
+    assert "\n" not in str(info.value) and str(info.value).startswith("VLM answer: ")
+    assert len(srv.requests) == 1  # not retried
+    assert not list(tmp_path.rglob("*.json"))  # nor cached
 
 
 def test_500s_then_success(serve: Any) -> None:
@@ -333,6 +397,42 @@ def test_corrupt_cache_entry_is_ignored(serve: Any, tmp_path: Path) -> None:
     assert json.loads(entry.read_text())["estimate"]["mass_kg"] == 3.1  # rewritten
 
 
+def answer(mass: float) -> Step:
+    return Step(content=json.dumps({"objects": [bottle(mass, mass * 0.9, mass * 1.1)], "reasoning": ""}))
+
+
+def test_two_servers_with_one_model_name_do_not_share_answers(serve: Any, tmp_path: Path) -> None:
+    first, second = serve(answer(1.234)), serve(answer(2.5))
+    cache = tmp_path / "cache"
+    assert VLMEstimator(config(first.url), cache_dir=cache).estimate("bottles", IMAGE).mass_kg == 1.234
+    from_second = VLMEstimator(config(second.url), cache_dir=cache).estimate("bottles", IMAGE)
+    assert from_second.mass_kg == 2.5 and not from_second.cached
+    assert len(first.requests) == 1 and len(second.requests) == 1  # each server was asked
+    again = VLMEstimator(config(first.url + "/"), cache_dir=cache).estimate("bottles", IMAGE)
+    assert again.cached and again.mass_kg == 1.234 and len(first.requests) == 1  # same server, same answer
+    entries = [json.loads(f.read_text()) for f in cache.glob("*.json")]
+    assert sorted(e["server"] for e in entries) == sorted([first.url, second.url])
+    assert all(e["options"]["temperature"] == 0 and e["image_sha256"] for e in entries)
+    assert not list(cache.glob(".tmp-*"))  # written through a temp file and a rename
+
+
+@pytest.mark.parametrize("change", [{"max_tokens": 512}, {"temperature": 0.7}, {"model": "other-model"}])
+def test_other_request_options_ask_again(serve: Any, tmp_path: Path, change: dict[str, Any]) -> None:
+    srv = serve(answer(1.0), answer(2.0))
+    VLMEstimator(config(srv.url), cache_dir=tmp_path).estimate("bottles", IMAGE)
+    result = VLMEstimator(config(srv.url, **change), cache_dir=tmp_path).estimate("bottles", IMAGE)
+    assert result.mass_kg == 2.0 and len(srv.requests) == 2
+    body = srv.requests[1]["body"]
+    assert all(body[k] == v for k, v in change.items())
+
+
+def test_cache_off_asks_every_time_and_writes_nothing(serve: Any, tmp_path: Path) -> None:
+    srv = serve(answer(1.0), answer(2.0))
+    est = VLMEstimator(config(srv.url, cache=False), cache_dir=tmp_path / "cache")
+    assert [est.estimate("bottles", IMAGE).mass_kg for _ in range(2)] == [1.0, 2.0]
+    assert len(srv.requests) == 2 and not (tmp_path / "cache").exists()
+
+
 def vlm_args(url: str, cache: Path) -> list[str]:
     return [
         "--vlm-base-url", url, "--model", "test-model", "--api-key-env", KEY_ENV,
@@ -389,3 +489,52 @@ def test_cli_bench_mass_against_server(
     out, err = capsys.readouterr()
     assert code == 0 and err == ""
     assert len(srv.requests) == 9
+
+
+def without_cache_dir(args: list[str]) -> list[str]:
+    i = args.index("--cache-dir")
+    return args[:i] + args[i + 2 :]
+
+
+def test_cli_no_cache_asks_the_server_again(
+    serve: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))  # where the default cache would go
+    srv = serve(answer(1.0), answer(2.0))
+    args = ["estimate-mass", "--image", str(IMAGE), "--description", "x", *vlm_args(srv.url, tmp_path / "c")]
+    assert main(args) == 0 and main(args) == 0
+    assert len(srv.requests) == 1  # the second run came from the cache
+    capsys.readouterr()
+    assert main([*without_cache_dir(args), "--no-cache"]) == 0
+    assert json.loads(capsys.readouterr().out)["mass_kg"] == 2.0
+    assert len(srv.requests) == 2 and not (tmp_path / "xdg").exists()
+    assert main([*args, "--no-cache"]) == 2
+    assert capsys.readouterr().err == "forte: error: --no-cache, --cache-dir: give one or the other\n"
+
+
+def test_cli_bench_mass_no_cache(
+    serve: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    srv = serve(Step())
+    args = ["bench-mass", str(EXAMPLE / "dataset.csv"), "--out", str(tmp_path / "out"), "--quiet"]
+    vlm = vlm_args(srv.url, tmp_path / "cache")
+    assert main([*args, *vlm]) == 0 and len(srv.requests) == 8
+    assert main([*args, *without_cache_dir(vlm), "--no-cache"]) == 0
+    assert len(srv.requests) == 16  # every item asked again
+    assert not (tmp_path / "xdg").exists()
+    capsys.readouterr()
+
+
+def test_cli_estimate_mass_lists_objects_and_reports_a_bad_one_in_one_line(
+    serve: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    srv = serve(Step(), Step(content=json.dumps({"objects": [bottle(), {**bottle(), "mass_kg_range": "wide"}]})))
+    args = ["estimate-mass", "--image", str(IMAGE), "--description", "basket", "--no-cache",
+            *without_cache_dir(vlm_args(srv.url, tmp_path))]  # fmt: skip
+    assert main(args) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["mass_kg"] == 3.1 and [o["occluded"] for o in result["objects"]] == [False, True]
+    assert main(args) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err == 'forte: error: VLM answer: objects[1].mass_kg_range must be [low, high], got "wide"\n'

@@ -1,10 +1,12 @@
 """Regenerate the tiny example data set of ``forte bench-mass``: simple drawings and a CSV.
 
 Run ``python examples/massbench/make_dataset.py``. The drawings are schematic (a bottle, a can,
-a dumbbell ...) so that the data set is small and can be redistributed; the descriptions state
-quantities so that the offline estimator can run on it, and the "true" masses are typical
-values for such items (contents plus packaging), not measurements. This is a smoke test of the
-pipeline, not the paper's Household test set (whose ground-truth masses are not distributed).
+a dumbbell ...) so that the data set is small and can be redistributed. The descriptions say what
+a label or a person would (volumes, counts, what the object is) but never its mass, which is what
+is estimated. The "true" masses are typical values for such items (contents plus packaging) chosen
+by hand, not measurements. This is a smoke test of the pipeline, not the paper's Household test
+set (whose ground-truth masses are not distributed): its metrics are not comparable with the
+paper's Table 1.
 """
 
 from __future__ import annotations
@@ -73,16 +75,16 @@ def draw_apples(ax: Axes) -> None:
         ax.add_patch(Circle((x, y), 0.13, fc="#c0392b", ec="k", lw=0.8))
 
 
-#: image name, drawing, description, typical true mass (kg).
+#: image name, drawing, description (never stating the mass), typical true mass (kg).
 ITEMS: list[tuple[str, Callable[[Axes], None], str, float]] = [
     ("two_bottles.png", draw_two_bottles, "Carry two 1.5 L bottles of water in the basket.", 3.07),
     ("cola_can.png", draw_can, "Hand over a 330 mL can of cola.", 0.345),
-    ("dumbbell.png", draw_dumbbell, "Lift a 2 kg dumbbell from the rack.", 2.0),
+    ("dumbbell.png", draw_dumbbell, "Lift the dumbbell from the rack.", 2.0),
     ("beverage.png", draw_beverage_pack, "Carry the 2.7 L beverage load to the kitchen.", 2.78),
-    ("rice_bag.png", draw_rice_bag, "Bring the 500 g bag of rice to the table.", 0.51),
+    ("rice_bag.png", draw_rice_bag, "Bring the bag of rice to the table.", 0.51),
     ("wine.png", draw_wine, "Move a 750 mL glass bottle of wine to the shelf.", 1.25),
     ("cans.png", draw_cans, "Carry 3 x 330 mL cans of soda.", 1.04),
-    ("apples.png", draw_apples, "Carry about 1 kg of apples.", 0.9),
+    ("apples.png", draw_apples, "Carry the four apples.", 0.9),
 ]
 
 

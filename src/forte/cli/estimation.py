@@ -13,17 +13,11 @@ import sys
 from pathlib import Path
 
 from forte.exceptions import InvalidInputError
-from forte.force.estimation import (
-    DEFAULT_R_MIN,
-    MassEstimator,
-    OfflineEstimator,
-    VLMConfig,
-    VLMEstimator,
-    default_cache_dir,
-    estimate_payload,
-    radius_from_estimate,
-)
+from forte.force.estimate import DEFAULT_R_MIN, MassEstimator, estimate_payload, radius_from_estimate
 from forte.force.massbench import load_dataset, markdown_table, run_benchmark, summarize_results, write_per_item_csv
+from forte.force.offline import OfflineEstimator
+from forte.force.vlm import VLMConfig, VLMEstimator
+from forte.force.vlm_cache import default_cache_dir
 
 
 def _add_vlm_options(p: argparse.ArgumentParser) -> None:
@@ -55,6 +49,11 @@ def _add_vlm_options(p: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help=f"cache of VLM answers (default {default_cache_dir()})",
     )
+    g.add_argument(
+        "--no-cache",
+        action="store_true",
+        help="ask the server every time: neither read nor write the cache of VLM answers",
+    )
 
 
 def _vlm_config(args: argparse.Namespace) -> VLMConfig | None:
@@ -62,6 +61,8 @@ def _vlm_config(args: argparse.Namespace) -> VLMConfig | None:
         return None
     if args.retries < 0:
         raise InvalidInputError(f"--retries: expected >= 0, got {args.retries}")
+    if args.no_cache and args.cache_dir is not None:
+        raise InvalidInputError("--no-cache, --cache-dir: give one or the other")
     return VLMConfig(
         base_url=args.vlm_base_url,
         model=args.model,
@@ -69,6 +70,7 @@ def _vlm_config(args: argparse.Namespace) -> VLMConfig | None:
         timeout_s=args.timeout,
         max_retries=args.retries,
         backoff_base_s=args.backoff,
+        cache=not args.no_cache,
     )
 
 
@@ -77,7 +79,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "estimate-mass",
         help="estimate the payload mass from an image and a task description (JSON)",
         description="Estimate the mass the end effector will carry (paper, Section 4.1) and print it "
-        "as JSON with its interval, source and the force-ball radius at rest.",
+        "as JSON: the total, its interval, the objects it is made of (VLM), the source, and the "
+        "force-ball radius at rest by the opt-in rule r = max(r_min, 9.81 (high - low) / 2) (the "
+        "planner keeps the paper's fixed 10 N).",
     )
     p.add_argument("--image", type=Path, metavar="IMG", help="RGB image (PNG, JPEG, WebP)")
     p.add_argument("--description", metavar="TEXT", help="task description, e.g. 'carry two 1.5 L bottles'")
@@ -87,7 +91,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=float,
         default=DEFAULT_R_MIN,
         metavar="N",
-        help="floor of the force-ball radius (default 10 N, the paper's)",
+        help="floor of the opt-in radius rule (default 10 N, the paper's fixed radius)",
     )
     _add_vlm_options(p)
     p.set_defaults(func=run_estimate_mass)
@@ -96,7 +100,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "bench-mass",
         help="evaluate a mass estimator on a CSV data set with the Image2Mass metrics",
         description="Run the estimator on every row of DATASET.csv (columns image, description, "
-        "mass_kg; image paths relative to the CSV) and write results.md and items.csv to --out.",
+        "mass_kg; image paths relative to the CSV) and write results.md and items.csv to --out. The "
+        "offline estimator ignores masses stated in the descriptions (they would give the answer away).",
     )
     b.add_argument("dataset", type=Path, metavar="DATASET.csv")
     b.add_argument("--out", type=Path, default=Path("mass-bench"), metavar="DIR", help="output folder")
@@ -115,7 +120,7 @@ def run_estimate_mass(args: argparse.Namespace) -> int:
     vlm = _vlm_config(args)
     cache = args.cache_dir if args.cache_dir is not None else (default_cache_dir() if vlm else None)
     estimate = estimate_payload(args.description, args.image, mass=args.mass, vlm=vlm, cache_dir=cache)
-    # at rest |a - g| = 9.81 m/s^2: the radius the planner would use for a static hold
+    # at rest |a - g| = 9.81 m/s^2; informative only: the planner keeps r = 10 N unless told otherwise
     radius = float(radius_from_estimate([[0.0, 0.0, 0.0]], estimate, args.r_min)[0])
     print(json.dumps({**estimate.to_dict(), "radius_at_rest_n": radius}, indent=2))
     return 0
@@ -128,8 +133,9 @@ def run_bench_mass(args: argparse.Namespace) -> int:
     vlm = _vlm_config(args)
     estimator: MassEstimator
     if vlm is None:
-        estimator = OfflineEstimator()
-        label = f"offline ({OfflineEstimator.version})"
+        # a benchmark scores estimation: a mass stated in the description would be read, not estimated
+        estimator = OfflineEstimator(stated_masses=False)
+        label = f"offline ({OfflineEstimator.version}, stated masses ignored)"
     else:
         cache = args.cache_dir if args.cache_dir is not None else default_cache_dir()
         estimator = VLMEstimator(vlm, cache)
@@ -152,6 +158,10 @@ def run_bench_mass(args: argparse.Namespace) -> int:
     print(
         f"{label}: {summary['n_ok']}/{summary['n_items']} estimated, {summary['n_failed']} failed; "
         + ", ".join(f"{k} {v[0]:.3f}" for k, v in m.items())
+        + f" on {args.dataset.name} (not comparable with the paper's Table 1, measured on another data set)"
         + f"; wrote {out / 'results.md'} and {out / 'items.csv'}"
     )
+    if summary["stated_mass_rows"] and not args.quiet:  # results.md carries the warning either way
+        rows = ", ".join(map(str, summary["stated_mass_rows"]))
+        print(f"forte: warning: descriptions state a mass in rows {rows} of {args.dataset}", file=sys.stderr)
     return 1 if summary["n_failed"] else 0

@@ -45,7 +45,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _estimator_options(args: argparse.Namespace) -> dict[str, Any]:
     if not args.vlm_base_url:
         return {}
-    from forte.force.estimation import VLMConfig
+    from forte.force.vlm import VLMConfig
 
     return {"vlm": VLMConfig(base_url=args.vlm_base_url, model=args.model, api_key_env=args.api_key_env)}
 

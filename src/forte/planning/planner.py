@@ -104,7 +104,7 @@ def resolve_payload(task: Task, estimator_options: dict[str, Any] | None = None)
         return task
     if not (task.payload.description or task.payload.image):
         raise TaskFileError(f"{task.source}: payload: give a mass, a description or an image")
-    from forte.force.estimation import estimate_payload
+    from forte.force.estimate import estimate_payload
 
     estimate = estimate_payload(task.payload.description, task.payload.image, **(estimator_options or {}))
     return task.with_payload(task.payload.with_estimate(estimate))
