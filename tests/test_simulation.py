@@ -12,13 +12,9 @@ import pytest
 from forte.cli.main import main
 from forte.exceptions import SimulationError, TaskFileError
 from forte.execution.control import DEFAULT_D_A, DEFAULT_K_A, sampled_loop_spectral_radius
-from forte.execution.simulation import (
-    ARM_ARMATURE,
-    Thresholds,
-    build_sim_model,
-    combined_tool,
-    simulate_plan,
-)
+from forte.execution.judge import Thresholds
+from forte.execution.model import ARM_ARMATURE, build_sim_model, combined_tool
+from forte.execution.run import simulate_plan
 from forte.io.plandir import write_plan_dir
 from forte.io.reports import write_plan
 from forte.model.robot import MobileManipulator, default_robot

@@ -53,7 +53,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from forte.execution.simulation import Thresholds, simulate_plan
+    from forte.execution.judge import Thresholds
+    from forte.execution.run import simulate_plan
 
     if args.video is not None and args.video.suffix.lower() != ".mp4":
         raise InvalidInputError(f"--video: expected a .mp4 file name, got {args.video}")
