@@ -62,8 +62,10 @@ class ControlGains:
 
     Attributes:
         K_a, D_a: Arm joint stiffness (Nm/rad) and damping (Nm s/rad); one entry per arm joint.
-            Defaults: Franka's impedance example, diag(600,600,600,600,250,150,50) and
-            diag(50,50,50,50,30,25,15) (with ``M_d = M_a`` the wrist is close to critical).
+            Defaults: Franka's impedance example for the 7-joint Panda,
+            diag(600,600,600,600,250,150,50) and diag(50,50,50,50,30,25,15) (with
+            ``M_d = M_a`` the wrist is close to critical); for other arms see
+            :func:`forte.execution.gains.default_gains`.
         M_b, B_b: Base admittance virtual mass (kg, kg m^2) and damping (N s/m, Nm s/rad).
         K_b, D_b: Base stiffness (N/m, Nm/rad) and damping on the measured base velocity.
         base_feedforward: Add the planned base velocity ``dq_{b,d}`` (see module docstring).
