@@ -12,8 +12,10 @@ applied at the end effector.
 ``sim.csv`` holds every ``record_every``-th control step: ``t``; the whole-body joint error
 ``e_x_b, e_y_b, e_yaw, e_q1..e_qn`` (``q_d - q``, yaw wrapped); the applied arm torques
 ``tau1..taun``; the saturation flags ``sat1..satn`` (OR-ed over the recording window);
-the end-effector error ``ee_err_x/y/z`` (``p - p_d``, world frame) and its norm ``ee_err``.
-``sim.json`` holds the verdict and the summary statistics.
+the end-effector error ``ee_err_x/y/z`` (``p - p_d``, world frame) and its norm ``ee_err``;
+the simulated whole-body joint positions ``x_b, y_b, yaw, q1..qn`` (the names of
+``trajectory.csv``; yaw not wrapped) and velocities ``dx_b, dy_b, dyaw, dq1..dqn``.
+``sim.json`` holds the verdict, the summary statistics and the gains used.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from __future__ import annotations
 import io
 import json
 import time
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
@@ -30,9 +33,10 @@ import numpy as np
 
 from forte.exceptions import InvalidInputError
 from forte.execution.control import ArmCommand, ArmImpedance, BaseAdmittance, ControlGains, Reference, interpolate_plan
+from forte.execution.gains import default_gains, describe_gains, gains_from_mapping, sampled_loop_radius_at
 from forte.execution.judge import Judge, SimResult, Thresholds
 from forte.execution.model import SimModel, build_sim_model
-from forte.execution.render import FrameRecorder
+from forte.execution.render import FrameRecorder, FrameSink, LiveViewer
 from forte.io.plandir import Plan, atomic_write, read_plan_dir
 from forte.model.robot import N_BASE, MobileManipulator, robot_from_description
 from forte.model.trajectory import trajectory_header
@@ -57,6 +61,8 @@ class _RunLog:
             self.rec_idx.append(steps - 1)
         nrec = len(self.rec_idx)
         self.q_err = np.zeros((nrec, nq))
+        self.q = np.zeros((nrec, nq))
+        self.dq = np.zeros((nrec, nq))
         self.tau = np.zeros((nrec, n))
         self.sat = np.zeros((nrec, n))
         self.ee = np.zeros((nrec, 3))
@@ -68,8 +74,9 @@ class _RunLog:
         self.qa_err_max = 0.0
         self.rows = 0
 
-    def add(self, k: int, q: FloatArray, q_d: FloatArray, ee_err: FloatArray, cmd: ArmCommand) -> None:
-        """Account for control step ``k`` (state ``q``, reference ``q_d``, command ``cmd``)."""
+    def add(self, k: int, q: FloatArray, dq: FloatArray, q_d: FloatArray, ee_err: FloatArray,
+            cmd: ArmCommand) -> None:
+        """Account for control step ``k`` (state ``q, dq``, reference ``q_d``, command ``cmd``)."""
         # Saturation is OR-ed over each recording window so no event is lost.
         self.sat_window |= cmd.saturated
         self.sat_steps += cmd.saturated
@@ -83,6 +90,7 @@ class _RunLog:
             e_q = q_d - q
             e_q[2] = (e_q[2] + np.pi) % (2 * np.pi) - np.pi
             self.q_err[r], self.tau[r], self.sat[r], self.ee[r] = e_q, cmd.tau, self.sat_window, ee_err
+            self.q[r], self.dq[r] = q, dq
             self.sat_window[:] = False
             self.rows += 1
 
@@ -99,6 +107,10 @@ class _RunLog:
         for i, axis in enumerate("xyz"):
             log[f"ee_err_{axis}"] = self.ee[:r, i]
         log["ee_err"] = np.linalg.norm(self.ee[:r], axis=1)
+        for i, name in enumerate(trajectory_header(n)[1:]):
+            log[name] = self.q[:r, i]
+        for i, name in enumerate(trajectory_header(n)[1:]):
+            log[f"d{name}"] = self.dq[:r, i]
         return log
 
     def summary(self, steps_run: int) -> dict[str, Any]:
@@ -152,17 +164,17 @@ def run_simulation(
     reaction_force: bool = False,
     record_every: int = 10,
     stop_on_failure: bool = False,
-    recorder: FrameRecorder | None = None,
-    frame_every: int = 33,
+    sinks: Sequence[FrameSink] = (),
 ) -> SimResult:
     """Run the controllers on ``sim`` along ``reference`` (sampled at every control step).
 
     The simulation starts at ``reference.q[0]`` at rest; one control step per MuJoCo step
     (``reference.t`` must be ``k * timestep``). With ``reaction_force`` the environment's
-    reaction ``-f_d`` is applied at the end-effector point. ``recorder`` captures a frame
-    every ``frame_every`` steps.
+    reaction ``-f_d`` is applied at the end-effector point. Each of ``sinks`` (offscreen
+    recorder, live viewer) captures the state every ``sink.every`` steps. ``gains`` default to
+    :func:`forte.execution.gains.default_gains` at the start configuration.
     """
-    gains = gains or ControlGains()
+    gains = gains or default_gains(sim.robot, reference.q[0, N_BASE:], sim.armature)
     th = thresholds or Thresholds()
     dt = sim.timestep
     control = _ControlStep(sim, gains, reaction_force)
@@ -178,9 +190,10 @@ def run_simulation(
             break
         ee_err, tilt, cmd = control(k, q, dq, reference)
         judge.step(k * dt, ee_err, tilt, cmd.saturated)
-        log.add(k, q, reference.q[k], ee_err, cmd)
-        if recorder is not None and k % frame_every == 0:
-            recorder.capture(sim)
+        log.add(k, q, dq, reference.q[k], ee_err, cmd)
+        for sink in sinks:
+            if k % sink.every == 0:
+                sink.capture(sim)
         steps_run += 1
         if stop_on_failure and judge.reason is not None:
             break
@@ -205,7 +218,7 @@ def simulate_plan(
     *,
     force_feedforward: bool | None = None,
     out_dir: str | Path | None = None,
-    gains: ControlGains | None = None,
+    gains: ControlGains | Mapping[str, Any] | None = None,
     thresholds: Thresholds | None = None,
     torque_limits: Any = None,
     hold: float = 1.0,
@@ -215,6 +228,7 @@ def simulate_plan(
     frames_dir: str | Path | None = None,
     video: str | Path | None = None,
     fps: float = 30.0,
+    viewer: bool = False,
     write: bool = True,
 ) -> SimResult:
     """Simulate the plan in ``plan_dir`` and (with ``write``) store ``sim.csv`` and ``sim.json``.
@@ -232,52 +246,80 @@ def simulate_plan(
             except for ``mass=0`` on a payload plan (see ``mass``). Off, with a plan's
             interaction force, the environment still pushes but the arm does not push back.
         out_dir: Where to write the results (default ``plan_dir``).
-        gains, thresholds: Controller gains and failure criteria (defaults documented there).
+        gains: Controller gains, or a ``controller:`` mapping for
+            :func:`forte.execution.gains.gains_from_mapping` (rule inertia at the plan's start);
+            default: :func:`forte.execution.gains.default_gains` (Franka's on the Panda, the
+            4 Hz rule on any other arm).
+        thresholds: Failure criteria (defaults documented there).
         torque_limits: Override the robot's limits (Nm, per arm joint), e.g. for stress tests.
         hold: Seconds simulated after the last waypoint, holding it.
         timestep: Simulation and control period (s); 1 ms = 1 kHz.
         record_every: Log every n-th control step (saturation flags OR-ed over the window).
         stop_on_failure: Stop at the first failure instead of running to the end.
         frames_dir, video: Offscreen rendering to PNG frames / an mp4 file at ``fps``.
-        write: Write ``sim.csv``/``sim.json``. They are written only after the run completes,
-            each through a temporary file and a rename, so an interrupted or crashed run never
-            replaces earlier results.
+        viewer: Show the run in MuJoCo's interactive viewer, paced to real time; after the
+            run (and after writing the results) wait until the user closes the window.
+        write: Write ``sim.csv``/``sim.json``, after the run, each through a temporary file
+            and a rename: an interrupted or crashed run never replaces earlier results.
 
     Raises:
-        TaskFileError: malformed plan directory; SimulationError: model or rendering problems.
+        TaskFileError: malformed plan directory; InvalidInputError: bad gains mapping or
+        arguments; SimulationError: model or rendering problems, no display for ``viewer``.
     """
     plan = read_plan_dir(plan_dir)
     robot = plan.robot if torque_limits is None else _with_torque_limits(plan.robot, torque_limits)
     true_mass = plan.mass if mass is None else check_mass(mass)
-    if force_feedforward is None:
+    if force_feedforward is None:  # off only when a payload plan is run without its payload
         force_feedforward = not (mass is not None and true_mass == 0.0 and plan.mass is not None)
-    gains = gains or ControlGains()
-    if not force_feedforward:
-        gains = replace(gains, force_feedforward=False)
     hold = as_positive(hold, "hold", allow_zero=True)
-    render = frames_dir is not None or video is not None
-    sim = build_sim_model(robot, true_mass or 0.0, meshes=render, timestep=timestep)
-    dt = sim.timestep
-    reference = _plan_reference(plan, dt, hold)
-    recorder = None
-    if render:
-        recorder = FrameRecorder(sim, None if frames_dir is None else Path(frames_dir),
-                                 None if video is None else Path(video), fps, (640, 480))
+    offscreen = frames_dir is not None or video is not None
+    sim = build_sim_model(robot, true_mass or 0.0, meshes=offscreen or viewer, timestep=timestep)
+    gains = _resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
+    reference = _plan_reference(plan, sim.timestep, hold)
+    recorder = FrameRecorder(sim, _optional_path(frames_dir), _optional_path(video), fps) if offscreen else None
+    live = LiveViewer(sim) if viewer else None
     result = run_simulation(
         sim, reference, gains=gains, thresholds=thresholds,
         reaction_force=plan.mass is None and plan.force is not None and bool(np.any(plan.force)),
-        record_every=record_every, stop_on_failure=stop_on_failure, recorder=recorder,
-        frame_every=max(1, int(round(1.0 / (fps * dt)))),
+        record_every=record_every, stop_on_failure=stop_on_failure,
+        sinks=[s for s in (recorder, live) if s is not None],
     )
-    result.summary.update({"plan_dir": str(Path(plan_dir).resolve()), "plan_method": plan.method,
-                           "plan_status": plan.status, "plan_mass": plan.mass,
-                           "force_feedforward": gains.force_feedforward,
-                           "armature": sim.armature.tolist()})
+    result.summary.update(_run_facts(plan, Path(plan_dir), sim, gains))
     if recorder is not None:
         result.summary["rendered"] = [str(p) for p in recorder.finish()]
     if write:
         write_results(result, Path(plan_dir) if out_dir is None else Path(out_dir))
+    if live is not None:
+        live.finish()
     return result
+
+
+def _optional_path(path: str | Path | None) -> Path | None:
+    return None if path is None else Path(path)
+
+
+def _run_facts(plan: Plan, plan_dir: Path, sim: SimModel, gains: ControlGains) -> dict[str, Any]:
+    """What ``sim.json`` records about the plan, the model and the controller of a run."""
+    q_a0 = plan.q[0, N_BASE:]
+    return {
+        "plan_dir": str(plan_dir.resolve()), "plan_method": plan.method, "plan_status": plan.status,
+        "plan_mass": plan.mass, "force_feedforward": gains.force_feedforward, "armature": sim.armature.tolist(),
+        "gains": describe_gains(gains),
+        "sampled_loop_radius_start": sampled_loop_radius_at(sim.robot, gains, q_a0, sim.armature, sim.timestep),
+    }
+
+
+def _resolve_gains(gains: ControlGains | Mapping[str, Any] | None, sim: SimModel, q_a0: FloatArray,
+                   force_feedforward: bool) -> ControlGains:
+    """Gains object, mapping or default, with the force feedforward switched off if asked."""
+    if gains is None:
+        gains = default_gains(sim.robot, q_a0, sim.armature)
+    elif isinstance(gains, Mapping):
+        gains = gains_from_mapping(gains, sim.robot, q_a=q_a0, armature=sim.armature)
+    elif not isinstance(gains, ControlGains):
+        raise InvalidInputError(f"gains: expected ControlGains or a mapping, got {type(gains).__name__}")
+    gains.check(sim.robot.n_arm)
+    return gains if force_feedforward else replace(gains, force_feedforward=False)
 
 
 def _with_torque_limits(robot: MobileManipulator, torque_limits: Any) -> MobileManipulator:
