@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from forte.cli import experiment as cli_experiment
-from forte.execution.simulation import simulate_plan
+from forte.execution.run import simulate_plan
 from forte.experiments.paper import run_continuous, run_hold, run_lift
 from forte.io.plandir import write_plan
 from forte.planning.planner import plan

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import mujoco
@@ -12,15 +13,12 @@ import pytest
 from forte.cli.main import main
 from forte.exceptions import SimulationError, TaskFileError
 from forte.execution.control import DEFAULT_D_A, DEFAULT_K_A, sampled_loop_spectral_radius
-from forte.execution.simulation import (
-    ARM_ARMATURE,
-    Thresholds,
-    build_sim_model,
-    combined_tool,
-    simulate_plan,
-)
-from forte.io.plandir import write_plan, write_plan_dir
-from forte.model.robot import MobileManipulator, default_robot
+from forte.execution.judge import Thresholds
+from forte.execution.model import ARM_ARMATURE, build_sim_model, combined_tool
+from forte.execution.run import simulate_plan
+from forte.io.plandir import read_plan_dir, write_plan, write_plan_dir
+from forte.model.robot import MOCA_MOUNT, MOCA_TOOL, MobileManipulator, default_robot
+from forte.model.trajectory import quintic_path
 from forte.planning.planner import plan
 from forte.planning.tasks import load_task
 
@@ -206,3 +204,121 @@ def test_quintic_lift_tracks_with_and_without_payload(tmp_path: Path) -> None:
     # The feedforward of the planned 26 N without anything to carry lifts the arm ~2 cm.
     pushed = simulate_plan(plan_dir, 0.0, force_feedforward=True, hold=0.5, write=False)
     assert pushed.summary["max_ee_error_m"] > 0.01
+
+
+# -- any arm, gains, sim.csv state columns, viewer -----------------------------------------------
+def _ur5_on_base() -> MobileManipulator:
+    """A UR5 on the default robot's base (same mount and tool as the built-in Panda)."""
+    return MobileManipulator("erd:ur_description/urdf/ur5_robot.urdf", "tool0", name="ur5",
+                             mount=np.array(MOCA_MOUNT), tool=MOCA_TOOL)
+
+
+def _ur5_plan(plan_dir: Path) -> None:
+    """A slow 2 s rest-to-rest joint-space motion of base and arm, carrying 1 kg."""
+    ur5 = _ur5_on_base()
+    q0 = np.array([0.0, 0.0, 0.0, 0.0, -1.2, 1.5, -1.9, -1.57, 0.0])
+    q1 = q0 + np.array([0.1, 0.05, 0.1, 0.3, -0.2, 0.2, 0.2, 0.3, 0.3])
+    t = np.linspace(0.0, 2.0, 21)
+    write_plan_dir(plan_dir, ur5, t, quintic_path([0.0, 2.0], [q0, q1], t), mass=1.0)
+
+
+def test_ur5_model_matches_pinocchio() -> None:
+    ur5 = _ur5_on_base()
+    sim = build_sim_model(ur5)
+    q = np.concatenate([[0.3, -0.2, 0.7], [0.2, -1.0, 1.2, -1.5, -1.4, 0.4]])
+    sim.set_state(q)
+    assert np.allclose(sim.ee_pose(), ur5.ee_pose(q), atol=1e-12)
+    assert np.allclose(sim.ee_jacobian(), ur5.arm_jacobian(q), atol=1e-12)
+    worst = max(np.abs(sim.inverse_dynamics(qa, dqa, a) - ur5.rnea(qa, dqa, a) - sim.armature * a).max()
+                for qa, dqa, a in _interior_states(ur5, 10, seed=4))
+    assert worst < 1e-6
+
+
+def test_ur5_plan_simulates_with_default_gains(tmp_path: Path) -> None:
+    _ur5_plan(tmp_path)
+    assert main(["simulate", str(tmp_path), "--hold", "0.5", "--quiet"]) == 0
+    verdict = json.loads((tmp_path / "sim.json").read_text())
+    assert verdict["verdict"] == "success"
+    assert verdict["max_ee_error_m"] < 0.01
+    assert len(verdict["gains"]["K_a"]) == 6  # the rule, not the Panda's 7 gains
+    assert verdict["sampled_loop_radius_start"] < 1.0
+    # sim.csv: simulated positions and velocities, whole body, planner order, named columns.
+    header = (tmp_path / "sim.csv").read_text().splitlines()[0].split(",")
+    names = ["x_b", "y_b", "yaw", *(f"q{i}" for i in range(1, 7))]
+    assert header[-18:] == names + [f"d{n}" for n in names]
+    table = np.loadtxt(tmp_path / "sim.csv", delimiter=",", skiprows=1)
+    col = {n: table[:, i] for i, n in enumerate(header)}
+    q_sim = np.column_stack([col[n] for n in names])
+    plan_q = read_plan_dir(tmp_path).q
+    assert np.allclose(q_sim[0], plan_q[0]) and np.allclose(q_sim[-1], plan_q[-1], atol=5e-3)
+    errors = np.column_stack([col[f"e_{n}"] for n in names])
+    dq_sim = np.column_stack([col[f"d{n}"] for n in names])
+    assert np.abs(dq_sim[0]).max() == 0.0 and np.abs(dq_sim[-1]).max() < 1e-2
+    assert np.abs(errors).max() < 0.01
+
+
+def test_gains_mapping_and_cli_flags(robot: MobileManipulator, tmp_path: Path,
+                                     capsys: pytest.CaptureFixture[str]) -> None:
+    write_plan_dir(tmp_path, robot, [0.0], [robot.home()])
+    res = simulate_plan(tmp_path, gains={"bandwidth_hz": 3.0, "damping_ratio": 0.9}, hold=0.2, write=False)
+    assert res.success and res.summary["gains"]["K_a"] != list(DEFAULT_K_A)
+    assert main(["simulate", str(tmp_path), "--hold", "0.2", "--quiet", "--bandwidth", "3",
+                 "--damping-ratio", "0.9"]) == 0
+    assert json.loads((tmp_path / "sim.json").read_text())["gains"] == res.summary["gains"]
+    gains_file = tmp_path / "gains.yaml"
+    gains_file.write_text("controller:\n  K_a: [100, 200, 200, 100, 30, 30, 30]\n  damping_ratio: 1\n")
+    assert main(["simulate", str(tmp_path), "--hold", "0.2", "--quiet", "--gains", str(gains_file)]) == 0
+    assert json.loads((tmp_path / "sim.json").read_text())["gains"]["K_a"] == [100, 200, 200, 100, 30, 30, 30]
+    capsys.readouterr()
+    for text, message in (("controller:\n  K_a: [1, 2]\n", "controller.K_a: expected 7 numbers >= 0"),
+                          ("K_a: [1, 2\n", "line 2: not valid YAML"),
+                          ("- 1\n", "expected a mapping of gains"),
+                          ("controller:\n  stiffness: 3\n", "controller.stiffness: unknown field")):
+        gains_file.write_text(text)
+        assert main(["simulate", str(tmp_path), "--gains", str(gains_file)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(f"forte: error: {gains_file}") and message in err and "\n" not in err
+    assert main(["simulate", str(tmp_path), "--bandwidth", "0"]) == 2
+    assert "--bandwidth: expected a finite number > 0" in capsys.readouterr().err
+
+
+def test_viewer_without_display_exits_2(robot: MobileManipulator, tmp_path: Path,
+                                        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the DISPLAY check is Linux-only")
+    write_plan_dir(tmp_path, robot, [0.0], [robot.home()])
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["simulate", str(tmp_path), "--viewer"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("forte: error: --viewer: no display") and "\n" not in err
+    assert not (tmp_path / "sim.json").exists()
+
+
+def test_viewer_is_synced_in_real_time(robot: MobileManipulator, tmp_path: Path,
+                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    import mujoco.viewer
+
+    import forte.execution.render as render
+
+    class FakeHandle:  # the user closes the window after 5 frames
+        def __init__(self) -> None:
+            self.syncs = 0
+
+        def is_running(self) -> bool:
+            return self.syncs < 5
+
+        def sync(self) -> None:
+            self.syncs += 1
+
+        def close(self) -> None:
+            pass
+
+    handle = FakeHandle()
+    monkeypatch.setattr(render, "check_display", lambda: None)
+    monkeypatch.setattr(mujoco.viewer, "launch_passive", lambda model, data: handle)
+    write_plan_dir(tmp_path, robot, [0.0], [robot.home()])
+    res = simulate_plan(tmp_path, hold=0.3, viewer=True, write=False)
+    assert res.success and res.summary["steps"] == 301
+    assert handle.syncs == 5
+    assert res.summary["wall_time_s"] > 4 * 0.017  # paced: 4 frame periods of 17 ms before the 5th

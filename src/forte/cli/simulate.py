@@ -1,7 +1,13 @@
 """``forte simulate PLAN_DIR``: execute a plan in MuJoCo with the Section 3.1 controllers.
 
 Exit codes: 0 when the verdict is success, 1 when it is failure (``sim.json`` says why and
-when), 2 for user errors (missing/malformed plan directory, rendering unavailable).
+when), 2 for user errors (missing/malformed plan directory or gains file, rendering or display
+unavailable).
+
+Controller gains: the defaults of :mod:`forte.execution.gains` (Franka's on the Panda, the
+bandwidth rule ``K_i = M_ii (2 pi f)^2``, ``D_i = 2 zeta sqrt(K_i M_ii)`` on other arms);
+``--gains FILE.yaml`` holds a ``controller:`` mapping (or the mapping's fields at the top
+level), and ``--bandwidth`` / ``--damping-ratio`` set the rule's ``f`` and ``zeta`` on top.
 """
 
 from __future__ import annotations
@@ -10,6 +16,7 @@ import argparse
 import os
 import sys
 from pathlib import Path
+from typing import Any
 
 # Offscreen rendering: MuJoCo picks its GL backend when it is first imported, so choose EGL
 # (GPU or Mesa) before anything imports mujoco, unless the user chose a backend already.
@@ -41,11 +48,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--drop-sag", type=float, default=None, help="payload-drop sag in m (0.10)")
     p.add_argument("--saturation-time", type=float, default=None,
                    help="sustained torque saturation in s (0.25)")
+    p.add_argument("--gains", type=Path, default=None, metavar="FILE.yaml",
+                   help="controller gains: a 'controller:' mapping (K_a, D_a, bandwidth_hz, damping_ratio, "
+                   "M_b, B_b, K_b, D_b, base_feedforward, force_feedforward)")
+    p.add_argument("--bandwidth", type=float, default=None, metavar="HZ",
+                   help="arm gain rule K_i = M_ii (2 pi HZ)^2 (default: Franka's gains on the Panda, 4 Hz "
+                   "on other arms)")
+    p.add_argument("--damping-ratio", type=float, default=None, metavar="Z",
+                   help="arm gain rule D_i = 2 Z sqrt(K_i M_ii) (default 1)")
     group = p.add_mutually_exclusive_group()
     group.add_argument("--video", type=Path, default=None, metavar="FILE.mp4",
                        help="render an mp4 (needs offscreen GL and ffmpeg)")
     group.add_argument("--frames", type=Path, default=None, metavar="DIR",
                        help="render PNG frames into DIR (needs offscreen GL)")
+    group.add_argument("--viewer", action="store_true",
+                       help="watch the run in MuJoCo's interactive viewer, in real time (needs a display); "
+                       "the results are written when the run ends, the command returns when the window "
+                       "is closed")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=run)
 
@@ -53,7 +72,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from forte.execution.simulation import Thresholds, simulate_plan
+    from forte.execution.judge import Thresholds
+    from forte.execution.run import simulate_plan
 
     if args.video is not None and args.video.suffix.lower() != ".mp4":
         raise InvalidInputError(f"--video: expected a .mp4 file name, got {args.video}")
@@ -61,10 +81,17 @@ def run(args: argparse.Namespace) -> int:
     overrides = {k: v for k, v in (("sag", args.sag), ("drop_sag", args.drop_sag),
                                    ("saturation_time", args.saturation_time)) if v is not None}
     th = replace(th, **overrides)
+    gains = _gains(args)
+    if args.viewer:
+        from forte.execution.render import check_display
+
+        check_display()
+        if not args.quiet:
+            print("viewer: the run plays in real time; close the window to finish", file=sys.stderr)
     result = simulate_plan(
         args.plan_dir, args.mass, force_feedforward=False if args.no_force else None,
-        out_dir=args.out, thresholds=th, hold=args.hold,
-        stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video,
+        out_dir=args.out, gains=gains, thresholds=th, hold=args.hold,
+        stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video, viewer=args.viewer,
     )
     out = args.out or args.plan_dir
     s = result.summary
@@ -76,3 +103,53 @@ def run(args: argparse.Namespace) -> int:
     print(f"failure at t = {result.failure_time:.3f} s: {result.reason} ({result.detail}); "
           f"wrote {out}/sim.csv, {out}/sim.json", file=sys.stderr)
     return 1
+
+
+def _gains(args: argparse.Namespace) -> Any:
+    """``ControlGains`` from ``--gains``/``--bandwidth``/``--damping-ratio``, or None (defaults).
+
+    The file's fields are checked against the plan's robot here, so that errors name the file.
+    """
+    from forte.execution.gains import gains_from_mapping
+    from forte.io.plandir import read_plan_dir
+    from forte.model.robot import N_BASE
+
+    if args.gains is None and args.bandwidth is None and args.damping_ratio is None:
+        return None
+    mapping, prefix = ({}, "") if args.gains is None else _read_gains_file(args.gains)
+    for flag, key, value in (("--bandwidth", "bandwidth_hz", args.bandwidth),
+                             ("--damping-ratio", "damping_ratio", args.damping_ratio)):
+        if value is not None:
+            if not value > 0 or value == float("inf"):
+                raise InvalidInputError(f"{flag}: expected a finite number > 0, got {value}")
+            mapping[key] = value
+    plan = read_plan_dir(args.plan_dir)
+    return gains_from_mapping(mapping, plan.robot, q_a=plan.q[0, N_BASE:], prefix=prefix)
+
+
+def _read_gains_file(path: Path) -> tuple[dict[str, Any], str]:
+    """The gains mapping of ``path`` and the prefix naming its fields in errors.
+
+    The file holds a ``controller:`` mapping (as in a task file; other top-level keys are
+    ignored) or the mapping's fields at the top level.
+    """
+    import yaml
+
+    if not path.is_file():
+        raise InvalidInputError(f"--gains {path}: file does not exist")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.MarkedYAMLError as exc:
+        line = f"line {exc.problem_mark.line + 1}: " if exc.problem_mark is not None else ""
+        raise InvalidInputError(f"{path}: {line}not valid YAML: {exc.problem or exc.context}") from exc
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise InvalidInputError(f"{path}: cannot read: {exc}") from exc
+    where, prefix = str(path), f"{path}: "
+    if isinstance(data, dict) and "controller" in data:
+        data, where, prefix = data["controller"], f"{path}: controller", f"{path}: controller."
+    if data is None:  # an empty file or block: the defaults
+        return {}, prefix
+    if not isinstance(data, dict):
+        raise InvalidInputError(f"{where}: expected a mapping of gains (K_a, D_a, bandwidth_hz, ...), "
+                                f"got {type(data).__name__}")
+    return dict(data), prefix

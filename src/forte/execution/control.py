@@ -9,7 +9,7 @@ Arm (torque interface), joint impedance with the desired inertia equal to the ar
 ``M ddq_d + C dq + g`` is Pinocchio's ``rnea(q_a, dq_a, ddq_{a,d})`` on the robot's nominal model
 (tool included, payload excluded: the payload enters through ``tau_F``, as in the planner) plus
 ``diag(armature) ddq_{a,d}``: ``M_a`` is the rigid-body inertia plus the joints' reflected rotor
-inertia (``armature``, the simulated arm's, see :mod:`forte.execution.simulation`).
+inertia (``armature``, the simulated arm's, see :mod:`forte.execution.model`).
 
 Sampled-data stability. The law runs at 1 kHz with ``D_a de`` evaluated once per step, so besides
 the continuous-time condition (``K_a, D_a > 0``) the discrete loop needs, roughly,
@@ -28,7 +28,7 @@ Base (velocity interface), admittance::
     v_cmd = v + s dq_{b,d},
 
 integrated with explicit Euler at the control rate and sent to the base velocity actuators
-(see :mod:`forte.execution.simulation`). With ``s = 0`` (``base_feedforward=False``) this is exactly the
+(see :mod:`forte.execution.model`). With ``s = 0`` (``base_feedforward=False``) this is exactly the
 paper's law; the default ``s = 1`` adds the planned base velocity as feedforward, which removes
 the ramp-following lag ``(B_b + D_b) / K_b * v_d`` of the pure admittance (3 cm at 0.1 m/s with the
 default gains). Errors are taken in the world coordinates ``q_b = [x, y, yaw]`` of the base
@@ -62,8 +62,10 @@ class ControlGains:
 
     Attributes:
         K_a, D_a: Arm joint stiffness (Nm/rad) and damping (Nm s/rad); one entry per arm joint.
-            Defaults: Franka's impedance example, diag(600,600,600,600,250,150,50) and
-            diag(50,50,50,50,30,25,15) (with ``M_d = M_a`` the wrist is close to critical).
+            Defaults: Franka's impedance example for the 7-joint Panda,
+            diag(600,600,600,600,250,150,50) and diag(50,50,50,50,30,25,15) (with
+            ``M_d = M_a`` the wrist is close to critical); for other arms see
+            :func:`forte.execution.gains.default_gains`.
         M_b, B_b: Base admittance virtual mass (kg, kg m^2) and damping (N s/m, Nm s/rad).
         K_b, D_b: Base stiffness (N/m, Nm/rad) and damping on the measured base velocity.
         base_feedforward: Add the planned base velocity ``dq_{b,d}`` (see module docstring).

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from forte.execution.simulation import simulate_plan
+from forte.execution.run import simulate_plan
 from forte.io.figures import draw_polytope, pyplot
 from forte.io.plandir import plan_summary, replace_directory, write_plan
 from forte.io.reports import jsonable, package_versions

@@ -1,0 +1,115 @@
+"""The arm's URDF as a MuJoCo ``MjSpec``, reduced to the joints the planner controls.
+
+* joints that Pinocchio locks (the Panda's fingers) are deleted: their bodies become rigidly
+  fixed at the locked value (the neutral configuration clipped to the joint range); every
+  equality constraint (a URDF ``mimic``, e.g. between the fingers) is deleted;
+* the arm joints keep their range limits, lose damping and friction loss (Pinocchio's ``rnea``
+  models neither) and get the reflected rotor inertia as ``armature``;
+* ``package://example-robot-data/...`` mesh URIs point to the installed share folder; every
+  geometry has contacts off, and without ``meshes`` every geometry is dropped.
+
+Bodies and joints keep their URDF names; :func:`forte.execution.model.build_sim_model` attaches
+the arm under the prefix :data:`ARM_PREFIX`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from forte.exceptions import SimulationError
+from forte.model.robot import MobileManipulator, example_robot_data_dir
+from forte.validation import FloatArray
+
+#: Name prefix of the arm's bodies and joints in the MuJoCo model (``arm/panda_joint1``, ...).
+ARM_PREFIX = "arm/"
+
+
+def _urdf_text(robot: MobileManipulator, meshes: bool) -> str:
+    text = robot.urdf_path.read_text()
+    # Mesh URIs: package://example-robot-data/robots/... -> the real share folder.
+    text = text.replace("package://example-robot-data/robots/", str(example_robot_data_dir()) + "/")
+    if "package://" in text and meshes:
+        raise SimulationError(
+            f"urdf: {robot.urdf_path} refers to package:// meshes outside example-robot-data; "
+            "simulate without meshes (meshes=False)"
+        )
+    return text
+
+
+def load_arm_spec(robot: MobileManipulator, meshes: bool, rotor: FloatArray) -> mujoco.MjSpec:
+    """The arm's URDF as an ``MjSpec`` with ``robot``'s joints only (see the module docstring).
+
+    Args:
+        robot: The robot whose URDF and arm joints are used.
+        meshes: Keep the URDF geometry (contacts off) instead of dropping it.
+        rotor: Reflected rotor inertia of each arm joint (kg m^2), set as the joint armature.
+
+    Raises:
+        SimulationError: MuJoCo cannot parse the URDF, or a joint to lock is not 1-DoF.
+    """
+    try:
+        arm = mujoco.MjSpec.from_string(_urdf_text(robot, meshes))
+    except Exception as exc:  # MuJoCo raises plain ValueError on parse/compile problems
+        raise SimulationError(f"urdf: MuJoCo cannot load {robot.urdf_path}: {exc}") from exc
+    _prepare_arm(arm, robot, meshes, rotor)
+    return arm
+
+
+def _prepare_arm(arm: mujoco.MjSpec, robot: MobileManipulator, meshes: bool, armature: FloatArray) -> None:
+    """Lock non-arm joints, zero damping/friction, set the armature, disable contacts, drop meshes."""
+    rotor = dict(zip(robot.arm_joints or (), armature, strict=True))
+    for eq in list(arm.equalities):  # URDF mimic joints become equality constraints
+        arm.delete(eq)
+    for joint in list(arm.joints):
+        if joint.name in rotor:
+            joint.damping = np.zeros(3)  # MuJoCo 4: damping polynomial coefficients
+            joint.armature = float(rotor[joint.name])
+            joint.frictionloss = 0.0
+            continue
+        _fix_body_at(joint, _locked_value(joint))
+        arm.delete(joint)
+    for geom in list(arm.geoms):
+        if not meshes:
+            arm.delete(geom)
+            continue
+        geom.contype = 0
+        geom.conaffinity = 0
+        geom.mass = 0.0
+        geom.density = 0.0
+
+
+def _fix_body_at(joint: Any, value: float) -> None:
+    """Move the body of a 1-DoF ``joint`` to where the joint at ``value`` would put it."""
+    if value == 0.0:
+        return
+    body = joint.parent
+    axis = np.asarray(joint.axis, dtype=float)
+    axis = axis / np.linalg.norm(axis)
+    if joint.type == mujoco.mjtJoint.mjJNT_SLIDE:
+        body.pos = (np.asarray(body.pos) + _quat_rotate(body.quat, axis) * value).tolist()
+    elif joint.type == mujoco.mjtJoint.mjJNT_HINGE:
+        dq = np.zeros(4)
+        mujoco.mju_axisAngle2Quat(dq, axis, value)
+        out = np.zeros(4)
+        mujoco.mju_mulQuat(out, np.asarray(body.quat, dtype=float), dq)
+        body.quat = out.tolist()
+    else:
+        raise SimulationError(f"urdf: cannot lock joint '{joint.name}' (not 1-DoF)")
+
+
+def _quat_rotate(quat: Any, v: FloatArray) -> FloatArray:
+    out = np.zeros(3)
+    mujoco.mju_rotVecQuat(out, v, np.asarray(quat, dtype=float))
+    return out
+
+
+def _locked_value(joint: Any) -> float:
+    """The value Pinocchio's reduced model locks a joint at: neutral (0) clipped to its range."""
+    lo, hi = (float(v) for v in joint.range)
+    limited = joint.limited == mujoco.mjtLimited.mjLIMITED_TRUE or (
+        joint.limited == mujoco.mjtLimited.mjLIMITED_AUTO and lo < hi
+    )
+    return float(np.clip(0.0, lo, hi)) if limited and lo < hi else 0.0

@@ -1,0 +1,351 @@
+"""Running a plan through the Section 3.1 controllers in MuJoCo, and storing the outcome.
+
+:func:`simulate_plan` reads a plan directory (``trajectory.csv`` + ``plan.json``, see
+:func:`forte.io.plandir.write_plan_dir`), builds the model (:func:`forte.execution.model.build_sim_model`),
+interpolates the waypoints (:func:`forte.execution.control.interpolate_plan`) and calls
+:func:`run_simulation`, which runs one control step of :class:`forte.execution.control.ArmImpedance`
+and :class:`forte.execution.control.BaseAdmittance` per MuJoCo step and judges every step
+(:class:`forte.execution.judge.Judge`). When the plan has no payload (``payload.mass`` null) but
+a task force, the force is an interaction with the environment: its reaction ``-f_d`` is
+applied at the end effector.
+
+``sim.csv`` holds every ``record_every``-th control step: ``t``; the whole-body joint error
+``e_x_b, e_y_b, e_yaw, e_q1..e_qn`` (``q_d - q``, yaw wrapped); the applied arm torques
+``tau1..taun``; the saturation flags ``sat1..satn`` (OR-ed over the recording window);
+the end-effector error ``ee_err_x/y/z`` (``p - p_d``, world frame) and its norm ``ee_err``;
+the simulated whole-body joint positions ``x_b, y_b, yaw, q1..qn`` (the names of
+``trajectory.csv``; yaw not wrapped) and velocities ``dx_b, dy_b, dyaw, dq1..dqn``.
+``sim.json`` holds the verdict, the summary statistics and the gains used.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, replace
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from forte.exceptions import InvalidInputError
+from forte.execution.control import ArmCommand, ArmImpedance, BaseAdmittance, ControlGains, Reference, interpolate_plan
+from forte.execution.gains import default_gains, describe_gains, gains_from_mapping, sampled_loop_radius_at
+from forte.execution.judge import Judge, SimResult, Thresholds
+from forte.execution.model import SimModel, build_sim_model
+from forte.execution.render import FrameRecorder, FrameSink, LiveViewer
+from forte.io.plandir import atomic_write, read_plan_dir
+from forte.model.robot import N_BASE, MobileManipulator, robot_from_description
+from forte.model.trajectory import trajectory_header
+from forte.planning.planner import Plan
+from forte.validation import FloatArray, as_positive
+
+
+def check_mass(mass: Any) -> float:
+    """A payload mass >= 0 kg (``InvalidInputError`` naming ``mass`` otherwise)."""
+    if mass is None:
+        raise InvalidInputError("mass: expected a number >= 0 kg, got None")
+    return as_positive(mass, "mass", allow_zero=True)
+
+
+class _RunLog:
+    """Statistics over every control step and the log columns of every ``record_every``-th one."""
+
+    def __init__(self, steps: int, record_every: int, nq: int, tau_max: FloatArray) -> None:
+        n = tau_max.size
+        self.tau_max = tau_max
+        self.rec_idx = list(range(0, steps, max(1, int(record_every))))
+        if self.rec_idx[-1] != steps - 1:
+            self.rec_idx.append(steps - 1)
+        nrec = len(self.rec_idx)
+        self.q_err = np.zeros((nrec, nq))
+        self.q = np.zeros((nrec, nq))
+        self.dq = np.zeros((nrec, nq))
+        self.tau = np.zeros((nrec, n))
+        self.sat = np.zeros((nrec, n))
+        self.ee = np.zeros((nrec, 3))
+        self.sat_window = np.zeros(n, dtype=bool)
+        self.sat_steps = np.zeros(n)
+        self.max_ratio = np.zeros(n)
+        self.ee_err_max = 0.0
+        self.ee_sq = 0.0
+        self.qa_err_max = 0.0
+        self.rows = 0
+
+    def add(self, k: int, q: FloatArray, dq: FloatArray, q_d: FloatArray, ee_err: FloatArray,
+            cmd: ArmCommand) -> None:
+        """Account for control step ``k`` (state ``q, dq``, reference ``q_d``, command ``cmd``)."""
+        # Saturation is OR-ed over each recording window so no event is lost.
+        self.sat_window |= cmd.saturated
+        self.sat_steps += cmd.saturated
+        self.max_ratio = np.maximum(self.max_ratio, np.abs(cmd.tau_raw) / self.tau_max)
+        e_norm = float(np.linalg.norm(ee_err))
+        self.ee_err_max = max(self.ee_err_max, e_norm)
+        self.ee_sq += e_norm**2
+        self.qa_err_max = max(self.qa_err_max, float(np.abs(q_d[N_BASE:] - q[N_BASE:]).max()))
+        r = self.rows
+        if r < len(self.rec_idx) and k == self.rec_idx[r]:
+            e_q = q_d - q
+            e_q[2] = (e_q[2] + np.pi) % (2 * np.pi) - np.pi
+            self.q_err[r], self.tau[r], self.sat[r], self.ee[r] = e_q, cmd.tau, self.sat_window, ee_err
+            self.q[r], self.dq[r] = q, dq
+            self.sat_window[:] = False
+            self.rows += 1
+
+    def columns(self, t: FloatArray) -> dict[str, FloatArray]:
+        """The recorded rows as named columns (see the module docstring)."""
+        r, n = self.rows, self.tau_max.size
+        log: dict[str, FloatArray] = {"t": t[self.rec_idx[:r]]}
+        for i, name in enumerate(trajectory_header(n)[1:]):
+            log[f"e_{name}"] = self.q_err[:r, i]
+        for i in range(n):
+            log[f"tau{i + 1}"] = self.tau[:r, i]
+        for i in range(n):
+            log[f"sat{i + 1}"] = self.sat[:r, i]
+        for i, axis in enumerate("xyz"):
+            log[f"ee_err_{axis}"] = self.ee[:r, i]
+        log["ee_err"] = np.linalg.norm(self.ee[:r], axis=1)
+        for i, name in enumerate(trajectory_header(n)[1:]):
+            log[name] = self.q[:r, i]
+        for i, name in enumerate(trajectory_header(n)[1:]):
+            log[f"d{name}"] = self.dq[:r, i]
+        return log
+
+    def summary(self, steps_run: int) -> dict[str, Any]:
+        """Error and torque statistics over the ``steps_run`` steps simulated."""
+        return {
+            "max_ee_error_m": self.ee_err_max,
+            "rms_ee_error_m": float(np.sqrt(self.ee_sq / max(steps_run, 1))),
+            "max_arm_joint_error_rad": self.qa_err_max,
+            "max_torque_ratio": self.max_ratio.tolist(),
+            "saturation_fraction": (self.sat_steps / max(steps_run, 1)).tolist(),
+        }
+
+
+class _ControlStep:
+    """One control step: read the end effector, command arm and base, apply the reaction force."""
+
+    def __init__(self, sim: SimModel, gains: ControlGains, reaction_force: bool) -> None:
+        self.sim = sim
+        self.arm = ArmImpedance(sim.robot, gains, armature=sim.armature)
+        self.base = BaseAdmittance(gains, sim.timestep)
+        self.reaction_force = reaction_force
+        self.ee_body = int(sim.model.site_bodyid[sim.ee_site])
+
+    def __call__(self, k: int, q: FloatArray, dq: FloatArray, ref: Reference) -> tuple[FloatArray, float, ArmCommand]:
+        """Set the controls for step ``k``; return the end-effector error, its tilt and the arm command."""
+        sim, m, d = self.sim, self.sim.model, self.sim.data
+        q_d = ref.q[k]
+        T_d = sim.robot.ee_pose(q_d)
+        T = sim.ee_pose()
+        ee_err = T[:3, 3] - T_d[:3, 3]
+        tilt = float(np.arccos(np.clip(T[:3, 2] @ T_d[:3, 2], -1.0, 1.0)))
+        J = sim.ee_jacobian()
+        f_d = ref.f[k]
+        cmd = self.arm.command(q[N_BASE:], dq[N_BASE:], q_d[N_BASE:], ref.dq[k, N_BASE:],
+                               ref.ddq[k, N_BASE:], J, f_d)
+        v_cmd = self.base.command(q[:N_BASE], dq[:N_BASE], q_d[:N_BASE], ref.dq[k, :N_BASE])
+        d.ctrl[sim.arm_act] = cmd.tau
+        d.ctrl[sim.base_act] = v_cmd
+        if self.reaction_force:
+            d.qfrc_applied[:] = 0.0
+            mujoco.mj_applyFT(m, d, -f_d, np.zeros(3), T[:3, 3].copy(), self.ee_body, d.qfrc_applied)
+        return ee_err, tilt, cmd
+
+
+def run_simulation(
+    sim: SimModel,
+    reference: Reference,
+    *,
+    gains: ControlGains | None = None,
+    thresholds: Thresholds | None = None,
+    reaction_force: bool = False,
+    record_every: int = 10,
+    stop_on_failure: bool = False,
+    sinks: Sequence[FrameSink] = (),
+) -> SimResult:
+    """Run the controllers on ``sim`` along ``reference`` (sampled at every control step).
+
+    The simulation starts at ``reference.q[0]`` at rest; one control step per MuJoCo step
+    (``reference.t`` must be ``k * timestep``). With ``reaction_force`` the environment's
+    reaction ``-f_d`` is applied at the end-effector point. Each of ``sinks`` (offscreen
+    recorder, live viewer) captures the state every ``sink.every`` steps. ``gains`` default to
+    :func:`forte.execution.gains.default_gains` at the start configuration.
+    """
+    gains = gains or default_gains(sim.robot, reference.q[0, N_BASE:], sim.armature)
+    th = thresholds or Thresholds()
+    dt = sim.timestep
+    control = _ControlStep(sim, gains, reaction_force)
+    judge = Judge(th, dt, sim.robot.n_arm, sim.payload_mass > 0)
+    log = _RunLog(reference.t.size, record_every, sim.robot.nq, control.arm.tau_max)
+    sim.set_state(reference.q[0])
+    start = time.perf_counter()
+    steps_run = 0
+    for k in range(reference.t.size):
+        q, dq = sim.state()
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(dq))):
+            judge.fail(k * dt, "unstable", f"non-finite state at t = {k * dt:.3f} s")
+            break
+        ee_err, tilt, cmd = control(k, q, dq, reference)
+        judge.step(k * dt, ee_err, tilt, cmd.saturated)
+        log.add(k, q, dq, reference.q[k], ee_err, cmd)
+        for sink in sinks:
+            if k % sink.every == 0:
+                sink.capture(sim)
+        steps_run += 1
+        if stop_on_failure and judge.reason is not None:
+            break
+        mujoco.mj_step(sim.model, sim.data)
+    wall = time.perf_counter() - start
+    summary = {
+        "duration": float(steps_run * dt),
+        "timestep": dt,
+        "steps": steps_run,
+        "wall_time_s": wall,
+        "payload_mass": sim.payload_mass,
+        **log.summary(steps_run),
+        "thresholds": asdict(th),
+    }
+    return SimResult(judge.reason is None, judge.reason, judge.time,
+                     judge.detail or "all criteria met", log.columns(reference.t), summary)
+
+
+def simulate_plan(
+    plan_dir: str | Path,
+    mass: float | None = None,
+    *,
+    force_feedforward: bool | None = None,
+    out_dir: str | Path | None = None,
+    gains: ControlGains | Mapping[str, Any] | None = None,
+    thresholds: Thresholds | None = None,
+    torque_limits: Any = None,
+    hold: float = 1.0,
+    timestep: float = 1e-3,
+    record_every: int = 10,
+    stop_on_failure: bool = False,
+    frames_dir: str | Path | None = None,
+    video: str | Path | None = None,
+    fps: float = 30.0,
+    viewer: bool = False,
+    write: bool = True,
+) -> SimResult:
+    """Simulate the plan in ``plan_dir`` and (with ``write``) store ``sim.csv`` and ``sim.json``.
+
+    Args:
+        plan_dir: Folder with ``trajectory.csv`` and ``plan.json``.
+        mass: True payload mass in the simulation (kg); default: the plan's ``payload.mass``
+            (none when null). A mass > 0 different from the plan's models a mass-estimation
+            error: the controller's force feedforward still uses the plan's force. ``mass=0``
+            on a plan that carries a payload means *no payload*: no payload body and, unless
+            ``force_feedforward=True``, no force feedforward either (nothing to carry). On a
+            plan without payload (``payload.mass`` null) the force is an interaction with the
+            environment and stays on.
+        force_feedforward: ``tau_F = J^T f_d`` on (True) or off (False); default (None): on,
+            except for ``mass=0`` on a payload plan (see ``mass``). Off, with a plan's
+            interaction force, the environment still pushes but the arm does not push back.
+        out_dir: Where to write the results (default ``plan_dir``).
+        gains: Controller gains, or a ``controller:`` mapping for
+            :func:`forte.execution.gains.gains_from_mapping` (rule inertia at the plan's start);
+            default: :func:`forte.execution.gains.default_gains` (Franka's on the Panda, the
+            4 Hz rule on any other arm).
+        thresholds: Failure criteria (defaults documented there).
+        torque_limits: Override the robot's limits (Nm, per arm joint), e.g. for stress tests.
+        hold: Seconds simulated after the last waypoint, holding it.
+        timestep: Simulation and control period (s); 1 ms = 1 kHz.
+        record_every: Log every n-th control step (saturation flags OR-ed over the window).
+        stop_on_failure: Stop at the first failure instead of running to the end.
+        frames_dir, video: Offscreen rendering to PNG frames / an mp4 file at ``fps``.
+        viewer: Show the run in MuJoCo's interactive viewer, paced to real time; after the
+            run (and after writing the results) wait until the user closes the window.
+        write: Write ``sim.csv``/``sim.json``, after the run, each through a temporary file
+            and a rename: an interrupted or crashed run never replaces earlier results.
+
+    Raises:
+        TaskFileError: malformed plan directory; InvalidInputError: bad gains mapping or
+        arguments; SimulationError: model or rendering problems, no display for ``viewer``.
+    """
+    plan = read_plan_dir(plan_dir)
+    robot = plan.robot if torque_limits is None else _with_torque_limits(plan.robot, torque_limits)
+    true_mass = plan.payload.mass if mass is None else check_mass(mass)
+    if force_feedforward is None:  # off only when a payload plan is run without its payload
+        force_feedforward = not (mass is not None and true_mass == 0.0 and plan.payload.mass is not None)
+    hold = as_positive(hold, "hold", allow_zero=True)
+    offscreen = frames_dir is not None or video is not None
+    sim = build_sim_model(robot, true_mass or 0.0, meshes=offscreen or viewer, timestep=timestep)
+    gains = _resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
+    reference = _plan_reference(plan, sim.timestep, hold)
+    recorder = FrameRecorder(sim, _optional_path(frames_dir), _optional_path(video), fps) if offscreen else None
+    live = LiveViewer(sim) if viewer else None
+    result = run_simulation(
+        sim, reference, gains=gains, thresholds=thresholds,
+        reaction_force=plan.payload.mass is None and plan.force is not None and bool(np.any(plan.force.f)),
+        record_every=record_every, stop_on_failure=stop_on_failure,
+        sinks=[s for s in (recorder, live) if s is not None],
+    )
+    result.summary.update(_run_facts(plan, Path(plan_dir), sim, gains))
+    if recorder is not None:
+        result.summary["rendered"] = [str(p) for p in recorder.finish()]
+    if write:
+        write_results(result, Path(plan_dir) if out_dir is None else Path(out_dir))
+    if live is not None:
+        live.finish()
+    return result
+
+
+def _optional_path(path: str | Path | None) -> Path | None:
+    return None if path is None else Path(path)
+
+
+def _run_facts(plan: Plan, plan_dir: Path, sim: SimModel, gains: ControlGains) -> dict[str, Any]:
+    """What ``sim.json`` records about the plan, the model and the controller of a run."""
+    q_a0 = plan.q[0, N_BASE:]
+    return {
+        "plan_dir": str(plan_dir.resolve()), "plan_method": plan.method, "plan_status": plan.status,
+        "plan_mass": plan.payload.mass, "force_feedforward": gains.force_feedforward, "armature": sim.armature.tolist(),
+        "gains": describe_gains(gains),
+        "sampled_loop_radius_start": sampled_loop_radius_at(sim.robot, gains, q_a0, sim.armature, sim.timestep),
+    }
+
+
+def _resolve_gains(gains: ControlGains | Mapping[str, Any] | None, sim: SimModel, q_a0: FloatArray,
+                   force_feedforward: bool) -> ControlGains:
+    """Gains object, mapping or default, with the force feedforward switched off if asked."""
+    if gains is None:
+        gains = default_gains(sim.robot, q_a0, sim.armature)
+    elif isinstance(gains, Mapping):
+        gains = gains_from_mapping(gains, sim.robot, q_a=q_a0, armature=sim.armature)
+    elif not isinstance(gains, ControlGains):
+        raise InvalidInputError(f"gains: expected ControlGains or a mapping, got {type(gains).__name__}")
+    gains.check(sim.robot.n_arm)
+    return gains if force_feedforward else replace(gains, force_feedforward=False)
+
+
+def _with_torque_limits(robot: MobileManipulator, torque_limits: Any) -> MobileManipulator:
+    """``robot`` with other torque limits (Nm; one value for every joint, or one per joint)."""
+    limits = np.broadcast_to(np.asarray(torque_limits, dtype=float), (robot.n_arm,))
+    return robot_from_description({**robot.describe(), "torque_limits": list(limits)})
+
+
+def _plan_reference(plan: Plan, dt: float, hold: float) -> Reference:
+    """The plan's reference at every control step ``t_0 + k dt`` up to ``hold`` s after its end."""
+    steps = int(round((plan.t[-1] - plan.t[0] + hold) / dt)) + 1
+    times = plan.t[0] + dt * np.arange(steps)
+    force_t, force = (None, None) if plan.force is None else (plan.force.t, plan.force.f)
+    return interpolate_plan(plan.t, plan.q, times, force_t, force)
+
+
+def write_results(result: SimResult, out_dir: Path) -> tuple[Path, Path]:
+    """Atomically write ``sim.csv`` (the log) and ``sim.json`` (verdict + summary) to ``out_dir``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    names = list(result.log)
+    table = np.column_stack([result.log[n] for n in names]) if names else np.zeros((0, 0))
+    buf = io.StringIO()
+    buf.write(",".join(names) + "\n")
+    np.savetxt(buf, table, delimiter=",", fmt="%.6g")
+    csv_path, json_path = out_dir / "sim.csv", out_dir / "sim.json"
+    atomic_write(csv_path, buf.getvalue())
+    atomic_write(json_path, json.dumps(result.to_json(), indent=1) + "\n")
+    return csv_path, json_path
