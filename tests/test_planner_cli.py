@@ -188,3 +188,29 @@ def test_failed_comparison_never_replaces_an_earlier_one(tmp_path):
     assert main(["compare", str(bad), "--out", str(out), "--quiet", "--no-figures"]) == 1
     assert (out / "summary.csv").read_text() == before
     assert "failure" in (tmp_path / "cmp.failed" / "summary.csv").read_text()
+
+
+def test_out_never_replaces_what_forte_did_not_write(tmp_path, capsys):
+    """--out refuses a folder of the user's and a plain file before planning, exit 2, nothing touched."""
+    mine = tmp_path / "mydata"
+    mine.mkdir()
+    (mine / "thesis.tex").write_text("years of work")
+    plain = tmp_path / "afile"
+    plain.write_text("keep me")
+    for out in (mine, plain):
+        code = main(["plan", str(EXAMPLES / "hold.yaml"), "--method", "teaching", "--mass", "1", "--out", str(out),
+                     "--quiet", "--no-figures"])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1, err
+        assert "forte did not write" in err or "not a directory forte wrote" in err
+    assert (mine / "thesis.tex").read_text() == "years of work" and plain.read_text() == "keep me"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "mydata"]  # no stray temporary directory
+
+
+def test_out_replaces_its_own_plan_and_an_empty_folder(tmp_path):
+    out = tmp_path / "plan"
+    out.mkdir()  # empty: nothing to lose
+    args = ["plan", str(EXAMPLES / "hold.yaml"), "--method", "teaching", "--out", str(out), "--quiet", "--no-figures"]
+    assert main([*args, "--mass", "1"]) == 0
+    assert main([*args, "--mass", "2"]) == 0  # forte's own plan is replaced
+    assert json.loads((out / "plan.json").read_text())["payload"]["mass"] == 2.0

@@ -1,13 +1,79 @@
 """forte: task-adaptive force-capability trajectory optimization for mobile manipulators.
 
-The data flow, one module per stage:
+The package follows the data flow, one subpackage per stage (each imports only the ones above
+it in this list):
 
-- :mod:`forte.model.robot`: the mobile manipulator (Pinocchio) and its built-in default;
-- :mod:`forte.model.twin`: the same kinematics and dynamics as CasADi expressions;
-- :mod:`forte.model.trajectory`: backward finite differences and quintic paths;
-- :mod:`forte.force.taskforce`: desired task forces ``f_k = m (p''_k - g)`` and their uncertainty;
-- :mod:`forte.capability.polytope`: the dynamic residual force polytope and its geometry;
-- :mod:`forte.capability.metrics`: the force-capability metric ``J1`` and manipulability.
+- :mod:`forte.model`: the mobile manipulator (Pinocchio), its CasADi twin, time differences;
+- :mod:`forte.force`: payloads, mass estimation (VLM or offline), desired task forces;
+- :mod:`forte.capability`: the dynamic residual force polytope and the capability metric;
+- :mod:`forte.planning`: task files, cost terms, methods, the NLP and the planner;
+- :mod:`forte.io`: plan directories, reports and figures;
+- :mod:`forte.execution`: MuJoCo simulation with the paper's controllers;
+- :mod:`forte.experiments`: the paper's experiments;
+- :mod:`forte.cli`: the ``forte`` command.
+
+The names below are the public API; they are imported on first use, so ``import forte`` is
+quick. A short session (run from the repository root):
+
+>>> import forte
+>>> task = forte.load_task("examples/tasks/hold.yaml", mass=0.35)
+>>> task.mode, task.n
+('hold', 1)
+>>> sorted(forte.METHODS)[:3]
+['forte', 'manipulability', 'quintic']
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
 __version__ = "0.1.0"
+
+#: Public name -> module that defines it.
+_API: dict[str, str] = {
+    "load_task": "forte.planning.tasks",
+    "Task": "forte.planning.tasks",
+    "plan": "forte.planning.planner",
+    "compare": "forte.planning.planner",
+    "Plan": "forte.planning.planner",
+    "evaluate": "forte.planning.planner",
+    "METHODS": "forte.planning.methods",
+    "Method": "forte.planning.methods",
+    "MethodStyle": "forte.planning.methods",
+    "register_method": "forte.planning.methods",
+    "COST_TERMS": "forte.planning.costs",
+    "CostTerm": "forte.planning.costs",
+    "Stage": "forte.planning.costs",
+    "register_term": "forte.planning.costs",
+    "CostWeights": "forte.settings",
+    "CapabilityParameters": "forte.settings",
+    "SolverOptions": "forte.settings",
+    "KinematicLimits": "forte.settings",
+    "default_robot": "forte.model.robot",
+    "MobileManipulator": "forte.model.robot",
+    "residual_force_polytope": "forte.capability.polytope",
+    "ResidualForcePolytope": "forte.capability.polytope",
+    "capability_margin": "forte.capability.metrics",
+    "payload_force": "forte.force.taskforce",
+    "Payload": "forte.force.payload",
+    "estimate_payload": "forte.force.estimate",
+    "write_plan": "forte.io.plandir",
+    "read_plan_dir": "forte.io.plandir",
+    "simulate": "forte.execution.run",
+}
+
+__all__ = sorted(_API)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _API:
+        raise AttributeError(f"module 'forte' has no attribute '{name}'")
+    module = importlib.import_module(_API[name])
+    value = getattr(module, "simulate_plan" if name == "simulate" else name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_API])

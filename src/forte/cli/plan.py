@@ -24,6 +24,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--vlm-base-url", help="OpenAI-compatible server for the mass estimate (else offline)")
     p.add_argument("--model", default="gpt-4o", help="VLM model name (default gpt-4o)")
     p.add_argument("--api-key-env", default="OPENAI_API_KEY", help="environment variable holding the API key")
+    p.add_argument("--no-cache", action="store_true", help="ask the VLM server every time (no answer cache)")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -46,8 +47,11 @@ def _estimator_options(args: argparse.Namespace) -> dict[str, Any]:
     if not args.vlm_base_url:
         return {}
     from forte.force.vlm import VLMConfig
+    from forte.force.vlm_cache import default_cache_dir
 
-    return {"vlm": VLMConfig(base_url=args.vlm_base_url, model=args.model, api_key_env=args.api_key_env)}
+    config = VLMConfig(base_url=args.vlm_base_url, model=args.model, api_key_env=args.api_key_env,
+                       cache=not args.no_cache)
+    return {"vlm": config, "cache_dir": None if args.no_cache else default_cache_dir()}
 
 
 def _say(args: argparse.Namespace, text: str) -> None:

@@ -263,6 +263,14 @@ def simulate_plan(
         write: Write ``sim.csv``/``sim.json``, after the run, each through a temporary file
             and a rename: an interrupted or crashed run never replaces earlier results.
 
+    Example (hold the home pose for 0.2 s, no payload):
+        >>> import tempfile, forte
+        >>> from forte.io.plandir import write_plan_dir
+        >>> robot = forte.default_robot()
+        >>> plan_dir = write_plan_dir(tempfile.mkdtemp() + "/home", robot, [0.0], [robot.home()])
+        >>> forte.simulate(plan_dir, hold=0.2, write=False).success
+        True
+
     Raises:
         TaskFileError: malformed plan directory; InvalidInputError: bad gains mapping or
         arguments; SimulationError: model or rendering problems, no display for ``viewer``.

@@ -344,6 +344,12 @@ def default_robot(torque_limits: Any = PAPER_TORQUE_LIMITS, **overrides: Any) ->
     Uses example-robot-data's ``panda.urdf``, end effector ``panda_hand_tcp``, the paper's
     torque limits (60 Nm joints 1-4, 12 Nm joints 5-7), the :data:`MOCA_MOUNT` transform and
     the :data:`MOCA_TOOL` basket-and-camera load.
+
+    Example:
+        >>> import forte
+        >>> robot = forte.default_robot()
+        >>> robot.nq, robot.torque_limits.tolist()
+        (10, [60.0, 60.0, 60.0, 60.0, 12.0, 12.0, 12.0])
     """
     kwargs: dict[str, Any] = {
         "urdf": "erd:panda_description/urdf/panda.urdf",

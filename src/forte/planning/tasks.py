@@ -222,6 +222,12 @@ def load_task(
         path: The YAML file.
         mass: Payload mass overriding the file's (kg).
         waypoints: Number of samples overriding the file's (trajectory mode).
+
+    Example (from the repository root):
+        >>> import forte
+        >>> task = forte.load_task("examples/tasks/lift.yaml", waypoints=20)
+        >>> task.n, task.payload.mass, task.resampled(30).n
+        (20, 2.7, 30)
     """
     path = Path(path)
     if not path.is_file():

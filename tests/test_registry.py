@@ -1,0 +1,100 @@
+"""A new cost term and a new method enter through the registries alone and plan end to end."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from forte.cli.main import build_parser
+from forte.exceptions import InvalidInputError
+from forte.planning.costs import COST_TERMS, CostTerm, Stage, register_term
+from forte.planning.kernels import kernel_key
+from forte.planning.methods import METHODS, Method, MethodStyle, method_names, register_method, unregister_method
+from forte.planning.planner import methods_for, plan
+from forte.planning.tasks import load_task
+from forte.settings import CostWeights
+
+LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
+
+
+@dataclass(frozen=True)
+class BaseDistance(CostTerm):
+    """Toy stage term: ``c_k = ||(x_k, y_k) - centre||^2``, keeps the base near ``centre``."""
+
+    name: ClassVar[str] = "base_distance"
+    default_weight: ClassVar[float] = 1.0
+    centre: tuple[float, float] = (0.0, 0.0)
+
+    def stage(self, s: Stage) -> ca.SX:
+        return ca.sumsqr(s.q0[:2] - ca.DM(self.centre))
+
+
+@pytest.fixture
+def toy_method():
+    register_term(BaseDistance, replace=True)
+    method = register_method(Method(
+        "toy", "forte plus a pull of the base towards the origin",
+        terms=(*METHODS["forte"].terms, "base_distance"), weights={"base_distance": 200.0},
+        style=MethodStyle("tab:olive", "toy"),
+    ), replace=True)
+    yield method
+    unregister_method("toy")
+    COST_TERMS.pop("base_distance", None)
+
+
+def test_new_term_and_method_plan_through_the_registries(toy_method, tmp_path):
+    task = load_task(LIFT, waypoints=12)
+    assert "toy" in methods_for(task) and "toy" in method_names(optimized=True)
+    toy = plan(task, "toy")
+    assert toy.success, toy.status
+    terms = toy.solver["cost_terms"]
+    assert set(terms) == {"capability", "manipulability", "joint_limits", "smoothness", "base_spectral",
+                          "base_distance"}
+    # the compiled term equals the formula evaluated on the plan
+    assert terms["base_distance"] == pytest.approx(float(np.sum(toy.q[:, :2] ** 2)), rel=1e-9, abs=1e-12)
+    assert toy.solver["term_weights"]["base_distance"] == 200.0
+    reference = plan(task, "forte")
+    assert np.sum(toy.q[:, :2] ** 2) < np.sum(reference.q[:, :2] ** 2)
+    # the CLI offers it without any edit
+    parser = build_parser()
+    args = parser.parse_args(["plan", str(LIFT), "--method", "toy", "--out", str(tmp_path / "toy")])
+    assert args.method == "toy"
+
+
+def test_what_a_term_bakes_in_is_part_of_the_kernel_key(toy_method, robot):
+    import dataclasses
+
+    base = kernel_key(robot, "toy", CostWeights())
+    moved = Method("toy2", "", terms=("base_distance",))
+    register_method(moved)
+    try:
+        assert kernel_key(robot, "toy2", CostWeights()) != base
+        # changing a baked parameter of a built-in term changes the key; a runtime weight does not
+        params = dataclasses.replace(CostWeights().capability_params, beta=20.0)
+        assert kernel_key(robot, "forte", CostWeights(capability_params=params)) != kernel_key(
+            robot, "forte", CostWeights())
+        assert kernel_key(robot, "forte", CostWeights(capability=50.0)) == kernel_key(robot, "forte", CostWeights())
+    finally:
+        unregister_method("toy2")
+
+
+def test_registry_errors_are_one_line():
+    with pytest.raises(InvalidInputError, match="cost term 'nope': not registered"):
+        Method("bad", "", terms=("nope",))
+    with pytest.raises(InvalidInputError, match="already registered"):
+        register_method(METHODS["forte"])
+    with pytest.raises(InvalidInputError, match="needs produce"):
+        Method("bad", "", production="given")
+    with pytest.raises(InvalidInputError, match="method: expected one of"):
+        plan(load_task(LIFT, waypoints=5), "no-such-method")
+
+
+def test_every_method_has_a_distinct_colour_and_label():
+    styles = [m.style for m in METHODS.values()]
+    assert len({s.color for s in styles}) == len(styles)
+    assert all(s.label for s in styles)
