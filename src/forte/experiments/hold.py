@@ -65,7 +65,7 @@ def plot_hold_metrics(cases: list[Case], directory: Path, fmt: str) -> str:
         for ax, values, digits in ((ax_c, caps, 1), (ax_m, mus, 3)):
             bars = ax.bar(x, values, width=0.65, color=colors, edgecolor="black", lw=0.6, zorder=2)
             ax.bar_label(bars, labels=[f"{v:.{digits}f}" for v in values], fontsize=7, padding=2,
-                         bbox={"facecolor": "white", "edgecolor": "none", "pad": 0.6})
+                         bbox={"facecolor": "white", "edgecolor": "none", "pad": 0.6}, zorder=4)
             ax.set_xticks(x, [style(m)[1] for m in names], rotation=20, fontsize=8)
             ax.grid(axis="y", alpha=0.3, zorder=0)
             ax.margins(y=0.12)
@@ -277,7 +277,7 @@ def _heavy_claims(heavy: Case, unloaded: dict[str, dict[str, Any]]) -> list[Clai
                compare("manipulability-only's capacity", cap["manipulability"], ">=", "|f| − r", need - rad, " N")]),
         Claim("5.4", "2.7 L: the teaching point's capacity is below the required force (ball centre outside the RFP)",
               "capacity − |f| (N)", f"{mh['teaching']['min_capacity_minus_force']:.1f}",
-              [compare("teaching's capacity", cap["teaching"], "<", "|f|", need, " N")]),
+              [solved(res, "teaching"), compare("teaching's capacity", cap["teaching"], "<", "|f|", need, " N")]),
         Claim("5.4", "2.7 L: the teaching point cannot hold the pose under the load",
               "simulation with the payload (every run); without it", f"{sim_text(heavy.sims.get('teaching'))}; "
               f"without payload: {unloaded_text({k: v for k, v in unloaded.items() if k == 'teaching'})}",
@@ -317,7 +317,7 @@ def _light_claims(light: Case, heavy: Case) -> list[Claim]:
         Claim("5.4", "the teaching point has poor manipulability (below forte's, both payloads)", "manipulability",
               f"teaching {teach:.4f} vs forte {mu['forte']:.4f} (0.33 L) / "
               f"{heavy.results['forte'].metrics['manipulability'][0]:.4f} (2.7 L)",
-              [solved(res, "forte"), solved(heavy.results, "forte"),
+              [solved(res, "forte", "teaching"), solved(heavy.results, "forte", "teaching"),
                compare("teaching's manipulability", teach, "<", "forte's (both payloads)", forte_both, digits=4)]),
     ]
 
