@@ -10,7 +10,7 @@ import pytest
 
 from forte.cli import experiment as cli_experiment
 from forte.execution.run import simulate_plan
-from forte.experiments.paper import run_continuous, run_hold, run_lift
+from forte.experiments import run_continuous, run_hold, run_lift
 from forte.io.plandir import write_plan
 from forte.planning.planner import plan
 from forte.planning.tasks import load_task
@@ -23,6 +23,11 @@ def _check_outputs(out: Path, figures: list[str], cases: int) -> dict:
     text = (out / "summary.md").read_text()
     assert "Paper claim vs our result" in text
     assert doc["claims"] and all(isinstance(c["reproduced"], bool) for c in doc["claims"])
+    for claim in doc["claims"]:  # reproduced iff every check holds; otherwise a cause in both summaries
+        assert claim["checks"] and claim["reproduced"] == all(c["ok"] for c in claim["checks"])
+        assert (claim["cause"] is None) == claim["reproduced"]
+        if not claim["reproduced"]:
+            assert f"{claim['claim']}: ours {claim['ours']}. Cause: {claim['cause']}." in text
     assert len(doc["cases"]) == cases
     for name in figures:
         assert (out / name).stat().st_size > 1000, name
@@ -52,15 +57,23 @@ def test_lift_runs_end_to_end_with_simulation(tmp_path):
                 assert sim["trials"]["count"] == 1
                 assert 0.35 * 0.9 - 1e-9 <= sim["trials"]["runs"][0]["mass"] or case["mass"] == 2.7
     assert (out / "2.7kg" / "quintic" / "sim.json").exists()
+    forte = doc["cases"]["2.7 L"]["methods"]["forte"]["simulation"]
+    every_run_ok = forte["verdict"] == "success" and all(r["success"] for r in forte["trials"]["runs"])
+    (lifts,) = [c for c in doc["claims"] if c["claim"].startswith("2.7 L: forte lifts")]
+    assert lifts["reproduced"] == every_run_ok
+    assert not any("issue" in c["claim"] for c in doc["claims"])
+    assert any("issue's test" in n for n in doc["notes"])
 
 
-def test_hold_runs_through_the_cli_parser(tmp_path):
+def test_hold_runs_through_the_cli_parser_with_vector_figures(tmp_path):
     parser = argparse.ArgumentParser()
     cli_experiment.register(parser.add_subparsers(dest="command"))
     out = tmp_path / "hold"
-    args = parser.parse_args(["experiment", "hold", "--out", str(out), "--trials", "1", "--quiet"])
+    args = parser.parse_args(["experiment", "hold", "--out", str(out), "--trials", "1", "--quiet", "--format", "svg"])
     assert args.func(args) == 0
-    doc = _check_outputs(out, ["hold_metrics.png", "hold_polytopes.png", "hold_ellipsoids.png"], 2)
+    doc = _check_outputs(out, ["hold_metrics.svg", "hold_polytopes.svg", "hold_ellipsoids.svg"], 2)
+    assert (out / "hold_polytopes.svg").read_text().lstrip().startswith("<?xml")
+    assert not list(out.glob("*.png"))
     assert set(doc["cases"]["2.7 L"]["methods"]) == {"forte", "manipulability", "rfp-radius", "rfp-cone", "teaching"}
 
 

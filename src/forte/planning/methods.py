@@ -19,7 +19,7 @@ Built-in methods:
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Any
 
@@ -60,6 +60,7 @@ class Method:
         produce: ``task -> q`` (N x nq) for methods that are not optimized.
         status: solver status reported for methods that are not optimized.
         source: where the definition comes from.
+        in_paper: compared in the paper's experiments (``forte experiment`` runs these).
     """
 
     name: str
@@ -72,6 +73,7 @@ class Method:
     produce: Callable[[Any], FloatArray] | None = None
     status: str = ""
     source: str = ""
+    in_paper: bool = False
 
     def __post_init__(self) -> None:
         if self.production not in PRODUCTIONS:
@@ -158,7 +160,7 @@ for _method in (
            produce=_teaching, status="not optimized (teaching point)",
            style=MethodStyle("tab:brown", "teaching point", "P"), source="paper, Section 5.4"),
 ):
-    register_method(_method)
+    register_method(replace(_method, in_paper=True))
 
 __all__ = ["COST_TERMS", "METHODS", "Method", "MethodStyle", "get_method", "method_names", "register_method",
            "unregister_method"]

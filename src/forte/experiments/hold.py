@@ -1,0 +1,342 @@
+"""Section 5.4: single-point holding with 0.33 L and 2.7 L payloads, five configurations.
+
+Each configuration is held for :data:`HOLD_SECONDS` in simulation with the nominal mass and
+``trials`` times with a seeded mass error; claims follow :mod:`forte.experiments.common`.
+
+Figures: ``hold_metrics`` (capacity along f against the |f| ± r band, and manipulability, as
+bars per method), ``hold_polytopes`` (per method the residual force polytope's section by the
+vertical x-z plane through the force ball's centre, zoomed on the ball) and ``hold_ellipsoids``
+(projections of the velocity-manipulability ellipsoid).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from forte.capability.polytope import directional_capacity, trajectory_rfp
+from forte.experiments.claims import Claim, compare, every_run, runs, solved, unloaded_succeeds
+from forte.experiments.common import (
+    MANIP_DEF,
+    MANIP_LABEL,
+    MASS_ERROR,
+    Case,
+    Log,
+    check_format,
+    methods_for,
+    metrics,
+    plan_payloads,
+    quiet,
+    save,
+    sim_text,
+    simulate_cases,
+    style,
+    unloaded_runs,
+    unloaded_text,
+    write_summary,
+)
+from forte.io.figures import pyplot
+from forte.io.plandir import replace_directory
+from forte.planning.planner import PlanResult
+
+HOLD_SECONDS = 3.0
+
+
+# -- figures ---------------------------------------------------------------------------------
+def plot_hold_metrics(cases: list[Case], directory: Path, fmt: str) -> str:
+    """Bars per method: capacity along f against the |f| ± r band (top), manipulability (bottom)."""
+    plt = pyplot()
+    fig, axes = plt.subplots(2, len(cases), figsize=(10, 6), sharey="row", layout="constrained")
+    for col, case in enumerate(cases):
+        names = list(case.results)
+        ref = case.results[names[0]]
+        need, rad = float(ref.force.magnitude[0]), float(ref.force.r[0])
+        colors = [style(m)[0] for m in names]
+        x = np.arange(len(names))
+        ax_c, ax_m = axes[0, col], axes[1, col]
+        ax_c.axhspan(need - rad, need + rad, color="orange", alpha=0.25, lw=0, zorder=0,
+                     label="|f| ± r (desired force ± r)")
+        for y, ls in ((need - rad, "--"), (need + rad, "--"), (need, "-")):
+            ax_c.axhline(y, color="k", ls=ls, lw=1.0 if ls == "--" else 1.4, zorder=3)
+        caps = [float(case.results[m].metrics["directional_capacity"][0]) for m in names]
+        mus = [float(case.results[m].metrics["manipulability"][0]) for m in names]
+        for ax, values, digits in ((ax_c, caps, 1), (ax_m, mus, 3)):
+            bars = ax.bar(x, values, width=0.65, color=colors, edgecolor="black", lw=0.6, zorder=2)
+            ax.bar_label(bars, labels=[f"{v:.{digits}f}" for v in values], fontsize=7, padding=2,
+                         bbox={"facecolor": "white", "edgecolor": "none", "pad": 0.6}, zorder=4)
+            ax.set_xticks(x, [style(m)[1] for m in names], rotation=20, fontsize=8)
+            ax.grid(axis="y", alpha=0.3, zorder=0)
+            ax.margins(y=0.12)
+        ax_c.set_title(f"{case.label} beverage (payload {case.mass:g} kg): |f| = {need:.1f} N, r = {rad:.0f} N",
+                       fontsize=9)
+    axes[0, 0].set_ylabel("RFP capacity along f (N)")
+    axes[1, 0].set_ylabel(MANIP_LABEL)
+    handles = [*axes[0, 0].get_legend_handles_labels()[0],
+               plt.Line2D([], [], color="k", lw=1.4, label="|f|"),
+               plt.Line2D([], [], color="k", ls="--", lw=1.0, label="|f| − r and |f| + r")]
+    axes[0, -1].legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, frameon=False)
+    fig.suptitle("Section 5.4, single-point holding: capacity along the upward task force f and manipulability",
+                 fontsize=10)
+    fig.text(0.0, -0.02, "capacity = distance from the origin to the residual force polytope (α = 1) along f; "
+             + MANIP_DEF + ".", fontsize=7, ha="left", va="top")
+    return save(fig, directory, "hold_metrics", fmt)
+
+
+def clip_polygon(poly: np.ndarray, a: np.ndarray, b: float) -> np.ndarray:
+    """The part of the convex polygon ``poly`` (k x 2, in order) with ``a . p <= b`` (Sutherland-Hodgman)."""
+    out = []
+    for p, q in zip(poly, np.roll(poly, -1, axis=0), strict=True):
+        sp, sq = a @ p - b, a @ q - b
+        if sp <= 0:
+            out.append(p)
+        if sp * sq < 0:
+            out.append(p + (q - p) * sp / (sp - sq))
+    return np.array(out).reshape(-1, 2)
+
+
+def polytope_section(A: np.ndarray, b: np.ndarray, f: np.ndarray, box: tuple[float, float, float, float]
+                     ) -> np.ndarray:
+    """Section of ``{g : A g <= b}`` by the plane ``g_y = f_y``, in (g_x, g_z), within ``box`` = (x0, x1, z0, z1)."""
+    x0, x1, z0, z1 = box
+    poly = np.array([[x0, z0], [x1, z0], [x1, z1], [x0, z1]], dtype=float)
+    for row, bound in zip(A, b, strict=True):
+        a2 = row[[0, 2]]
+        rhs = bound - row[1] * f[1]
+        if np.linalg.norm(a2) < 1e-12:
+            if rhs < 0:
+                return np.zeros((0, 2))
+            continue
+        poly = clip_polygon(poly, a2, rhs)
+        if not len(poly):
+            break
+    return poly
+
+
+def _section_data(res: PlanResult) -> dict[str, Any]:
+    """Half-spaces (alpha = 1), the metric's alpha, the force ball and the capacity point of a hold plan."""
+    rfp = trajectory_rfp(res.task.robot, res.q, res.t, alpha=1.0)
+    A, b = rfp.A[0], rfp.b[0]
+    f, r = res.force.f[0], float(res.force.r[0])
+    cap = float(directional_capacity(A, b, f))
+    return {"A": A, "b": b, "f": f, "r": r, "cap": cap, "alpha": res.task.weights.capability_params.alpha,
+            "point": cap * f / np.linalg.norm(f)}
+
+
+def _window(data: list[dict[str, Any]]) -> tuple[float, float, float, float]:
+    """A square window (x0, x1, z0, z1) holding the origin, every ball and every capacity point."""
+    pts = [np.zeros(2)]
+    for d in data:
+        fx, fz = d["f"][0], d["f"][2]
+        pts += [np.array([fx - d["r"], fz - d["r"]]), np.array([fx + d["r"], fz + d["r"]])]
+        if np.isfinite(d["cap"]):
+            pts.append(d["point"][[0, 2]])
+    pts = np.array(pts)
+    centre = (pts.min(axis=0) + pts.max(axis=0)) / 2
+    half = 0.6 * float(np.max(pts.max(axis=0) - pts.min(axis=0))) + 0.3 * max(d["r"] for d in data)
+    return centre[0] - half, centre[0] + half, centre[1] - half, centre[1] + half
+
+
+def _draw_section(ax: Any, d: dict[str, Any], box: tuple[float, float, float, float], res: PlanResult) -> None:
+    full = polytope_section(d["A"], d["b"], d["f"], box)
+    shrunk = polytope_section(d["A"], d["alpha"] * d["b"], d["f"], box)
+    if len(full):
+        ax.fill(full[:, 0], full[:, 1], facecolor="0.8", edgecolor="0.3", lw=1.2)
+    if len(shrunk):
+        ax.fill(shrunk[:, 0], shrunk[:, 1], fill=False, edgecolor="0.3", ls="--", lw=1.0)
+    fx, fz = d["f"][0], d["f"][2]
+    ax.add_patch(pyplot().Circle((fx, fz), d["r"], facecolor="orange", alpha=0.45, edgecolor="darkorange", lw=1.2))
+    ax.plot([0.0, fx], [0.0, fz], color="k", lw=1.0)
+    ax.plot(fx, fz, "o", color="darkorange", ms=3)
+    if np.isfinite(d["cap"]) and abs(d["point"][1] - d["f"][1]) < 1e-6 * max(1.0, d["cap"]):
+        ax.plot(*d["point"][[0, 2]], "kx", ms=7, mew=1.6)
+    ax.plot(0.0, 0.0, "k+", ms=6)
+    ax.set_xlim(box[0], box[1])
+    ax.set_ylim(box[2], box[3])
+    ax.set_aspect("equal")
+    ax.grid(alpha=0.3)
+    ax.tick_params(labelsize=7)
+    ax.set_title(f"{style(res.method)[1]}\nd = {res.metrics['d'][0]:.1f} N, capacity {d['cap']:.1f} N",
+                 fontsize=8)
+
+
+def plot_hold_polytopes(cases: list[Case], directory: Path, fmt: str) -> str:
+    """Per method and payload, the RFP's section by the x-z plane through the ball's centre, zoomed on the ball."""
+    plt = pyplot()
+    rows = cases[::-1]  # the paper puts 2.7 L on top
+    cols = list(rows[0].results)
+    fig, axes = plt.subplots(len(rows), len(cols), figsize=(2.4 * len(cols) + 1.8, 2.7 * len(rows)),
+                             sharey="row", layout="constrained", squeeze=False)
+    for i, case in enumerate(rows):
+        data = [_section_data(case.results[m]) for m in cols]
+        box = _window(data)
+        for j, method in enumerate(cols):
+            _draw_section(axes[i, j], data[j], box, case.results[method])
+        axes[i, 0].set_ylabel(f"{case.label} beverage, |f| = {np.linalg.norm(data[0]['f']):.1f} N\n"
+                              "$f_z$ (N)", fontsize=8)
+    for ax in axes[-1]:
+        ax.set_xlabel("$f_x$ (N)", fontsize=8)
+    alpha = _section_data(rows[0].results[cols[0]])["alpha"]
+    handles = [plt.Rectangle((0, 0), 1, 1, facecolor="0.8", edgecolor="0.3", label="residual force polytope P (α = 1)"),
+               plt.Line2D([], [], color="0.3", ls="--", label=f"α·P, α = {alpha:g} (the metric's d)"),
+               plt.Rectangle((0, 0), 1, 1, facecolor="orange", alpha=0.45, edgecolor="darkorange",
+                             label="force ball: centre f, radius r"),
+               plt.Line2D([], [], color="k", marker="x", ls="-", lw=1.0,
+                          label="ray 0 → f; x: capacity along f")]
+    axes[0, -1].legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, frameon=False)
+    fig.suptitle("Section 5.4: the residual force polytope's section by the vertical x-z plane through the force "
+                 "ball's centre f (zoomed on the ball)", fontsize=10)
+    return save(fig, directory, "hold_polytopes", fmt)
+
+
+def plot_hold_ellipses(cases: list[Case], directory: Path, fmt: str) -> str:
+    """Per configuration, the xy, xz and yz projections of the velocity-manipulability ellipsoid."""
+    plt = pyplot()
+    rows = cases[::-1]
+    cols = list(rows[0].results)
+    fig, axes = plt.subplots(len(rows), len(cols), figsize=(2.3 * len(cols) + 1.6, 2.5 * len(rows)),
+                             sharex=True, sharey=True, layout="constrained", squeeze=False)
+    theta = np.linspace(0, 2 * np.pi, 120)
+    planes = {"xy": ((0, 1), "black", "-"), "xz": ((0, 2), "tab:cyan", "--"), "yz": ((1, 2), "tab:olive", ":")}
+    for i, case in enumerate(rows):
+        for j, method in enumerate(cols):
+            ax, res = axes[i, j], case.results[method]
+            J = res.task.robot.arm_jacobian(res.q[0])
+            cov = J @ J.T
+            for name, ((a, b), color, ls) in planes.items():
+                w, U = np.linalg.eigh(cov[np.ix_([a, b], [a, b])])
+                pts = U @ (np.sqrt(np.maximum(w, 0))[:, None] * np.vstack([np.cos(theta), np.sin(theta)]))
+                ax.plot(pts[0], pts[1], color=color, ls=ls, lw=1.4, label=f"{name} plane")
+            ax.set_aspect("equal")
+            ax.grid(alpha=0.3)
+            ax.tick_params(labelsize=7)
+            ax.set_title(f"{style(method)[1]}\nμ = {res.metrics['manipulability'][0]:.3f} m³", fontsize=8)
+        axes[i, 0].set_ylabel(f"{case.label} beverage", fontsize=9)
+    axes[0, -1].legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, frameon=False)
+    fig.supxlabel("first coordinate of the plane: x (xy, xz) or y (yz), end-effector speed (m/s)", fontsize=8)
+    fig.supylabel("second coordinate: y (xy) or z (xz, yz) (m/s)", fontsize=8)
+    fig.suptitle("Section 5.4: projections of the arm's velocity-manipulability ellipsoid {J q̇ : |q̇| ≤ 1 rad/s} "
+                 f"on the xy, xz and yz planes\n{MANIP_DEF}", fontsize=9)
+    return save(fig, directory, "hold_ellipsoids", fmt)
+
+
+# -- run -------------------------------------------------------------------------------------
+def run_hold(out: str | Path, trials: int = 3, waypoints: int | None = None, seed: int = 0,
+             log: Log = quiet, fmt: str = "png") -> dict[str, Any]:
+    """Plan, simulate (nominal + ``trials`` seeded mass errors) and summarize Section 5.4 in ``out``.
+
+    ``waypoints`` is accepted for a uniform interface (a hold task has one waypoint); ``fmt`` is
+    the figure format (png, pdf or svg).
+    """
+    out, fmt = Path(out), check_format(fmt)
+    cases = plan_payloads("hold", methods_for("hold"), waypoints, log)
+
+    def build(tmp: Path) -> None:
+        simulate_cases(tmp, cases, trials, seed, log, hold=HOLD_SECONDS)
+        unloaded = unloaded_runs(tmp, cases[1], HOLD_SECONDS, log)
+        figures = [plot_hold_metrics(cases, tmp, fmt), plot_hold_polytopes(cases, tmp, fmt),
+                   plot_hold_ellipses(cases, tmp, fmt)]
+        write_summary(tmp, "Section 5.4: single-point holding", [
+            "Task `examples/tasks/hold.yaml`: one end-effector pose; the optimized methods choose the whole-body "
+            "configuration, `teaching` is the given teaching configuration. Payload 0.35 kg (0.33 L) and 2.7 kg "
+            f"(2.7 L). Each configuration is held {HOLD_SECONDS:.0f} s in MuJoCo with the nominal mass, then "
+            f"{trials} time(s) with a seeded payload-mass error uniform in ±{MASS_ERROR:.0%} (seed {seed}); a claim "
+            "on the simulation counts only if it holds in every run."],
+            cases, hold_claims(cases, unloaded), figures,
+            {"trials": trials, "seed": seed, "mass_error": MASS_ERROR, "hold_s": HOLD_SECONDS,
+             "unloaded_2p7_plans": unloaded, "format": fmt}, hold_notes(cases, unloaded))
+
+    replace_directory(build, out)
+    return json.loads((out / "summary.json").read_text())
+
+
+# -- claims ----------------------------------------------------------------------------------
+def min_axis(res: PlanResult) -> float:
+    """Smallest semi-axis of the velocity-manipulability ellipsoid at the held configuration (m/s)."""
+    return float(np.linalg.svd(res.task.robot.arm_jacobian(res.q[0]), compute_uv=False)[-1])
+
+
+def _heavy_claims(heavy: Case, unloaded: dict[str, dict[str, Any]]) -> list[Claim]:
+    mh = {m: metrics(r) for m, r in heavy.results.items()}
+    res = heavy.results
+    need, rad = float(res["forte"].force.magnitude[0]), float(res["forte"].force.r[0])
+    cap = {m: v["mean_capacity"] for m, v in mh.items()}
+    return [
+        Claim("5.4", "2.7 L: forte's capacity is comparable to (>= 0.8x) rfp-radius's and above the |f| ± r band",
+              "capacity (N); capacity − (|f| + r)", f"forte {cap['forte']:.1f} vs rfp-radius "
+              f"{cap['rfp-radius']:.1f}; {mh['forte']['min_capacity_margin']:.1f}",
+              [solved(res, "forte", "rfp-radius"),
+               compare("forte's capacity", cap["forte"], ">=", "0.8 x rfp-radius's", 0.8 * cap["rfp-radius"], " N"),
+               compare("forte's capacity", cap["forte"], ">=", "|f| + r", need + rad, " N")]),
+        Claim("5.4", "2.7 L: manipulability-only's capacity falls into the |f| ± r band",
+              "capacity vs |f| − r and |f| + r (N)", f"{cap['manipulability']:.1f} vs [{need - rad:.1f}, "
+              f"{need + rad:.1f}]",
+              [solved(res, "manipulability"),
+               compare("manipulability-only's capacity", cap["manipulability"], "<", "|f| + r", need + rad, " N"),
+               compare("manipulability-only's capacity", cap["manipulability"], ">=", "|f| − r", need - rad, " N")]),
+        Claim("5.4", "2.7 L: the teaching point's capacity is below the required force (ball centre outside the RFP)",
+              "capacity − |f| (N)", f"{mh['teaching']['min_capacity_minus_force']:.1f}",
+              [solved(res, "teaching"), compare("teaching's capacity", cap["teaching"], "<", "|f|", need, " N")]),
+        Claim("5.4", "2.7 L: the teaching point cannot hold the pose under the load",
+              "simulation with the payload (every run); without it", f"{sim_text(heavy.sims.get('teaching'))}; "
+              f"without payload: {unloaded_text({k: v for k, v in unloaded.items() if k == 'teaching'})}",
+              [every_run(heavy, "teaching", success=False), unloaded_succeeds(unloaded, "teaching")]),
+        *[Claim("5.4", f"2.7 L: {m} keeps the uncertainty ball inside the RFP with a margin, so it can hold the "
+                "payload", "d (N); simulation (every run)", f"{mh[m]['min_d']:.1f}; {sim_text(heavy.sims.get(m))}",
+                [solved(res, m), compare(f"{m}'s d", mh[m]["min_d"], ">=", "0", 0.0, " N"), every_run(heavy, m)])
+          for m in ("forte", "rfp-radius", "rfp-cone")],
+    ]
+
+
+def _light_claims(light: Case, heavy: Case) -> list[Claim]:
+    ml = {m: metrics(r) for m, r in light.results.items()}
+    res = light.results
+    mu = {m: v["mean_manipulability"] for m, v in ml.items()}
+    axes = {m: min_axis(r) for m, r in res.items()}
+    teach = float(heavy.results["teaching"].metrics["manipulability"][0])
+    forte_both = min(mu["forte"], float(heavy.results["forte"].metrics["manipulability"][0]))
+    return [
+        Claim("5.4", "0.33 L: forte's manipulability is close to manipulability-only's (>= 0.9x)", "manipulability",
+              f"{mu['forte']:.4f} vs {mu['manipulability']:.4f}",
+              [solved(res, "forte", "manipulability"),
+               compare("forte's manipulability", mu["forte"], ">=", "0.9 x manipulability-only's",
+                       0.9 * mu["manipulability"], digits=4)]),
+        Claim("5.4", "0.33 L: rfp-radius still maximizes force capability (more than forte)", "capacity (N)",
+              f"rfp-radius {ml['rfp-radius']['mean_capacity']:.1f} vs forte {ml['forte']['mean_capacity']:.1f}",
+              [solved(res, "rfp-radius", "forte"),
+               compare("rfp-radius's capacity", ml["rfp-radius"]["mean_capacity"], ">", "forte's",
+                       ml["forte"]["mean_capacity"], " N")]),
+        *[Claim("5.4", f"0.33 L: {m} sacrifices velocity manipulability: thinner ellipsoid than forte's",
+                "smallest semi-axis of the velocity ellipsoid (m/s); manipulability",
+                f"{m} {axes[m]:.3f} vs forte {axes['forte']:.3f}; {mu[m]:.4f} vs {mu['forte']:.4f}",
+                [solved(res, m, "forte"),
+                 compare(f"{m}'s smallest semi-axis", axes[m], "<", "forte's", axes["forte"], " m/s", 3),
+                 compare(f"{m}'s manipulability", mu[m], "<", "forte's", mu["forte"], digits=4)])
+          for m in ("rfp-radius", "rfp-cone")],
+        Claim("5.4", "the teaching point has poor manipulability (below forte's, both payloads)", "manipulability",
+              f"teaching {teach:.4f} vs forte {mu['forte']:.4f} (0.33 L) / "
+              f"{heavy.results['forte'].metrics['manipulability'][0]:.4f} (2.7 L)",
+              [solved(res, "forte", "teaching"), solved(heavy.results, "forte", "teaching"),
+               compare("teaching's manipulability", teach, "<", "forte's (both payloads)", forte_both, digits=4)]),
+    ]
+
+
+def hold_claims(cases: list[Case], unloaded: dict[str, dict[str, Any]]) -> list[Claim]:
+    """The claims of Section 5.4 (``cases``: 0.33 L then 2.7 L; ``unloaded``: 2.7 L plans without payload)."""
+    light, heavy = cases
+    return [*_heavy_claims(heavy, unloaded), *_light_claims(light, heavy)]
+
+
+def hold_notes(cases: list[Case], unloaded: dict[str, dict[str, Any]]) -> list[str]:
+    """Our observations (not claims of the paper), each with its numbers."""
+    light, heavy = cases
+    light_fail = [m for m in light.results if not all(r["success"] for r in runs(light.sims.get(m), light.mass))]
+    margins = ", ".join(f"{m} {metrics(r)['min_capacity_margin']:.1f}" for m, r in heavy.results.items())
+    return ["Hold plans have one waypoint: the min/mean columns are that waypoint's values.",
+            f"The 2.7 L configurations held with no payload: {unloaded_text(unloaded)}.",
+            f"0.33 L configurations with a failed (or no) simulated run: {', '.join(light_fail) or 'none'}"
+            + (f" (teaching: min d = {metrics(light.results['teaching'])['min_d']:.1f} N in planning)"
+               if "teaching" in light_fail else "") + ".",
+            f"2.7 L capacity − (|f| + r) per configuration (N): {margins}."]

@@ -1,0 +1,264 @@
+"""How the experiments judge the paper's claims, on hand-made plans and simulations (no planning, fast).
+
+Rules under test (see :mod:`forte.experiments.claims`): a simulation claim holds only if it holds
+in every run (nominal and each mass-error trial); a claim about a plan needs a solved plan; the
+claims table holds the paper's claims only; every claim that is not reproduced carries a cause.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from forte.cli import experiment as cli_experiment
+from forte.experiments import common
+from forte.experiments.claims import (
+    Check,
+    Claim,
+    across_trials,
+    claims_section,
+    compare,
+    every_run,
+    runs,
+    solved,
+    some_run_fails,
+    unloaded_succeeds,
+)
+from forte.experiments.common import Case, methods_for, style, write_summary
+from forte.experiments.continuous import continuous_claims
+from forte.experiments.hold import clip_polygon, polytope_section
+from forte.experiments.lift import lift_claims, lift_notes
+
+T = np.linspace(0.0, 6.0, 7)
+
+
+def fake_plan(method: str, cap: float, mu: float = 0.2, mag: float = 26.5, r: float = 10.0, d: float = 1.0,
+              success: bool = True, t: np.ndarray = T) -> SimpleNamespace:
+    """A plan with constant metrics: capacity along f, manipulability, |f|, r and d."""
+    n = len(t)
+    full = np.full(n, 1.0)
+    return SimpleNamespace(
+        method=method, t=t, success=success, status="Solve_Succeeded" if success else "Maximum_Iterations_Exceeded",
+        solver={}, force=SimpleNamespace(magnitude=mag * full, r=r * full),
+        metrics={"directional_capacity": cap * full, "capacity_margin": (cap - mag - r) * full, "d": d * full,
+                 "manipulability": mu * full, "max_torque_ratio": 0.5 * full,
+                 "max_torque_ratio_with_force": 0.6 * full})
+
+
+def sim(nominal: bool, *trials: bool, mass: float = 2.7) -> dict:
+    """A simulation record: nominal outcome plus mass-error trials (True = success)."""
+    def run(ok: bool, m: float) -> dict:
+        return {"mass": m, "success": ok, "reason": None if ok else "torque saturation",
+                "failure_time": None if ok else 1.25}
+    out = {"verdict": "success" if nominal else "failure", "reason": None if nominal else "torque saturation",
+           "failure_time": None if nominal else 1.2}
+    if trials:
+        done = [run(ok, mass * (1 + 0.01 * (i + 1))) for i, ok in enumerate(trials)]
+        out["trials"] = {"runs": done, "successes": sum(trials), "count": len(trials),
+                         "failure_time_mean_std": (None, None)}
+    return out
+
+
+def case_with(sims: dict[str, dict], mass: float = 2.7) -> Case:
+    return Case("2.7 L", mass, {m: fake_plan(m, 50.0) for m in sims}, sims)
+
+
+# -- every run must agree --------------------------------------------------------------------
+def test_a_success_claim_with_trials_ok_then_fail_is_not_reproduced():
+    check = every_run(case_with({"forte": sim(True, True, False)}), "forte")
+    claim = Claim("5.3", "forte lifts", "simulation", "-", [check])
+    assert not check.ok and not claim.reproduced
+    assert "2/3 runs ok" in check.evidence
+    assert "trial 2 (2.75 kg): torque saturation at 1.25 s" in claim.cause
+
+
+def test_the_issue_case_nominal_ok_and_its_only_trial_failing_is_not_reproduced():
+    check = every_run(case_with({"forte": sim(True, False)}), "forte")
+    assert not check.ok
+    assert "1/2 runs ok" in check.evidence
+
+
+def test_a_success_claim_holds_only_when_nominal_and_every_trial_succeed():
+    assert every_run(case_with({"forte": sim(True, True, True)}), "forte").ok
+    assert every_run(case_with({"forte": sim(True)}), "forte").ok  # no trials asked: the nominal run is every run
+    assert not every_run(case_with({"forte": sim(False, True, True)}), "forte").ok
+
+
+def test_a_failure_claim_needs_every_run_to_fail():
+    assert every_run(case_with({"quintic": sim(False, False, False)}), "quintic", success=False).ok
+    check = every_run(case_with({"quintic": sim(False, True)}), "quintic", success=False)
+    assert not check.ok and "1/2 runs failed" in check.evidence and "trial 1" in check.evidence
+
+
+def test_an_unsimulated_plan_is_no_evidence():
+    case = Case("2.7 L", 2.7, {}, {"forte": {"verdict": "not simulated", "reason": "planning failed (no trajectory)"}})
+    check = every_run(case, "forte")
+    assert not check.ok and "planning failed" in check.evidence
+    assert runs(case.sims["forte"]) == []
+    assert not every_run(Case("2.7 L", 2.7), "forte").ok  # not even a record
+    assert not some_run_fails(case, "forte").ok
+
+
+def test_some_trials_claims_need_one_failed_run():
+    assert some_run_fails(case_with({"manipulability": sim(True, True, False)}), "manipulability").ok
+    check = some_run_fails(case_with({"manipulability": sim(True, True, True)}), "manipulability")
+    assert not check.ok and check.evidence.startswith("0/3 runs failed")
+
+
+def test_a_failure_from_the_load_needs_a_successful_unloaded_run():
+    assert unloaded_succeeds({"quintic": {"label": "no payload", "mass": 0.0, "success": True}}, "quintic").ok
+    bad = unloaded_succeeds({"quintic": {"label": "no payload", "mass": 0.0, "success": False,
+                                         "reason": "tracking loss", "failure_time": 0.5}}, "quintic")
+    assert not bad.ok and "tracking loss at 0.50 s" in bad.evidence
+    assert not unloaded_succeeds({}, "quintic").ok
+
+
+# -- checks and claims -----------------------------------------------------------------------
+def test_a_claim_without_checks_is_not_reproduced():
+    claim = Claim("5.3", "anything", "-", "-")
+    assert not claim.reproduced and claim.cause == "nothing was measured"
+
+
+@pytest.mark.parametrize(("value", "op", "bound", "ok"), [
+    (1.0, ">=", 1.0, True), (1.0, ">", 1.0, False), (0.5, "<", 1.0, True), (1.0, "<=", 0.5, False),
+    (float("nan"), "<", 1.0, False), (float("inf"), ">", 1.0, False), (-float("inf"), "<", 0.0, False)])
+def test_compare_judges_and_never_passes_a_non_finite_value(value, op, bound, ok):
+    assert compare("x", value, op, "y", bound).ok is ok
+
+
+def test_a_claim_on_a_failed_solve_is_not_reproduced():
+    results = {"forte": fake_plan("forte", 50.0, success=False), "manipulability": fake_plan("manipulability", 20.0)}
+    check = solved(results, "forte", "manipulability")
+    assert not check.ok and "forte: Maximum_Iterations_Exceeded" in check.evidence
+    assert not solved(results, "rfp-cone").ok  # not planned at all
+    assert solved(results, "manipulability").ok
+
+
+def test_claims_of_repeated_plannings_must_hold_in_every_trial():
+    ok = Claim("5.2", "c", "m", "ours 1", [Check("a", True, "1")])
+    bad = Claim("5.2", "c", "m", "ours 2", [Check("a", False, "0")])
+    (merged,) = across_trials([[ok], [bad]])
+    assert not merged.reproduced
+    assert "holds in 1/2 trials" in merged.ours and "planning trial 2" in merged.cause
+    (both,) = across_trials([[ok], [ok]])
+    assert both.reproduced
+    assert across_trials([[bad]]) == [bad]
+
+
+def test_every_claim_that_is_not_reproduced_gets_its_numbers_and_a_cause_line():
+    claims = [Claim("5.3", "holds", "m", "ours 7.5 N", [compare("margin", 7.5, ">=", "0", 0.0, " N")]),
+              Claim("5.3", "fails", "m", "ours -3.2 N", [compare("margin", -3.2, ">=", "0", 0.0, " N")])]
+    text = "\n".join(claims_section(claims))
+    assert "(1/2 reproduced)" in text
+    cause_lines = [line for line in text.splitlines() if "Cause:" in line]
+    assert len(cause_lines) == 1
+    assert "ours -3.2 N" in cause_lines[0] and "expected margin ≥ 0, got -3.2 vs 0.0 N" in cause_lines[0]
+
+
+def test_notes_stay_out_of_the_claims_table(tmp_path):
+    claim = Claim("5.3", "the paper's claim", "m", "ours", [Check("a", False, "0")])
+    write_summary(tmp_path, "t", [], [], [claim], [], {}, ["our own observation"])
+    text = (tmp_path / "summary.md").read_text()
+    table = text.split("## Paper claim vs our result")[1].split("## Notes")[0]
+    assert "the paper's claim" in table and "our own observation" not in table
+    assert "our own observation" in text.split("## Notes")[1]
+    doc = json.loads((tmp_path / "summary.json").read_text())
+    assert doc["notes"] == ["our own observation"]
+    assert doc["claims"][0]["reproduced"] is False and doc["claims"][0]["cause"] == "expected a, got 0"
+
+
+# -- the experiments' claims on hand-made plans ------------------------------------------------
+def lift_cases(forte_sim: dict) -> tuple[list[Case], dict]:
+    heavy_sims = {"forte": forte_sim, "manipulability": sim(False, False), "rfp-radius": sim(True, True),
+                  "rfp-cone": sim(True, True), "quintic": sim(False, False)}
+    heavy = Case("2.7 L", 2.7, {"forte": fake_plan("forte", 50.0, mu=0.17),
+                                "manipulability": fake_plan("manipulability", 20.0, mu=0.21),
+                                "rfp-radius": fake_plan("rfp-radius", 40.0, mu=0.2),
+                                "rfp-cone": fake_plan("rfp-cone", 40.0, mu=0.2),
+                                "quintic": fake_plan("quintic", 20.0, mu=0.07)}, heavy_sims)
+    light = Case("0.33 L", 0.35, {m: fake_plan(m, c, mu=u, mag=3.4) for m, c, u in (
+        ("forte", 20.0, 0.2), ("manipulability", 15.0, 0.21), ("rfp-radius", 30.0, 0.18), ("rfp-cone", 30.0, 0.18),
+        ("quintic", 80.0, 0.07))}, {})
+    unloaded = {m: {"label": "no payload", "mass": 0.0, "success": True} for m in heavy_sims}
+    return [light, heavy], unloaded
+
+
+def test_forte_lifts_is_judged_on_every_trial():
+    cases, unloaded = lift_cases(sim(True, True, False))
+    claims = {c.claim: c for c in lift_claims(cases, unloaded)}
+    lifts = next(c for text, c in claims.items() if text.startswith("2.7 L: forte lifts"))
+    assert not lifts.reproduced and "trial 2" in lifts.cause
+    cases, unloaded = lift_cases(sim(True, True, True))
+    lifts = next(c for c in lift_claims(cases, unloaded) if c.claim.startswith("2.7 L: forte lifts"))
+    assert lifts.reproduced and lifts.cause is None
+
+
+def test_the_hand_made_lift_reproduces_what_it_was_built_to():
+    cases, unloaded = lift_cases(sim(True, True))
+    verdicts = {c.claim: c.reproduced for c in lift_claims(cases, unloaded)}
+    assert all(verdicts.values()), [k for k, v in verdicts.items() if not v]
+    unloaded["quintic"] = {"label": "no payload", "mass": 0.0, "success": False, "reason": "unstable",
+                           "failure_time": 0.1}
+    quintic = next(c for c in lift_claims(cases, unloaded) if c.claim.startswith("2.7 L: quintic fails"))
+    assert not quintic.reproduced and "without payload" in quintic.cause
+
+
+def test_lift_claims_are_the_papers_and_the_issue_test_is_a_note():
+    cases, unloaded = lift_cases(sim(True, True))
+    texts = [c.claim.lower() for c in lift_claims(cases, unloaded)]
+    assert not any("issue" in t or "implied" in t for t in texts)
+    assert any("issue's test" in n for n in lift_notes(cases, unloaded))
+
+
+def test_continuous_claims_fail_on_a_failed_solve_of_any_compared_method():
+    t = np.linspace(0.0, 12.0, 13)
+    mag = 100 * np.sin(np.pi * t / 12)
+
+    def plan(method: str, cap: float, mu_high: float, ok: bool = True) -> SimpleNamespace:
+        p = fake_plan(method, cap, t=t, success=ok)
+        p.force.magnitude = mag
+        p.metrics["manipulability"] = np.where(mag >= 50, mu_high, 0.2)
+        return p
+
+    good = {"forte": plan("forte", 120.0, 0.15), "manipulability": plan("manipulability", 80.0, 0.2),
+            "rfp-radius": plan("rfp-radius", 80.0, 0.2), "rfp-cone": plan("rfp-cone", 80.0, 0.2)}
+    assert all(c.reproduced for c in continuous_claims(good))
+    good["rfp-cone"] = plan("rfp-cone", 80.0, 0.2, ok=False)
+    first = continuous_claims(good)[0]
+    assert not first.reproduced and "rfp-cone: Maximum_Iterations_Exceeded" in first.cause
+
+
+# -- methods, figures, CLI -------------------------------------------------------------------
+def test_every_compared_method_has_its_own_colour():
+    methods = {m for e in ("continuous", "lift", "hold") for m in methods_for(e)}
+    colours = [style(m)[0] for m in methods]
+    assert len(set(colours)) == len(methods)
+    assert methods_for("lift")[-1] == "quintic" and methods_for("hold")[-1] == "teaching"
+
+
+def test_polytope_section_of_a_cube():
+    A = np.vstack([np.eye(3), -np.eye(3)])
+    b = np.ones(6)
+    sq = polytope_section(A, b, np.zeros(3), (-5.0, 5.0, -5.0, 5.0))
+    x, z = sq[:, 0], sq[:, 1]
+    area = 0.5 * abs(np.dot(x, np.roll(z, -1)) - np.dot(z, np.roll(x, -1)))
+    assert area == pytest.approx(4.0)
+    assert len(polytope_section(A, b, np.array([0.0, 2.0, 0.0]), (-5.0, 5.0, -5.0, 5.0))) == 0  # y = 2 misses it
+    half = clip_polygon(np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]]), np.array([1.0, 0.0]), 1.0)
+    assert half[:, 0].max() == pytest.approx(1.0) and len(half) == 4
+
+
+def test_the_cli_offers_the_figure_formats_the_runners_accept():
+    assert cli_experiment.FORMATS == common.FORMATS
+    parser = argparse.ArgumentParser()
+    cli_experiment.register(parser.add_subparsers(dest="command"))
+    assert parser.parse_args(["experiment", "lift"]).fmt == "png"
+    assert parser.parse_args(["experiment", "hold", "--format", "pdf"]).fmt == "pdf"
+    with pytest.raises(SystemExit):
+        parser.parse_args(["experiment", "hold", "--format", "jpg"])
+    with pytest.raises(ValueError, match="svg"):
+        common.check_format("jpg")
