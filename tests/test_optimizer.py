@@ -10,16 +10,10 @@ from scipy.fft import dct
 from forte.exceptions import InvalidInputError
 from forte.force.taskforce import payload_force
 from forte.model.trajectory import quintic_path
-from forte.planning.costs import (
-    CostWeights,
-    base_spectral_cost,
-    dct_matrix,
-    dct_penalty_matrix,
-    high_frequencies,
-    smoothness_cost,
-)
+from forte.planning.costs import CostWeights, dct_matrix, dct_penalty_matrix, high_frequencies
 from forte.planning.ik import follow_path
 from forte.planning.optimizer import SolverOptions, TrajectoryOptimizer
+from forte.planning.reference import base_spectral_cost, smoothness_cost
 
 
 def lift_problem(robot, n, duration=3.0, drop=0.2):

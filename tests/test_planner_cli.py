@@ -159,7 +159,17 @@ def test_another_urdf_arm_plans(tmp_path):
 def test_tutorial_example_runs():
     import runpy
 
-    runpy.run_path(str(EXAMPLES.parent / "tutorial.py"), run_name="__main__")
+    from forte.planning.costs import COST_TERMS
+    from forte.planning.methods import METHODS
+
+    saved = dict(METHODS), dict(COST_TERMS)
+    try:
+        runpy.run_path(str(EXAMPLES.parent / "tutorial.py"), run_name="__main__")
+        assert "forte-stay" in METHODS and "base_distance" in COST_TERMS  # its registry section ran
+    finally:  # the tutorial's toy term and method must not leak into later tests
+        for registry, before in zip((METHODS, COST_TERMS), saved, strict=True):
+            registry.clear()
+            registry.update(before)
 
 
 def test_compare_hold_without_teaching_runs_the_optimized_methods(tmp_path):

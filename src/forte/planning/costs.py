@@ -386,32 +386,3 @@ def dct_penalty(n: int, cutoff: float, power: float) -> FloatArray:
 def dct_penalty_matrix(n: int, weights: CostWeights) -> FloatArray:
     """:func:`dct_penalty` with the cutoff and power of ``weights`` (one base coordinate)."""
     return dct_penalty(n, weights.dct_cutoff, weights.dct_power)
-
-
-# -- numeric references (tests, reports) -----------------------------------------------------
-def smoothness_weights(n_arm: int, weights: CostWeights) -> FloatArray:
-    """Diagonal of ``W_s`` (base x, y, yaw, then the arm joints)."""
-    return np.concatenate([weights.smoothness_base, np.full(n_arm, weights.smoothness_arm)])
-
-
-def base_spectral_cost(base: FloatArray, weights: CostWeights) -> float:
-    """Numeric J5 = 1/2 sum_xi eta_xi sum_{l in H} gamma_l bhat_{xi,l}^2 for base (N x 3)."""
-    base = np.asarray(base, dtype=float)
-    P = dct_penalty_matrix(base.shape[0], weights)
-    return 0.5 * float(sum(eta * base[:, i] @ P @ base[:, i] for i, eta in enumerate(weights.dct_axis)))
-
-
-def smoothness_cost(q: FloatArray, weights: CostWeights) -> float:
-    """Numeric J4 = sum_k 1/2 ||W_s (q_k - q_{k-1})||^2."""
-    q = np.asarray(q, dtype=float)
-    W = smoothness_weights(q.shape[1] - N_BASE, weights)
-    return 0.5 * float(np.sum((np.diff(q, axis=0) * W) ** 2))
-
-
-def capability_stage(twin: CasadiTwin, tau_max: FloatArray, params: CapabilityParameters) -> ca.Function:
-    """``c_k(q_{k-2}, q_{k-1}, q_k, dt_{k-1}, dt_k, f_k, r_k)``: the smooth capability penalty alone."""
-    nq = twin.robot.nq
-    s = Stage(twin, ca.SX.sym("q_prev2", nq), ca.SX.sym("q_prev", nq), ca.SX.sym("q", nq),
-              ca.SX.sym("dt_prev"), ca.SX.sym("dt"), ca.SX.sym("f", 3), ca.SX.sym("r"))
-    c = smooth_penalty_expr(s.J, s.tau, ca.DM(tau_max), s.f, s.r, params)
-    return ca.Function("capability", [s.q2, s.q1, s.q0, s.dt1, s.dt0, s.f, s.r], [c])
