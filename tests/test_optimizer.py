@@ -80,13 +80,22 @@ def test_solution_meets_pose_bounds_and_initial_configuration(robot):
     sol = opt.solve(t, targets, force.f, force.r, q0, guess)
     assert sol.success, sol.status
     np.testing.assert_allclose(sol.q[0], q0, atol=1e-12)
-    for qk, Tk in zip(sol.q, targets, strict=True):
-        T = robot.ee_pose(qk)
+    # every waypoint but N-1 and N-2 (replaced by the end-at-rest rows) meets its pose
+    assert opt._pose_steps.tolist() == [*range(1, n - 3), n - 1]
+    for k in opt._pose_steps:
+        T, Tk = robot.ee_pose(sol.q[k]), targets[k]
         assert np.linalg.norm(T[:3, 3] - Tk[:3, 3]) < 1e-6
         assert np.abs(T[:3, :3] - Tk[:3, :3]).max() < 1e-6
+    # the plan ends at rest: backward-difference velocity and acceleration vanish at the last waypoint
+    v = np.diff(sol.q, axis=0) / np.diff(t)[:, None]
+    a = np.diff(v, axis=0) / np.diff(t)[1:, None]
+    assert np.abs(v[-1]).max() < 1e-6 and np.abs(a[-1]).max() < 1e-6
     assert np.all(sol.q[:, 3:] >= robot.lower - 1e-8) and np.all(sol.q[:, 3:] <= robot.upper + 1e-8)
     terms = opt.cost_terms(sol.q, t, targets, force.f, force.r)
-    assert terms["smoothness"] == pytest.approx(smoothness_cost(sol.q, CostWeights()), rel=1e-9)
+    assert terms["smoothness"] == pytest.approx(smoothness_cost(sol.q, CostWeights(smoothness_base=(0, 0, 0))),
+                                                rel=1e-9)
+    assert terms["smoothness"] + terms["base_smoothness"] == pytest.approx(smoothness_cost(sol.q, CostWeights()),
+                                                                           rel=1e-9)
     assert terms["base_spectral"] == pytest.approx(base_spectral_cost(sol.q[:, :3], CostWeights()), rel=1e-9,
                                                    abs=1e-15)
     # the optimizer improves on its own initial guess
@@ -118,18 +127,28 @@ def test_dct_matches_scipy_and_penalizes_only_high_frequencies():
     x = np.random.default_rng(1).normal(size=20)
     np.testing.assert_allclose(dct_matrix(20) @ x, dct(x, norm="ortho"), atol=1e-12)
     assert high_frequencies(20, 0.35).tolist() == list(range(7, 20))
-    w = CostWeights(dct_power=1.0)
+    w = CostWeights(dct_power=1.0, dct_cutoff=0.35, dct_ramp=False)
     coeffs = dct(x, norm="ortho")
     H = high_frequencies(20, w.dct_cutoff)
     expected = np.sum((H / 19.0) * coeffs[H] ** 2)
     assert x @ dct_penalty_matrix(20, w) @ x == pytest.approx(expected)
     # a constant or a low-frequency base motion costs nothing, a fast one its full energy
+    demo = CostWeights(dct_power=0.0, dct_cutoff=0.35, dct_ramp=False)
     slow = 1.0 + np.cos(np.pi * (2 * np.arange(20) + 1) * 2 / 40)
-    assert slow @ dct_penalty_matrix(20, CostWeights()) @ slow == pytest.approx(0.0, abs=1e-12)
+    assert slow @ dct_penalty_matrix(20, demo) @ slow == pytest.approx(0.0, abs=1e-12)
     fast = np.cos(np.pi * (2 * np.arange(20) + 1) * 15 / 40)
-    assert fast @ dct_penalty_matrix(20, CostWeights()) @ fast == pytest.approx(fast @ fast)
+    assert fast @ dct_penalty_matrix(20, demo) @ fast == pytest.approx(fast @ fast)
+    # the authors' ramp: bins with l/(N-1) > c, gamma_l = ((l/(N-1) - c)/(1 - c))^2 (0 at the cutoff)
+    ramp = CostWeights()
+    assert (ramp.dct_cutoff, ramp.dct_power, ramp.dct_ramp) == (0.1, 2.0, True)
+    ell = np.arange(20)
+    high = ell / 19 > 0.1
+    gamma = np.where(high, ((ell / 19 - 0.1) / 0.9) ** 2, 0.0)
+    assert x @ dct_penalty_matrix(20, ramp) @ x == pytest.approx(float(np.sum(gamma * coeffs**2)))
+    assert gamma[1] == 0 and gamma[2] > 0 and gamma[19] == pytest.approx(1.0)
     base = np.column_stack([x, 2 * x, x])
-    w0 = CostWeights()
+    w0 = demo
+    H = high_frequencies(20, 0.35)
     direct = 0.5 * sum(eta * np.sum(dct(base[:, i], norm="ortho")[H] ** 2) for i, eta in enumerate(w0.dct_axis))
     assert base_spectral_cost(base, w0) == pytest.approx(direct)
 
@@ -141,7 +160,7 @@ def test_kinematic_limits_bound_the_backward_differences(robot):
     t, targets, q0 = lift_problem(robot, n, duration=1.2, drop=0.3)
     force = payload_force(t, targets[:, :3, 3], 2.7)
     guess = follow_path(robot, targets, q0)
-    limits = KinematicLimits(arm_velocity=(1.0,) * 7, arm_acceleration=(4.0,) * 7)
+    limits = KinematicLimits(arm_velocity=(1.0,) * 7, arm_acceleration=(4.0,) * 7, end_at_rest=False)
     opt = TrajectoryOptimizer(robot, n, "forte", limits=limits)
     sol = opt.solve(t, targets, force.f, force.r, q0, guess)
     assert sol.success, sol.status
@@ -151,7 +170,7 @@ def test_kinematic_limits_bound_the_backward_differences(robot):
     vel, acc = limits.resolve(robot)
     assert np.all(np.abs(v) <= vel + 1e-6)
     assert np.all(np.abs(a) <= acc + 1e-5)
-    assert np.any(np.abs(a[:, 3:]) > 0.99 * 4.0)  # the limit binds on this fast lift
-    free = TrajectoryOptimizer(robot, n, "forte", limits=KinematicLimits(enabled=False))
+    assert np.any(np.abs(v[:, 3:]) > 0.99 * 1.0)  # the velocity limit binds on this fast lift
+    free = TrajectoryOptimizer(robot, n, "forte", limits=KinematicLimits(enabled=False, end_at_rest=False))
     assert free.solver.size_out("g")[0] == 6 * (n - 1)  # the paper's NLP: pose constraints only
     assert np.array_equal(KinematicLimits().resolve(robot)[0][3:], robot.model.velocityLimit)

@@ -53,8 +53,7 @@ def test_new_term_and_method_plan_through_the_registries(toy_method, tmp_path):
     toy = plan(task, "toy")
     assert toy.success, toy.status
     terms = toy.solver["cost_terms"]
-    assert set(terms) == {"capability", "manipulability", "joint_limits", "smoothness", "base_spectral",
-                          "base_distance"}
+    assert set(terms) == {*METHODS["forte"].terms, "base_distance"}
     # the compiled term equals the formula evaluated on the plan
     assert terms["base_distance"] == pytest.approx(float(np.sum(toy.q[:, :2] ** 2)), rel=1e-9, abs=1e-12)
     assert toy.solver["term_weights"]["base_distance"] == 200.0

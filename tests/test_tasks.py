@@ -14,18 +14,40 @@ from forte.planning.tasks import load_task
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 
 
-def test_lift_example_loads():
-    task = load_task(EXAMPLES / "lift.yaml", waypoints=20)
-    assert task.mode == "trajectory" and task.n == 20
-    assert task.payload.mass == 2.7
+def test_lift_example_is_the_authors_taught_lift():
+    task = load_task(EXAMPLES / "lift.yaml")
+    assert task.mode == "trajectory" and task.n == 41 and task.t[-1] == 10.0
+    assert task.payload.mass == 2.7 and task.weights.preset == "authors-trajectory"
+    times, knots = task.knots
+    np.testing.assert_allclose(times, [0, 5, 10])
+    np.testing.assert_allclose(task.q_init, knots[0])
+    # targets pass through the forward kinematics of every taught configuration
+    for tk, qk in zip(times, knots, strict=True):
+        k = int(np.flatnonzero(np.isclose(task.t, tk))[0])
+        np.testing.assert_allclose(task.targets[k], task.robot.ee_pose(qk), atol=1e-12)
+    # the orientation between knots is the slerp with the quintic blend: a geodesic
+    import pinocchio as pin
+    Ra, Rb = task.robot.ee_pose(knots[0])[:3, :3], task.robot.ee_pose(knots[1])[:3, :3]
+    s = 10 * 0.5**3 - 15 * 0.5**4 + 6 * 0.5**5
+    np.testing.assert_allclose(task.targets[10, :3, :3], Ra @ pin.exp3(s * pin.log3(Ra.T @ Rb)), atol=1e-12)
+    # the required force adds the robot's 1.146 kg end-effector load to the payload
+    force = task.force()
+    np.testing.assert_allclose(force.f[0], [0, 0, (2.7 + 1.146) * 9.81])
+    assert load_task(EXAMPLES / "lift.yaml", mass=0.35).force().f[0, 2] == pytest.approx((0.35 + 1.146) * 9.81)
+    # nominal = joint-space quintics through the knots, at rest at each knot
+    nominal = task.nominal()
+    np.testing.assert_allclose(nominal[[0, 20, 40]], knots, atol=1e-12)
+    np.testing.assert_allclose(nominal[19], nominal[21], atol=1e-2)  # symmetric blend about P1
+
+
+def test_lift_path_example_loads():
+    task = load_task(EXAMPLES / "lift-path.yaml", waypoints=20)
+    assert task.mode == "trajectory" and task.n == 20 and task.robot.tool_force_mass == 0.0
     np.testing.assert_allclose(task.targets[0], task.robot.ee_pose(task.q_init), atol=1e-9)
-    # the path goes down then up, orientation fixed
     z = task.targets[:, 2, 3]
     assert z.min() < z[0] - 0.3 and z[-1] > z.min() + 0.3
     np.testing.assert_allclose(task.targets[:, :3, :3], np.repeat(task.targets[:1, :3, :3], 20, 0))
-    force = task.force()
-    np.testing.assert_allclose(force.f[0], [0, 0, 2.7 * 9.81])
-    assert load_task(EXAMPLES / "lift.yaml", mass=0.35).force().f[0, 2] == pytest.approx(0.35 * 9.81)
+    np.testing.assert_allclose(task.force().f[0], [0, 0, 2.7 * 9.81])
 
 
 def test_continuous_example_follows_the_papers_formula():
@@ -42,7 +64,8 @@ def test_continuous_example_follows_the_papers_formula():
 
 def test_hold_example_uses_the_teaching_pose():
     task = load_task(EXAMPLES / "hold.yaml")
-    assert task.mode == "hold" and task.n == 1
+    assert task.mode == "hold" and task.n == 1 and task.weights.preset == "authors-hold"
+    assert task.weights.alpha == 0.7
     np.testing.assert_allclose(task.targets[0], task.robot.ee_pose(task.teaching), atol=1e-12)
 
 
@@ -53,7 +76,7 @@ def write(tmp_path, data, name="task.yaml"):
 
 
 def lift_dict():
-    return yaml.safe_load((EXAMPLES / "lift.yaml").read_text())
+    return yaml.safe_load((EXAMPLES / "lift-path.yaml").read_text())
 
 
 def load_error(tmp_path, mutate):

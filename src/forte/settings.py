@@ -64,43 +64,87 @@ class CapabilityParameters:
 
 @dataclass(frozen=True)
 class CostWeights:
-    """Weights ``w_1..w_5`` and the parameters of each term (defaults: the authors').
+    """Weights of the cost terms and their parameters (defaults: the authors' trajectory set).
+
+    Named sets live in :data:`WEIGHT_SETS`; a task file picks one with ``weights: {preset: NAME}``
+    (default: ``authors-trajectory`` for trajectories, ``authors-hold`` for holding) and may
+    override single fields next to it.
 
     Attributes:
-        capability, manipulability, joint_limits, smoothness, base_spectral: ``w_1..w_5``.
+        preset: name of the set these weights come from (methods tune per set, see
+            :attr:`forte.planning.methods.Method.tuning`).
+        capability, manipulability, joint_limits: ``w_1..w_3``.
+        smoothness: arm smoothness weight (J4 over the arm joints).
+        base_smoothness: base smoothness weight (J4 over x, y, yaw).
+        base_spectral: ``w_5``.
+        velocity: arm velocity term ``1/2 ||q_a,k - q_a,k-1||^2 / dt_k^2``.
+        nominal: arm nominal term ``1/2 ||q_a,k - q_a,nom,k||^2``.
+        base_velocity: base velocity term ``1/2 ||q_b,k - q_b,k-1||^2 / dt_k^2``.
+        collision: collision term (spheres on the arm against the base box and the floor).
         manipulability_lambda: ``lambda`` of the regularized manipulability.
         manipulability_eps: ``eps_m`` in ``1 / max(mu, eps_m)``.
-        joint_margin: ``delta_i`` (rad), the safety margin of J3 (one value for every joint).
+        joint_margin: ``delta_i`` (rad), the safety margin of J3 (one value for every joint),
+            used when ``joint_margin_fraction`` is ``None``.
+        joint_margin_fraction: ``delta_i = fraction * (q_max,i - q_min,i)`` (the authors: 0.05).
+        joint_dof_weights: per-DoF weights of J3 over (x, y, yaw, q1..q7); the base entries
+            pull the base toward the nominal trajectory; ``None``: 1 for each arm joint, 0 base.
         joint_eps: ``eps_h``.
+        manipulability_yaw: ``mu`` from the 3 x (1 + n) Jacobian with the base-yaw column (the
+            authors' code) instead of the 3 x n arm Jacobian (the paper's text, default).
+        collision_radius: radius of the collision spheres (m).
         smoothness_base, smoothness_arm: diagonal of ``W_s`` for (x, y, yaw) and the arm joints.
         dct_cutoff: frequencies ``l >= ceil(cutoff N)`` form the high-frequency set ``H``.
         dct_axis: ``eta_xi`` for x, y, yaw.
-        dct_power: ``gamma_l = (l / (N - 1)) ** power`` (0: every high frequency weighs 1).
+        dct_power: ``gamma_l = (l / (N - 1)) ** power`` (0: every high frequency weighs 1), or
+            with ``dct_ramp`` ``gamma_l = ((l/(N-1) - c)/(1 - c)) ** power`` over ``l/(N-1) > c``.
+        dct_ramp: the authors' ramped ``gamma`` and high set (see ``dct_power``).
         capability_params: the metric's parameters, ``alpha`` among them.
     """
 
-    capability: float = 5.0
-    manipulability: float = 2.0
-    joint_limits: float = 3.0
-    smoothness: float = 10.0
-    base_spectral: float = 1.0
+    preset: str = "authors-trajectory"
+    capability: float = 1.0
+    manipulability: float = 1.0
+    joint_limits: float = 8.0
+    smoothness: float = 8.0
+    base_smoothness: float = 8.0
+    base_spectral: float = 8.0
+    velocity: float = 10.0
+    nominal: float = 0.05
+    base_velocity: float = 0.5
+    collision: float = 1.0
     manipulability_lambda: float = 1e-6
-    manipulability_eps: float = 1e-4
+    manipulability_eps: float = 1e-8
+    manipulability_yaw: bool = False
     joint_margin: float = 0.1
+    joint_margin_fraction: float | None = 0.05
+    joint_dof_weights: tuple[float, ...] | None = (0.0, 0.2, 0.1, 1.0, 0.0, 0.1, 0.2, 0.1, 0.0, 0.0)
     joint_eps: float = 1e-3
     smoothness_base: tuple[float, float, float] = (1.0, 1.0, 0.5)
     smoothness_arm: float = 1.0
-    dct_cutoff: float = 0.35
+    dct_cutoff: float = 0.1
     dct_axis: tuple[float, float, float] = (1.0, 1.0, 0.5)
-    dct_power: float = 0.0
-    capability_params: CapabilityParameters = field(default_factory=CapabilityParameters)
+    dct_power: float = 2.0
+    dct_ramp: bool = True
+    collision_radius: float = 0.08
+    capability_params: CapabilityParameters = field(default_factory=lambda: CapabilityParameters(alpha=0.9))
 
     def __post_init__(self) -> None:
-        for name in ("capability", "manipulability", "joint_limits", "smoothness", "base_spectral", "dct_power"):
+        for name in ("capability", "manipulability", "joint_limits", "smoothness", "base_smoothness",
+                     "base_spectral", "velocity", "nominal", "base_velocity", "collision", "dct_power"):
             value = getattr(self, name)
             if not (_finite(value) and value >= 0):
                 raise InvalidInputError(f"{name}: expected a finite number >= 0, got {value}")
-        for name in ("manipulability_lambda", "manipulability_eps", "joint_margin", "joint_eps", "smoothness_arm"):
+        if self.joint_margin_fraction is not None and not (
+                _finite(self.joint_margin_fraction) and 0 < self.joint_margin_fraction < 0.5):
+            raise InvalidInputError(
+                f"joint_margin_fraction: expected 0 < fraction < 0.5, got {self.joint_margin_fraction}")
+        if self.joint_dof_weights is not None:
+            dof = np.asarray(self.joint_dof_weights, dtype=float)
+            if dof.ndim != 1 or not np.all(np.isfinite(dof) & (dof >= 0)):
+                raise InvalidInputError(
+                    f"joint_dof_weights: expected finite numbers >= 0, got {self.joint_dof_weights}")
+        for name in ("manipulability_lambda", "manipulability_eps", "joint_margin", "joint_eps", "smoothness_arm",
+                     "collision_radius"):
             value = getattr(self, name)
             if not (_finite(value) and value > 0):
                 raise InvalidInputError(f"{name}: expected a finite number > 0, got {value}")
@@ -115,6 +159,45 @@ class CostWeights:
     def alpha(self) -> float:
         """The metric's ``alpha`` (owned by :attr:`capability_params`)."""
         return self.capability_params.alpha
+
+
+#: The authors' single-point holding DoF weights [0,1,1,9,0,1,1,1,0,0] normalized by their max.
+_HOLD_DOF = tuple(v / 9.0 for v in (0, 1, 1, 9, 0, 1, 1, 1, 0, 0))
+
+#: Named weight sets (``weights: {preset: NAME}`` in a task file):
+#:
+#: - ``authors-trajectory`` (the default for trajectories): the authors' lift/continuous set
+#:   (``AUTHORS_SETUP.md``, "Metric and costs": capability 1, manipulability 1, joint limit 8,
+#:   arm smoothness 8, velocity 10, nominal 0.05, base smoothness 8, base velocity 0.5,
+#:   spectral 8 with cutoff 0.1 and the ramped gamma of power 2, collision 1, alpha 0.9);
+#: - ``authors-hold`` (the default for holding): capability 2, manipulability 1, joint limit 1
+#:   with DoF weights [0,1,1,9,0,1,1,1,0,0]/9, no regularization, no J5, alpha 0.7, the
+#:   exponent cap off (``max_exponent`` 700, the float64 range);
+#: - ``paper-demo``: forte's earlier default, the authors' 70 N circle demo: w = 5/2/3/10/1,
+#:   arm margin 0.1 rad on every arm joint, cutoff 0.35 with gamma = 1, alpha 0.8, J4 over
+#:   the whole body with W_s = (1, 1, 0.5, 1...), no velocity/nominal/collision terms.
+WEIGHT_SETS: dict[str, CostWeights] = {
+    "authors-trajectory": CostWeights(),
+    "authors-hold": CostWeights(
+        preset="authors-hold", capability=2.0, manipulability=1.0, joint_limits=1.0, smoothness=0.0,
+        base_smoothness=0.0, base_spectral=0.0, velocity=0.0, nominal=0.0, base_velocity=0.0, collision=0.0,
+        joint_dof_weights=_HOLD_DOF, capability_params=CapabilityParameters(alpha=0.7, max_exponent=700.0)),
+    "paper-demo": CostWeights(
+        preset="paper-demo", capability=5.0, manipulability=2.0, joint_limits=3.0, smoothness=10.0,
+        base_smoothness=10.0, base_spectral=1.0, velocity=0.0, nominal=0.0, base_velocity=0.0, collision=0.0,
+        manipulability_eps=1e-4, joint_margin_fraction=None, joint_dof_weights=None, dct_cutoff=0.35,
+        dct_power=0.0, dct_ramp=False, capability_params=CapabilityParameters(alpha=0.8)),
+}
+
+#: The weight set a task of each mode uses unless it names one.
+DEFAULT_WEIGHT_SET: dict[str, str] = {"trajectory": "authors-trajectory", "hold": "authors-hold"}
+
+
+def weight_set(name: str) -> CostWeights:
+    """The named weight set of :data:`WEIGHT_SETS`."""
+    if name not in WEIGHT_SETS:
+        raise InvalidInputError(f"weights preset: expected one of {', '.join(WEIGHT_SETS)}, got {name!r}")
+    return WEIGHT_SETS[name]
 
 
 @dataclass(frozen=True)
@@ -167,9 +250,13 @@ class KinematicLimits:
             ``acceleration_limits`` (the Panda datasheet's for the built-in robot), else none.
         base_velocity: (x, y, yaw) in m/s, m/s, rad/s.
         base_acceleration: (x, y, yaw) in m/s^2, m/s^2, rad/s^2.
+        end_at_rest: zero velocity and acceleration at the last waypoint on the same backward
+            differences (``q_N = q_{N-1} = q_{N-2}``); the pose equalities of waypoints N-1 and
+            N-2 are then replaced by these rows (the pose of waypoint N is still imposed).
     """
 
     enabled: bool = True
+    end_at_rest: bool = True
     arm_velocity: tuple[float, ...] | None = None
     arm_acceleration: tuple[float, ...] | None = None
     base_velocity: tuple[float, float, float] = (1.0, 1.0, 1.5)

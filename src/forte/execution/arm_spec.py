@@ -36,7 +36,26 @@ def _urdf_text(robot: MobileManipulator, meshes: bool) -> str:
             f"urdf: {robot.urdf_path} refers to package:// meshes outside example-robot-data; "
             "simulate without meshes (meshes=False)"
         )
+    if robot.hand_mass is not None:
+        text = _with_link_mass(text, robot.hand_link, robot.hand_mass)
     return text
+
+
+def _with_link_mass(text: str, link: str, mass: float) -> str:
+    """The URDF with ``link``'s mass set to ``mass`` and its inertia scaled alike (as the planner's model)."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(text)
+    for node in root.iter("link"):
+        inertial = node.find("inertial") if node.get("name") == link else None
+        if inertial is None:
+            continue
+        mass_node, inertia = inertial.find("mass"), inertial.find("inertia")
+        scale = mass / float(mass_node.get("value"))
+        mass_node.set("value", repr(float(mass)))
+        for key, value in list(inertia.attrib.items()):
+            inertia.set(key, repr(float(value) * scale))
+    return ET.tostring(root, encoding="unicode")
 
 
 def load_arm_spec(robot: MobileManipulator, meshes: bool, rotor: FloatArray) -> mujoco.MjSpec:

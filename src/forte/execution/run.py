@@ -282,7 +282,10 @@ def simulate_plan(
         force_feedforward = not (mass is not None and true_mass == 0.0 and plan.payload.mass is not None)
     hold = as_positive(hold, "hold", allow_zero=True)
     offscreen = frames_dir is not None or video is not None
-    sim = build_sim_model(robot, true_mass or 0.0, meshes=offscreen or viewer, timestep=timestep)
+    # the robot's end-effector load that the plan's force includes (tool_force_mass) is carried
+    # physically with the payload: one welded body of both masses
+    carried = (true_mass or 0.0) + (robot.tool_force_mass if plan.payload.mass is not None else 0.0)
+    sim = build_sim_model(robot, carried, meshes=offscreen or viewer, timestep=timestep)
     gains = _resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
     reference = _plan_reference(plan, sim.timestep, hold)
     recorder = FrameRecorder(sim, _optional_path(frames_dir), _optional_path(video), fps) if offscreen else None

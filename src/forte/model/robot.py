@@ -6,9 +6,21 @@ The base-to-arm mounting transform is folded into the arm's root joint placement
 model lives in the *base frame* (z up, gravity ``[0, 0, -g]``) and every world-frame quantity is
 the base-frame quantity rotated by ``R_z(yaw)`` and shifted by ``[x, y, 0]``.
 
-The end-effector tool load (the basket and camera of the paper's MOCA) is added to the inertia
-of the joint that carries the end-effector frame, so it is part of the arm dynamics; the payload
-is not: it enters through the desired task force (paper, Section 5).
+Two ways to account for what the end effector carries besides the payload:
+
+- ``tool``: a rigid load added to the inertia of the joint that carries the end-effector frame,
+  so it is part of the arm dynamics (the ``moca-like`` preset: a 0.8 kg basket-and-camera box);
+- ``tool_force_mass``: a mass (kg) added to the payload in the *required force*
+  ``f = (m_payload + m_tool) (a - g)`` and not to the arm dynamics (the authors' setup: the
+  Franka end-effector load ``m_total``, 1.146 kg identified).
+
+The payload itself always enters through the desired task force (paper, Section 5).
+
+The built-in default (:func:`default_robot`, preset ``authors``) is the authors' description:
+Panda base at (0.2575, 0, 0.52) m, end-effector frame = flange (``panda_link8``) rotated -45 deg
+about z plus 0.10 m along z (``ee_offset`` on the URDF's ``panda_hand`` frame, which is exactly
+the flange rotated -45 deg), the hand link's mass set to 0.54 kg, torque limits 60/12 Nm and
+``tool_force_mass`` 1.146 kg (``AUTHORS_SETUP.md``, "Robot").
 """
 
 from __future__ import annotations
@@ -107,6 +119,44 @@ MOCA_MOUNT: tuple[tuple[float, ...], ...] = (
     (1.0, 0.0, 0.0, 0.2), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.45), (0.0, 0.0, 0.0, 1.0))
 
 
+#: The authors' mount (``my_robot_fix_wheels.urdf``): Panda base 0.2575 m ahead, 0.52 m up.
+AUTHORS_MOUNT: tuple[tuple[float, ...], ...] = (
+    (1.0, 0.0, 0.0, 0.2575), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.52), (0.0, 0.0, 0.0, 1.0))
+#: The authors' end effector ``moca_franka_EE`` relative to ``panda_hand`` (= flange, -45 deg about z).
+AUTHORS_EE_OFFSET: tuple[tuple[float, ...], ...] = (
+    (1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.10), (0.0, 0.0, 0.0, 1.0))
+#: Mass of the Franka hand in the authors' description (kg); example-robot-data's is 0.73 kg.
+AUTHORS_HAND_MASS = 0.54
+#: The end-effector load the authors add to the required force (kg, ``payload_mass.json``).
+AUTHORS_TOOL_FORCE_MASS = 1.146
+#: The authors' taught home configuration of the arm (``AUTHORS_SETUP.md``, "Tasks").
+AUTHORS_HOME: tuple[float, ...] = (0.131, -0.104, -0.130, -1.864, 0.058, 1.779, 0.804)
+#: Name of the end-effector frame forte adds when ``ee_offset`` is given.
+EE_FRAME_NAME = "forte_ee"
+
+
+def _link_inertial(urdf: Path, link: str) -> tuple[float, FloatArray, FloatArray] | None:
+    """``(mass, com, inertia)`` of a URDF link's ``<inertial>`` in the link frame (``None`` if absent)."""
+    import xml.etree.ElementTree as ET
+
+    for node in ET.parse(urdf).getroot().iter("link"):
+        if node.get("name") != link:
+            continue
+        inertial = node.find("inertial")
+        if inertial is None:
+            return None
+        origin = inertial.find("origin")
+        com = np.array([float(v) for v in (origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split()])
+        rpy = [float(v) for v in (origin.get("rpy", "0 0 0") if origin is not None else "0 0 0").split()]
+        mass = float(inertial.find("mass").get("value"))
+        i = {k: float(v) for k, v in inertial.find("inertia").attrib.items()}
+        inertia = np.array([[i["ixx"], i["ixy"], i["ixz"]], [i["ixy"], i["iyy"], i["iyz"]],
+                            [i["ixz"], i["iyz"], i["izz"]]])
+        R = pin.rpy.rpyToMatrix(*rpy)
+        return mass, com, R @ inertia @ R.T
+    return None
+
+
 def _rot_z(yaw: float) -> FloatArray:
     c, s = np.cos(yaw), np.sin(yaw)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
@@ -130,6 +180,13 @@ class MobileManipulator:
             the neutral configuration clipped to the joint range.
         acceleration_limits: Arm joint acceleration limits (rad/s^2) used by the planner's
             kinematic limits; default: the known arm's, else none.
+        ee_offset: 4x4 transform from ``ee_frame`` to the end effector; when given, a frame
+            ``forte_ee`` is added there and used as the end effector.
+        hand_mass: Mass (kg) given to the URDF link ``hand_link`` (its inertia about the centre
+            of mass scaled by the same ratio, centre of mass kept); ``None``: the URDF's.
+        hand_link: The URDF link ``hand_mass`` applies to.
+        tool_force_mass: Mass (kg) added to the payload in the required force
+            ``f = (m_payload + m_tool)(a - g)``, not in the arm dynamics.
     """
 
     urdf: str | Path
@@ -142,6 +199,10 @@ class MobileManipulator:
     name: str = "robot"
     home_arm: Any = None
     acceleration_limits: Any = None
+    ee_offset: Any = None
+    hand_mass: float | None = None
+    hand_link: str = "panda_hand"
+    tool_force_mass: float = 0.0
 
     def __post_init__(self) -> None:
         self.urdf_path = resolve_urdf(self.urdf)
@@ -152,6 +213,15 @@ class MobileManipulator:
         ):
             raise InvalidInputError("mount: expected a 4x4 rigid transform (orthonormal rotation)")
         self.mount = mount
+        if self.ee_offset is not None:
+            offset = as_array(self.ee_offset, "ee_offset", (4, 4))
+            if not np.allclose(offset[3], [0, 0, 0, 1]) or not np.allclose(
+                    offset[:3, :3] @ offset[:3, :3].T, np.eye(3), atol=1e-9):
+                raise InvalidInputError("ee_offset: expected a 4x4 rigid transform (orthonormal rotation)")
+            self.ee_offset = offset
+        self.tool_force_mass = as_positive(self.tool_force_mass, "tool_force_mass", allow_zero=True)
+        if self.hand_mass is not None:
+            self.hand_mass = as_positive(self.hand_mass, "hand_mass")
         try:
             full = pin.buildModelFromUrdf(str(self.urdf_path))
         except Exception as exc:  # Pinocchio raises plain RuntimeError/ValueError
@@ -161,6 +231,8 @@ class MobileManipulator:
             raise RobotModelError(
                 f"ee_frame: no frame '{self.ee_frame}' in {self.urdf_path.name}; bodies: {names}"
             )
+        if self.hand_mass is not None:
+            self._set_hand_mass(full)
         chain = self._supporting_joints(full)
         joints = tuple(self.arm_joints) if self.arm_joints is not None else chain
         for j in joints:
@@ -176,7 +248,13 @@ class MobileManipulator:
         self.model = self._reduce(full, joints)
         self.model.gravity = pin.Motion(np.array([0, 0, -self.gravity, 0, 0, 0]))
         self.data = self.model.createData()
-        self.ee_frame_id = self.model.getFrameId(self.ee_frame)
+        if self.ee_offset is not None:
+            base = self.model.frames[self.model.getFrameId(self.ee_frame)]
+            placement = base.placement * pin.SE3(self.ee_offset[:3, :3].copy(), self.ee_offset[:3, 3].copy())
+            self.model.addFrame(pin.Frame(EE_FRAME_NAME, base.parentJoint, self.model.getFrameId(self.ee_frame),
+                                          placement, pin.FrameType.OP_FRAME))
+            self.data = self.model.createData()
+        self.ee_frame_id = self.model.getFrameId(EE_FRAME_NAME if self.ee_offset is not None else self.ee_frame)
         self.n_arm = self.model.nq
         self.nq = N_BASE + self.n_arm
         self.lower = np.array(self.model.lowerPositionLimit, dtype=float)
@@ -210,6 +288,18 @@ class MobileManipulator:
             if np.any(acc <= 0):
                 raise InvalidInputError(f"acceleration_limits: expected every limit > 0 rad/s^2, got {acc}")
         self.acceleration_limits = acc
+
+    def _set_hand_mass(self, full: pin.Model) -> None:
+        """Replace the URDF inertia of :attr:`hand_link` (merged into its joint) by a ``hand_mass`` one."""
+        found = _link_inertial(self.urdf_path, self.hand_link)
+        if found is None or not full.existFrame(self.hand_link):
+            raise RobotModelError(f"hand_mass: no link '{self.hand_link}' with an inertial in {self.urdf_path.name}")
+        mass, com, inertia = found
+        frame = full.frames[full.getFrameId(self.hand_link)]
+        old = frame.placement.act(pin.Inertia(mass, com, inertia))
+        scale = self.hand_mass / mass
+        new = frame.placement.act(pin.Inertia(self.hand_mass, com, inertia * scale))
+        full.inertias[frame.parentJoint] = full.inertias[frame.parentJoint] - old + new
 
     def _supporting_joints(self, full: pin.Model) -> tuple[str, ...]:
         parent = full.frames[full.getFrameId(self.ee_frame)].parentJoint
@@ -259,6 +349,10 @@ class MobileManipulator:
             "joint_upper": self.upper.tolist(),
             "home_arm": self.home_arm.tolist(),
             "acceleration_limits": None if self.acceleration_limits is None else self.acceleration_limits.tolist(),
+            "ee_offset": None if self.ee_offset is None else self.ee_offset.tolist(),
+            "hand_mass": self.hand_mass,
+            "hand_link": self.hand_link,
+            "tool_force_mass": self.tool_force_mass,
         }
 
     @cached_property
@@ -338,30 +432,46 @@ class MobileManipulator:
         return np.array(pin.rnea(self.model, self.data, q_a, dq_a, ddq_a))
 
 
-def default_robot(torque_limits: Any = PAPER_TORQUE_LIMITS, **overrides: Any) -> MobileManipulator:
-    """The built-in MOCA-like robot: holonomic base + Franka Panda (fingers locked).
+#: Robot presets by name: ``authors`` (the default) and ``moca-like`` (forte's earlier estimate).
+ROBOT_PRESETS: tuple[str, ...] = ("authors", "moca-like")
 
-    Uses example-robot-data's ``panda.urdf``, end effector ``panda_hand_tcp``, the paper's
-    torque limits (60 Nm joints 1-4, 12 Nm joints 5-7), the :data:`MOCA_MOUNT` transform and
-    the :data:`MOCA_TOOL` basket-and-camera load.
+
+def default_robot(torque_limits: Any = PAPER_TORQUE_LIMITS, variant: str = "authors",
+                  **overrides: Any) -> MobileManipulator:
+    """A built-in robot: holonomic base + Franka Panda (example-robot-data, fingers locked).
+
+    ``variant``:
+
+    - ``"authors"`` (default): the authors' description (``AUTHORS_SETUP.md``, "Robot"): mount
+      (0.2575, 0, 0.52) m, end effector ``panda_hand`` (the flange rotated -45 deg about z) plus
+      0.10 m along z, hand 0.54 kg, no tool in the dynamics, ``tool_force_mass`` 1.146 kg in the
+      required force, home = the authors' taught home;
+    - ``"moca-like"``: forte's earlier estimate: ``panda_hand_tcp``, :data:`MOCA_MOUNT`, the
+      :data:`MOCA_TOOL` box in the arm dynamics, the Panda's ready pose as home.
+
+    Both use the paper's torque limits (60 Nm joints 1-4, 12 Nm joints 5-7).
 
     Example:
         >>> import forte
         >>> robot = forte.default_robot()
-        >>> robot.nq, robot.torque_limits.tolist()
-        (10, [60.0, 60.0, 60.0, 60.0, 12.0, 12.0, 12.0])
+        >>> robot.nq, robot.torque_limits.tolist(), robot.tool_force_mass
+        (10, [60.0, 60.0, 60.0, 60.0, 12.0, 12.0, 12.0], 1.146)
     """
-    kwargs: dict[str, Any] = {
-        "urdf": "erd:panda_description/urdf/panda.urdf",
-        "ee_frame": "panda_hand_tcp",
-        "arm_joints": PANDA_ARM_JOINTS,
-        "mount": np.array(MOCA_MOUNT),
-        "tool": MOCA_TOOL,
-        "torque_limits": torque_limits,
-        "name": "moca-panda",
-        "home_arm": PANDA_HOME,
-        "acceleration_limits": PANDA_ACCELERATION_LIMITS,
+    common: dict[str, Any] = {
+        "urdf": "erd:panda_description/urdf/panda.urdf", "arm_joints": PANDA_ARM_JOINTS,
+        "torque_limits": torque_limits, "acceleration_limits": PANDA_ACCELERATION_LIMITS,
     }
+    if variant == "authors":
+        kwargs = common | {
+            "ee_frame": "panda_hand", "ee_offset": np.array(AUTHORS_EE_OFFSET), "mount": np.array(AUTHORS_MOUNT),
+            "tool": None, "name": "moca-panda-authors", "home_arm": AUTHORS_HOME,
+            "hand_mass": AUTHORS_HAND_MASS, "tool_force_mass": AUTHORS_TOOL_FORCE_MASS,
+        }
+    elif variant == "moca-like":
+        kwargs = common | {"ee_frame": "panda_hand_tcp", "mount": np.array(MOCA_MOUNT), "tool": MOCA_TOOL,
+                           "name": "moca-panda", "home_arm": PANDA_HOME}
+    else:
+        raise InvalidInputError(f"robot preset: expected one of {', '.join(ROBOT_PRESETS)}, got {variant!r}")
     kwargs.update(overrides)
     return MobileManipulator(**kwargs)
 
@@ -384,6 +494,10 @@ def robot_from_description(desc: dict[str, Any]) -> MobileManipulator:
             name=desc.get("name", "robot"),
             home_arm=desc.get("home_arm"),
             acceleration_limits=desc.get("acceleration_limits"),
+            ee_offset=None if desc.get("ee_offset") is None else np.array(desc["ee_offset"], dtype=float),
+            hand_mass=desc.get("hand_mass"),
+            hand_link=desc.get("hand_link", "panda_hand"),
+            tool_force_mass=desc.get("tool_force_mass", 0.0),
         )
     except KeyError as exc:
         raise RobotModelError(f"robot description: missing field {exc}") from exc

@@ -13,12 +13,19 @@ The objective is ``J = sum_i w_i J_i``. A term is one of two kinds:
 Built-in terms (``name``: weight field of :class:`~forte.settings.CostWeights`):
 
 - ``capability`` (w1): ``c_k`` of J1, the smooth surrogate of :mod:`forte.capability.metrics`;
-- ``rfp_radius``, ``rfp_cone`` (w1 of the RFP baselines): ``1 / max(|value|, eps)`` of the
-  centred inscribed radius or the cone measure of the RFP (Ferrolho et al. 2021);
+- ``rfp_radius``, ``rfp_cone``, ``static_radius`` (w1 of the baselines): ``1 / max(|value|, eps)``
+  of the centred inscribed radius, the cone measure, or the radius with a gravity-only residual;
 - ``manipulability`` (w2): ``1 / max(mu_k, eps_m)``;
-- ``joint_limits`` (w3): ``sum_i e_i^2 + v_i^4``;
-- ``smoothness`` (w4): ``sum_k 1/2 ||W_s (q_k - q_{k-1})||^2``;
-- ``base_spectral`` (w5): ``1/2 sum_xi eta_xi sum_{l in H} gamma_l bhat_{xi,l}^2``.
+- ``joint_limits`` (w3): ``sum_i w_i (e_i^2 + v_i^4)`` (arm), ``w_i (q_i - q_nom,i)^2`` (base);
+- ``smoothness`` / ``base_smoothness`` (w4): ``sum_k 1/2 ||W_s (q_k - q_{k-1})||^2`` over the arm /
+  the base coordinates;
+- ``base_spectral`` (w5): ``1/2 sum_xi eta_xi sum_{l in H} gamma_l bhat_{xi,l}^2``;
+- ``velocity`` / ``base_velocity``: ``1/2 ||q_k - q_{k-1}||^2 / dt_k^2`` over the arm / the base;
+- ``nominal``: ``1/2 ||q_a,k - q_a,nom,k||^2`` (the task's nominal trajectory);
+- ``collision``: spheres on the arm against the base box and the floor.
+
+The terms beyond the paper's J1..J5 (velocity, nominal, collision, the per-DoF joint weights,
+the ramped spectral weights) are the authors' (``AUTHORS_SETUP.md``, "Metric and costs").
 
 A new term is a subclass registered with :func:`register_term`; a method
 (:mod:`forte.planning.methods`) lists the terms it uses by name.
@@ -54,6 +61,7 @@ class Stage:
         dt1, dt0: ``dt_{k-1}``, ``dt_k``.
         f, r: desired force (3) and uncertainty radius at waypoint k.
         parameters: further per-waypoint parameters declared by terms (name -> symbol).
+        nominal: the task's nominal whole-body configuration at waypoint k (nq).
     """
 
     twin: CasadiTwin
@@ -65,6 +73,7 @@ class Stage:
     f: ca.SX
     r: ca.SX
     parameters: dict[str, ca.SX] = field(default_factory=dict)
+    nominal: ca.SX | None = None
 
     @property
     def robot(self) -> MobileManipulator:
@@ -79,6 +88,12 @@ class Stage:
     def J(self) -> ca.SX:
         """World-frame translational arm Jacobian at ``q_k``."""
         return self.twin.arm_jacobian(self.q0)
+
+    @cached_property
+    def tau_static(self) -> ca.SX:
+        """Gravity torque ``g(q_k)`` (the static residual: no velocity, no acceleration)."""
+        zero = ca.SX.zeros(self.robot.n_arm)
+        return self.twin.rnea(self.q0[N_BASE:], zero, zero)
 
 
 class CostTerm:
@@ -184,11 +199,14 @@ class Capability(CostTerm):
 @register_term
 @dataclass(frozen=True)
 class InscribedRadius(CostTerm):
-    """RFP-radius baseline: ``1 / max(|R_k|, eps)``, ``R_k = min_i b_i / ||a_i||`` (smoothed minimum).
+    """RFP-radius baseline (Ferrolho et al. 2021, as the authors run it): ``1 / max(|R_k|, 1e-6)``.
 
-    ``R_k`` is the radius of the largest ball centred at the origin inside the RFP (Ferrolho et
-    al. 2021), from the residual margins ``tau_max -+ tau_nom``; the task force is unused, the
-    soft minimum's temperature is ``max(|f| + r, eps)``.
+    ``R_k = max(0, min_i min(alpha (tau_max,i - tau_nom,i), alpha (tau_max,i + tau_nom,i)) / ||n_i||)``,
+    ``n_i`` the columns of the 3 x n world translational Jacobian: the radius of the largest
+    ball centred at the origin inside the alpha-scaled dynamic RFP, clamped at 0; the task force
+    is unused (``AUTHORS_SETUP.md``, "Baselines", ``residual_force_polytope``). The minimum is
+    smoothed (a lower bound within ``s log(2n) / beta``, ``s = max(|f| + r, eps)``);
+    :func:`forte.planning.reference.inscribed_radius_exact` is the exact value.
     """
 
     name: ClassVar[str] = "rfp_radius"
@@ -199,19 +217,43 @@ class InscribedRadius(CostTerm):
     def from_weights(cls, weights: CostWeights) -> InscribedRadius:
         return cls(weights.capability_params)
 
-    def stage(self, s: Stage) -> ca.SX:
+    def residual(self, s: Stage) -> ca.SX:
+        """The nominal torque the margins are taken from (dynamic: the paper's ``tau_nom``)."""
+        return s.tau
+
+    def radius(self, s: Stage) -> ca.SX:
         p = self.params
         norms = ca.sqrt(ca.sum1(s.J**2).T + p.eps_normal**2)
-        tm = ca.DM(s.robot.torque_limits)
-        dist = ca.vertcat((tm - s.tau) / norms, (tm + s.tau) / norms)
+        tm, tau = ca.DM(s.robot.torque_limits), self.residual(s)
+        dist = p.alpha * ca.vertcat((tm - tau) / norms, (tm + tau) / norms)
         scale = ca.fmax(ca.norm_2(s.f) + s.r, p.eps)
-        return inverse_capacity_expr(_smooth_min(dist, scale, p.beta))
+        return ca.fmax(_smooth_min(dist, scale, p.beta), 0)
+
+    def stage(self, s: Stage) -> ca.SX:
+        return inverse_capacity_expr(self.radius(s))
+
+
+@register_term
+@dataclass(frozen=True)
+class StaticRadius(InscribedRadius):
+    """Static force polytope baseline: :class:`InscribedRadius` with the gravity-only residual
+    ``tau = g(q_k)`` (no velocity or acceleration terms; the authors' fourth baseline,
+    ``AUTHORS_SETUP.md``, "Baselines": "inscribed radius with a gravity-only residual")."""
+
+    name: ClassVar[str] = "static_radius"
+
+    def residual(self, s: Stage) -> ca.SX:
+        return s.tau_static
 
 
 @register_term
 @dataclass(frozen=True)
 class ConeVolume(CostTerm):
-    """RFP-cone baseline: ``1 / max(|V_k|, eps)``, ``V_k = Omega/(3M) sum_j rho_j^3``.
+    """RFP-cone baseline (Ferrolho et al. 2021, as the authors run it): ``1 / max(|V_k|, 1e-6)``,
+    ``V_k = Omega/(3M) sum_j rho_j^3`` (``cone_intersection_volume``, ``AUTHORS_SETUP.md``).
+
+    The authors' rays: the axis along ``f`` (+z where ``f = 0``) plus 4 rings x 12 azimuths at
+    ``theta_j = 0.1 j / 4`` (M = 49), each ray's capacity clamped at 0, no alpha.
 
     ``rho_j``, the capacity along ray ``d_j`` of the cone of half-angle ``half_angle`` around the
     desired force (``rings x azimuths`` rays plus the axis, an NLP parameter per waypoint), is the
@@ -223,9 +265,9 @@ class ConeVolume(CostTerm):
     name: ClassVar[str] = "rfp_cone"
     weight_field: ClassVar[str | None] = "capability"
     params: CapabilityParameters = field(default_factory=CapabilityParameters)
-    half_angle: float = 0.35
-    rings: int = 3
-    azimuths: int = 8
+    half_angle: float = 0.1
+    rings: int = 4
+    azimuths: int = 12
 
     @classmethod
     def from_weights(cls, weights: CostWeights) -> ConeVolume:
@@ -266,42 +308,82 @@ class ConeVolume(CostTerm):
 @register_term
 @dataclass(frozen=True)
 class Manipulability(CostTerm):
-    """J2: ``1 / max(mu_k, eps_m)``, ``mu_k = sqrt(det(J_t J_t^T + lambda I_3))`` (arm Jacobian)."""
+    """J2: ``1 / max(mu_k, eps_m)``, ``mu_k = sqrt(det(J J^T + lambda I_3))``.
+
+    ``J`` is the 3 x n world translational arm Jacobian (the paper's text, default) or, with
+    ``with_yaw``, the 3 x (1 + n) Jacobian with the base-yaw column
+    ``d p / d yaw = (-(p_y - y), p_x - x, 0)`` first (the authors' code).
+    """
 
     name: ClassVar[str] = "manipulability"
     lam: float = 1e-6
-    eps: float = 1e-4
+    eps: float = 1e-8
+    with_yaw: bool = False
 
     @classmethod
     def from_weights(cls, weights: CostWeights) -> Manipulability:
-        return cls(weights.manipulability_lambda, weights.manipulability_eps)
+        return cls(weights.manipulability_lambda, weights.manipulability_eps, weights.manipulability_yaw)
 
     def stage(self, s: Stage) -> ca.SX:
-        return 1 / ca.fmax(manipulability_expr(s.J, self.lam), self.eps)
+        J = s.J
+        if self.with_yaw:
+            _, p = s.twin.ee_pose(s.q0)
+            J = ca.horzcat(ca.vertcat(-(p[1] - s.q0[1]), p[0] - s.q0[0], 0), J)
+        return 1 / ca.fmax(manipulability_expr(J, self.lam), self.eps)
 
 
 @register_term
 @dataclass(frozen=True)
 class JointLimits(CostTerm):
-    """J3: ``sum_i e_i^2 + v_i^4``, ``e_i = (q_i - mid_i)/h_i``, ``v_i = max(0, (|q_i - mid_i| - h_i)/delta)``."""
+    """J3: ``sum_i w_i (e_i^2 + v_i^4)`` over the arm, ``+ sum_b w_b (q_b - q_nom,b)^2`` over the base.
+
+    ``e_i = (q_i - mid_i)/h_i``, ``v_i = max(0, (|q_i - mid_i| - h_i)/delta_i)``,
+    ``h_i = max(eps_h, range_i/2 - delta_i)``; ``delta_i = margin_fraction * range_i`` (the
+    authors: 5 %) or ``margin`` for every joint; ``w`` the per-DoF weights over
+    (x, y, yaw, q1..q7) (the authors': [0,2,1,10,0,1,2,1,0,0]/10), default 1 per arm joint and
+    0 for the base. The base has no limits: its entries pull it toward the nominal trajectory.
+    """
 
     name: ClassVar[str] = "joint_limits"
     margin: float = 0.1
     eps: float = 1e-3
+    margin_fraction: float | None = None
+    dof_weights: tuple[float, ...] | None = None
 
     @classmethod
     def from_weights(cls, weights: CostWeights) -> JointLimits:
-        return cls(weights.joint_margin, weights.joint_eps)
+        dof = None if weights.joint_dof_weights is None else tuple(float(w) for w in weights.joint_dof_weights)
+        return cls(weights.joint_margin, weights.joint_eps, weights.joint_margin_fraction, dof)
+
+    def weights_for(self, n_arm: int) -> FloatArray:
+        """Per-DoF weights (base 3, then arm)."""
+        if self.dof_weights is None:
+            return np.r_[np.zeros(N_BASE), np.ones(n_arm)]
+        w = np.asarray(self.dof_weights, dtype=float)
+        if w.shape != (N_BASE + n_arm,):
+            raise InvalidInputError(f"joint_dof_weights: expected {N_BASE + n_arm} values, got {w.size}")
+        return w
 
     def stage(self, s: Stage) -> ca.SX:
-        mid, half = joint_limit_geometry(s.robot.lower, s.robot.upper, self.margin, self.eps)
+        robot = s.robot
+        delta = self.margins(robot.lower, robot.upper)
+        mid, half = joint_limit_geometry(robot.lower, robot.upper, delta, self.eps)
+        w = self.weights_for(robot.n_arm)
         dev = s.q0[N_BASE:] - ca.DM(mid)
         e = dev / ca.DM(half)
-        v = ca.fmax(0, (ca.fabs(dev) - ca.DM(half)) / self.margin)
-        return ca.sumsqr(e) + ca.sum1(v**4)
+        v = ca.fmax(0, (ca.fabs(dev) - ca.DM(half)) / ca.DM(delta))
+        cost = ca.dot(ca.DM(w[N_BASE:]), e**2 + v**4)
+        if np.any(w[:N_BASE]) and s.nominal is not None:
+            cost += ca.dot(ca.DM(w[:N_BASE]), (s.q0[:N_BASE] - s.nominal[:N_BASE]) ** 2)
+        return cost
+
+    def margins(self, lower: FloatArray, upper: FloatArray) -> FloatArray:
+        """``delta_i`` per arm joint."""
+        span = np.asarray(upper, dtype=float) - np.asarray(lower, dtype=float)
+        return span * self.margin_fraction if self.margin_fraction is not None else np.full(span.shape, self.margin)
 
 
-def joint_limit_geometry(lower: FloatArray, upper: FloatArray, margin: float,
+def joint_limit_geometry(lower: FloatArray, upper: FloatArray, margin: Any,
                          eps: float) -> tuple[FloatArray, FloatArray]:
     """Joint centres and safe half-widths ``h_i = max(eps_h, (max - min)/2 - delta)``."""
     mid = (np.asarray(upper) + np.asarray(lower)) / 2
@@ -313,16 +395,20 @@ def joint_limit_geometry(lower: FloatArray, upper: FloatArray, margin: float,
 @register_term
 @dataclass(frozen=True)
 class Smoothness(CostTerm):
-    """J4 = ``sum_k 1/2 ||W_s (q_k - q_{k-1})||^2`` with ``W_s = diag(base, arm...)``."""
+    """Arm part of J4: ``sum_k 1/2 ||W_s (q_k - q_{k-1})||^2`` with ``W_s = diag(0, 0, 0, arm...)``.
+
+    With :class:`BaseSmoothness` (``W_s = diag(base, 0...)``) at the same weight this is the
+    paper's whole-body J4 with ``W_s = diag(base, arm...)``.
+    """
 
     name: ClassVar[str] = "smoothness"
     kind: ClassVar[str] = "quadratic"
-    base: tuple[float, float, float] = (1.0, 1.0, 0.5)
+    base: tuple[float, float, float] = (0.0, 0.0, 0.0)
     arm: float = 1.0
 
     @classmethod
     def from_weights(cls, weights: CostWeights) -> Smoothness:
-        return cls(tuple(weights.smoothness_base), weights.smoothness_arm)
+        return cls((0.0, 0.0, 0.0), weights.smoothness_arm)
 
     def matrix(self, n_arm: int, n: int) -> sparse.csr_matrix:
         size = (n_arm + N_BASE) * n
@@ -335,6 +421,105 @@ class Smoothness(CostTerm):
 
 @register_term
 @dataclass(frozen=True)
+class BaseSmoothness(Smoothness):
+    """Base part of J4: ``W_s = diag(base, 0...)`` (``smoothness_base``, default (1, 1, 0.5))."""
+
+    name: ClassVar[str] = "base_smoothness"
+    base: tuple[float, float, float] = (1.0, 1.0, 0.5)
+    arm: float = 0.0
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> BaseSmoothness:
+        return cls(tuple(weights.smoothness_base), 0.0)
+
+
+@register_term
+@dataclass(frozen=True)
+class Velocity(CostTerm):
+    """Arm velocity term ``1/2 ||q_a,k - q_a,k-1||^2 / dt_k^2`` (the authors' velocity cost;
+    zero at the first waypoint, which starts at rest)."""
+
+    name: ClassVar[str] = "velocity"
+
+    def coordinates(self, s: Stage) -> slice:
+        return slice(N_BASE, s.robot.nq)
+
+    def stage(self, s: Stage) -> ca.SX:
+        i = self.coordinates(s)
+        return 0.5 * ca.sumsqr(s.q0[i] - s.q1[i]) / s.dt0**2
+
+
+@register_term
+@dataclass(frozen=True)
+class BaseVelocity(Velocity):
+    """Base velocity term ``1/2 ||q_b,k - q_b,k-1||^2 / dt_k^2`` over (x, y, yaw)."""
+
+    name: ClassVar[str] = "base_velocity"
+
+    def coordinates(self, s: Stage) -> slice:
+        return slice(0, N_BASE)
+
+
+@register_term
+@dataclass(frozen=True)
+class Nominal(CostTerm):
+    """Arm nominal term ``1/2 ||q_a,k - q_a,nom,k||^2`` (the nominal trajectory of the task: the
+    joint-space interpolation of taught configurations, else the initial guess)."""
+
+    name: ClassVar[str] = "nominal"
+
+    def stage(self, s: Stage) -> ca.SX:
+        if s.nominal is None:
+            return ca.SX(0)
+        return 0.5 * ca.sumsqr(s.q0[N_BASE:] - s.nominal[N_BASE:])
+
+
+#: Collision model of the built-in robot: the base as a box in the base frame (m) and the arm
+#: points that carry spheres (joint origins 3, 4, 5, 7 and the end effector: 6 shares 5's; 1-2 sit on the
+#: mount). An estimate: the MOCA base is not in the authors' optimizer URDF.
+BASE_BOX: tuple[tuple[float, float, float], tuple[float, float, float]] = ((-0.35, -0.28, 0.0), (0.30, 0.28, 0.50))
+COLLISION_JOINTS: tuple[int, ...] = (2, 3, 4, 6)
+
+
+@register_term
+@dataclass(frozen=True)
+class Collision(CostTerm):
+    """Collision term: ``sum_s max(0, 1 - d_box,s / rho)^2 + max(0, 1 - z_s / rho)^2``.
+
+    Spheres of radius ``rho`` (0.08 m, the authors') at the origins of arm joints 3, 4, 5, 7 and at
+    the end effector; ``d_box`` is the distance from a centre to the base box :data:`BASE_BOX`
+    (0 inside), ``z`` the height above the floor. Zero when every sphere clears both; each
+    penetrating sphere adds up to 2. ``sqrt`` is guarded by ``1e-10`` m^2 (a 1e-5 m offset).
+    """
+
+    name: ClassVar[str] = "collision"
+    radius: float = 0.08
+    box: tuple[tuple[float, float, float], tuple[float, float, float]] = BASE_BOX
+    joints: tuple[int, ...] = COLLISION_JOINTS
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> Collision:
+        return cls(weights.collision_radius)
+
+    def centres(self, s: Stage) -> list[ca.SX]:
+        """Sphere centres in the base frame."""
+        poses = s.twin._arm_poses(s.q0[N_BASE:])
+        _, p_ee = s.twin.arm_ee_pose(s.q0[N_BASE:])
+        return [poses[j][1] for j in self.joints if j < len(poses)] + [p_ee]
+
+    def stage(self, s: Stage) -> ca.SX:
+        lo, hi = ca.DM(self.box[0]), ca.DM(self.box[1])
+        centre, half = (lo + hi) / 2, (hi - lo) / 2
+        cost = ca.SX(0)
+        for c in self.centres(s):
+            out = ca.fmax(ca.fabs(c - centre) - half, 0)
+            d_box = ca.sqrt(ca.sumsqr(out) + 1e-10)
+            cost += ca.fmax(0, 1 - d_box / self.radius) ** 2 + ca.fmax(0, 1 - c[2] / self.radius) ** 2
+        return cost
+
+
+@register_term
+@dataclass(frozen=True)
 class BaseSpectral(CostTerm):
     """J5 = ``1/2 sum_xi eta_xi sum_{l in H} gamma_l bhat_{xi,l}^2`` (orthonormal DCT-II per base axis)."""
 
@@ -343,10 +528,11 @@ class BaseSpectral(CostTerm):
     cutoff: float = 0.35
     axis: tuple[float, float, float] = (1.0, 1.0, 0.5)
     power: float = 0.0
+    ramp: bool = False
 
     @classmethod
     def from_weights(cls, weights: CostWeights) -> BaseSpectral:
-        return cls(weights.dct_cutoff, tuple(weights.dct_axis), weights.dct_power)
+        return cls(weights.dct_cutoff, tuple(weights.dct_axis), weights.dct_power, weights.dct_ramp)
 
     def matrix(self, n_arm: int, n: int) -> sparse.csr_matrix:
         nq = n_arm + N_BASE
@@ -354,7 +540,7 @@ class BaseSpectral(CostTerm):
             return sparse.csr_matrix((nq, nq))
         E = np.zeros((nq, nq))
         E[:N_BASE, :N_BASE] = np.diag(self.axis)
-        P = dct_penalty(n, self.cutoff, self.power)
+        P = dct_penalty(n, self.cutoff, self.power, self.ramp)
         return sparse.kron(sparse.csr_matrix(P), sparse.csr_matrix(E)).tocsr()
 
 
@@ -372,17 +558,28 @@ def high_frequencies(n: int, cutoff: float) -> FloatArray:
     return np.arange(max(1, int(np.ceil(cutoff * n))), n)
 
 
-def dct_penalty(n: int, cutoff: float, power: float) -> FloatArray:
-    """``P`` with ``b^T P b = sum_{l in H} gamma_l bhat_l^2``, ``gamma_l = (l / (N - 1))^power``."""
+def ramped_frequencies(n: int, cutoff: float) -> FloatArray:
+    """The authors' high set ``H = {l : l / (N - 1) > cutoff}``."""
+    ell = np.arange(n)
+    return ell[ell / max(n - 1, 1) > cutoff]
+
+
+def dct_penalty(n: int, cutoff: float, power: float, ramp: bool = False) -> FloatArray:
+    """``P`` with ``b^T P b = sum_{l in H} gamma_l bhat_l^2``.
+
+    ``gamma_l = (l / (N - 1))^power`` on ``l >= ceil(cutoff N)`` (the paper's text), or with
+    ``ramp`` the authors' ``gamma_l = ((l/(N-1) - c) / (1 - c))^power`` on ``l/(N-1) > c``.
+    """
     C = dct_matrix(n)
-    H = high_frequencies(n, cutoff)
+    H = ramped_frequencies(n, cutoff) if ramp else high_frequencies(n, cutoff)
     if H.size == 0:
         return np.zeros((n, n))
-    gamma = (H / max(n - 1, 1)) ** power
+    x = H / max(n - 1, 1)
+    gamma = ((x - cutoff) / (1 - cutoff)) ** power if ramp else x**power
     CH = C[H]
     return CH.T @ (gamma[:, None] * CH)
 
 
 def dct_penalty_matrix(n: int, weights: CostWeights) -> FloatArray:
     """:func:`dct_penalty` with the cutoff and power of ``weights`` (one base coordinate)."""
-    return dct_penalty(n, weights.dct_cutoff, weights.dct_power)
+    return dct_penalty(n, weights.dct_cutoff, weights.dct_power, weights.dct_ramp)

@@ -42,7 +42,7 @@ KERNEL_NAMES = ("stage_cost", "stage_grad", "stage_hess", "stage_terms", "pose",
 class Kernels:
     """Per-waypoint functions the NLP is assembled from (SX, or compiled C loaded back)."""
 
-    cost: ca.Function  # (z, dt_prev, dt, f, r, *term parameters, w) -> weighted stage cost
+    cost: ca.Function  # (z, dt_prev, dt, f, r, q_nom, *term parameters, w) -> weighted stage cost
     grad: ca.Function  # same inputs -> gradient w.r.t. z (3nq)
     hess: ca.Function  # same inputs -> Hessian w.r.t. z (3nq x 3nq, dense)
     terms: ca.Function  # same inputs without w -> value of each stage term
@@ -78,13 +78,13 @@ def build_kernels(robot: MobileManipulator, method: str | Method, w: CostWeights
     terms = stage_terms(method, w)
     params = {name: ca.SX.sym(name, size) for t in terms for name, size in t.parameters}
     s = Stage(twin, z[:nq], z[nq:2 * nq], z[2 * nq:], ca.SX.sym("dt_prev"), ca.SX.sym("dt"),
-              ca.SX.sym("f", 3), ca.SX.sym("r"), params)
+              ca.SX.sym("f", 3), ca.SX.sym("r"), params, nominal=ca.SX.sym("q_nom", nq))
     values = [t.stage(s) for t in terms]
     weights = ca.SX.sym("w", len(terms))
     cost = ca.SX(0)
     for i, value in enumerate(values):
         cost = weights[i] * value if i == 0 else cost + weights[i] * value
-    inputs = [z, s.dt1, s.dt0, s.f, s.r, *params.values()]
+    inputs = [z, s.dt1, s.dt0, s.f, s.r, s.nominal, *params.values()]
     H, grad = ca.hessian(cost, z)
     q, pd, Rd, lam = ca.SX.sym("q", nq), ca.SX.sym("p_d", 3), ca.SX.sym("R_d", 9), ca.SX.sym("lam", 6)
     R, p = twin.ee_pose(q)

@@ -5,14 +5,26 @@ which cost terms (:mod:`forte.planning.costs`) make up its objective. Everything
 methods (the CLI's choices, ``forte compare``, the experiments, plot colours, kernel cache keys)
 is derived from :data:`METHODS`; adding a method is one :func:`register_method` call.
 
-Built-in methods:
+Built-in methods (definitions and weights as the authors run them, ``AUTHORS_SETUP.md``,
+"Baselines": each keeps the weight set's weights except as listed in its ``tuning``):
 
-- ``forte``: the paper's objective ``w1 J1 + w2 J2 + w3 J3 + w4 J4 + w5 J5``;
-- ``manipulability``: the same without ``J1``;
-- ``rfp-radius`` / ``rfp-cone``: ``J1`` replaced by ``1 / max(|value|, eps)`` of the centred
-  inscribed radius or the cone measure of the RFP (Ferrolho et al. 2021);
-- ``quintic`` (trajectory mode): the interpolated path followed by damped least-squares IK, not
-  optimized (also the optimizer's initial guess);
+- ``forte``: the paper's J1..J5 plus the authors' velocity, nominal, base-velocity and collision
+  terms (:data:`FORTE_TERMS`);
+- ``manipulability``: J2 and J3 only (no J1, no regularization terms); in the trajectory set the
+  joint-limit DoF weights [0,2,1,10,5,1,2,1,0,0]/10 (arm joint 2 penalized);
+- ``rfp-radius``: J1 replaced by ``1/max(|R|, 1e-6)``, R the alpha-scaled origin-centred
+  inscribed radius of the dynamic RFP clamped at 0; no manipulability; trajectory set:
+  capability weight 60, base velocity 0.54, J5 kept;
+- ``rfp-cone``: J1 replaced by ``1/max(|V|, 1e-6)``, V the ray-sampled RFP volume in a 0.1 rad
+  cone around f (49 rays); no manipulability, no J5; trajectory set: capability weight 60,
+  joint limit 2, velocity 7, collision 0.1;
+- ``static-polytope`` (not in the paper): as ``rfp-radius`` with the gravity-only residual;
+  trajectory set: capability weight 2;
+- ``quintic`` (trajectory mode): the task's nominal trajectory, not optimized: the joint-space
+  quintic interpolation of its taught configurations (paper, Section 5.3; the authors'), or,
+  for a task given by end-effector poses, the IK path (below);
+- ``ik-path`` (trajectory mode, not in the paper): the interpolated end-effector path followed
+  by damped least-squares IK;
 - ``teaching`` (hold mode): the task's teaching configuration, not optimized.
 """
 
@@ -61,6 +73,9 @@ class Method:
         status: solver status reported for methods that are not optimized.
         source: where the definition comes from.
         in_paper: compared in the paper's experiments (``forte experiment`` runs these).
+        tuning: per weight set (:data:`forte.settings.WEIGHT_SETS` name), the
+            :class:`~forte.settings.CostWeights` fields this method changes (its weights and term
+            parameters in that set, e.g. the authors' baseline weights).
     """
 
     name: str
@@ -74,6 +89,7 @@ class Method:
     status: str = ""
     source: str = ""
     in_paper: bool = False
+    tuning: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.production not in PRODUCTIONS:
@@ -85,6 +101,8 @@ class Method:
         elif self.produce is None:
             raise InvalidInputError(f"method {self.name}: a method that is not optimized needs produce")
         object.__setattr__(self, "weights", MappingProxyType(dict(self.weights)))
+        object.__setattr__(self, "tuning", MappingProxyType({k: MappingProxyType(dict(v))
+                                                             for k, v in self.tuning.items()}))
         if not self.style.label:
             object.__setattr__(self, "style", MethodStyle(self.style.color, self.name, self.style.marker,
                                                           self.style.linestyle))
@@ -92,6 +110,11 @@ class Method:
     @property
     def optimized(self) -> bool:
         return self.production == "optimized"
+
+    def resolve_weights(self, weights: CostWeights) -> CostWeights:
+        """``weights`` with this method's :attr:`tuning` for their set applied."""
+        changes = self.tuning.get(weights.preset, {})
+        return replace(weights, **changes) if changes else weights
 
     def cost_terms(self, weights: CostWeights) -> tuple[CostTerm, ...]:
         """The method's terms with their parameters from ``weights``."""
@@ -140,27 +163,53 @@ def _teaching(task: Any) -> FloatArray:
     return task.teaching[None]
 
 
-PAPER_TERMS = ("capability", "manipulability", "joint_limits", "smoothness", "base_spectral")
-for _method in (
-    Method("forte", "the paper's task-sufficient capability objective (J1..J5)", terms=PAPER_TERMS,
-           style=MethodStyle("tab:red", "forte (ours)"), source="paper, Section 4.3"),
-    Method("manipulability", "manipulability only: the forte objective without J1", terms=PAPER_TERMS[1:],
-           style=MethodStyle("tab:green", "manipulability", "s"), source="paper, Section 5"),
-    Method("rfp-radius", "J1 replaced by 1/max(|R|, eps), R the RFP's centred inscribed radius",
-           terms=("rfp_radius", *PAPER_TERMS[1:]), style=MethodStyle("tab:blue", "RFP inscribed radius", "^"),
-           source="Ferrolho et al. 2021"),
-    Method("rfp-cone", "J1 replaced by 1/max(|V|, eps), V the RFP's volume in a cone around f",
-           terms=("rfp_cone", *PAPER_TERMS[1:]), style=MethodStyle("tab:purple", "RFP cone", "v"),
-           source="Ferrolho et al. 2021"),
-    Method("quintic", "the quintic path followed by damped least-squares IK (not optimized)",
-           production="interpolated", modes=("trajectory",), produce=initial_guess,
-           status="not optimized (quintic path + IK)", style=MethodStyle("tab:gray", "quintic", "D", "--"),
-           source="paper, Section 5.3"),
-    Method("teaching", "the task's teaching configuration (not optimized)", production="given", modes=("hold",),
-           produce=_teaching, status="not optimized (teaching point)",
-           style=MethodStyle("tab:brown", "teaching point", "P"), source="paper, Section 5.4"),
+def _nominal(task: Any) -> FloatArray:
+    return task.nominal()
+
+
+#: The paper's J1..J5 (J4 split into its arm and base parts).
+PAPER_TERMS = ("capability", "manipulability", "joint_limits", "smoothness", "base_smoothness", "base_spectral")
+#: The authors' trajectory-regularization terms (everything but J1, J2, J3).
+REGULARIZATION = ("smoothness", "velocity", "nominal", "base_smoothness", "base_velocity", "base_spectral",
+                  "collision")
+#: forte's objective as the authors run it.
+FORTE_TERMS = ("capability", "manipulability", "joint_limits", *REGULARIZATION)
+_TRAJ = "authors-trajectory"
+_MANIP_DOF = tuple(v / 10 for v in (0, 2, 1, 10, 5, 1, 2, 1, 0, 0))
+for _method, _paper in (
+    (Method("forte", "the paper's task-sufficient capability objective (J1..J5 + the authors' regularization)",
+            terms=FORTE_TERMS, style=MethodStyle("tab:red", "forte (ours)"),
+            source="paper, Section 4.3; AUTHORS_SETUP.md (TPY weights)"), True),
+    (Method("manipulability", "manipulability and joint limits only (no J1, no regularization)",
+            terms=("manipulability", "joint_limits"), style=MethodStyle("tab:green", "manipulability", "s"),
+            tuning={_TRAJ: {"joint_dof_weights": _MANIP_DOF}}, source="paper, Section 5; AUTHORS_SETUP.md"), True),
+    (Method("rfp-radius", "J1 replaced by 1/max(|R|, 1e-6), R the alpha-scaled centred inscribed radius, clamped at 0",
+            terms=("rfp_radius", "joint_limits", *REGULARIZATION),
+            style=MethodStyle("tab:blue", "RFP inscribed radius", "^"),
+            tuning={_TRAJ: {"capability": 60.0, "base_velocity": 0.54}},
+            source="Ferrolho et al. 2021; AUTHORS_SETUP.md (residual_force_polytope)"), True),
+    (Method("rfp-cone", "J1 replaced by 1/max(|V|, 1e-6), V the RFP's volume in a 0.1 rad cone around f",
+            terms=("rfp_cone", "joint_limits", *(t for t in REGULARIZATION if t != "base_spectral")),
+            style=MethodStyle("tab:purple", "RFP cone", "v"),
+            tuning={_TRAJ: {"capability": 60.0, "joint_limits": 2.0, "velocity": 7.0, "collision": 0.1}},
+            source="Ferrolho et al. 2021; AUTHORS_SETUP.md (cone_intersection_volume)"), True),
+    (Method("static-polytope", "J1 replaced by 1/max(|R|, 1e-6), R the inscribed radius with a gravity-only residual",
+            terms=("static_radius", "joint_limits", *REGULARIZATION),
+            style=MethodStyle("tab:olive", "static force polytope", "x"), tuning={_TRAJ: {"capability": 2.0}},
+            source="AUTHORS_SETUP.md (the authors' fourth baseline)"), False),
+    (Method("quintic", "the task's nominal trajectory: joint-space quintics through its taught configurations "
+            "(IK path for a path of poses), not optimized", production="interpolated", modes=("trajectory",),
+            produce=_nominal, status="not optimized (quintic interpolation)",
+            style=MethodStyle("tab:gray", "quintic", "D", "--"), source="paper, Section 5.3; AUTHORS_SETUP.md"), True),
+    (Method("ik-path", "the interpolated end-effector path followed by damped least-squares IK (not optimized)",
+            production="interpolated", modes=("trajectory",), produce=initial_guess,
+            status="not optimized (path + IK)", style=MethodStyle("tab:cyan", "IK path", "d", ":"),
+            source="forte"), False),
+    (Method("teaching", "the task's teaching configuration (not optimized)", production="given", modes=("hold",),
+            produce=_teaching, status="not optimized (teaching point)",
+            style=MethodStyle("tab:brown", "teaching point", "P"), source="paper, Section 5.4"), True),
 ):
-    register_method(replace(_method, in_paper=True))
+    register_method(replace(_method, in_paper=_paper))
 
 __all__ = ["COST_TERMS", "METHODS", "Method", "MethodStyle", "get_method", "method_names", "register_method",
            "unregister_method"]

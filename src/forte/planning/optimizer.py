@@ -81,6 +81,7 @@ class TrajectoryOptimizer:
             raise InvalidInputError(f"waypoints: expected at least 1, got {n}")
         self.robot, self.n, self.method_spec = robot, n, resolved
         self.method = resolved.name
+        weights = resolved.resolve_weights(weights)
         self.weights, self.fix_initial, self.options = weights, fix_initial, options
         self.limits = limits
         self._vel, self._acc = limits.resolve(robot)
@@ -103,7 +104,7 @@ class TrajectoryOptimizer:
     # -- construction -------------------------------------------------------------------
     def _parameter_layout(self) -> dict[str, tuple[int, int]]:
         n = self.n
-        sizes = {"dt": n, "f": 3 * n, "r": n, "p_d": 3 * n, "R_d": 9 * n}
+        sizes = {"dt": n, "f": 3 * n, "r": n, "q_nom": self.robot.nq * n, "p_d": 3 * n, "R_d": 9 * n}
         for term in self._stage:
             sizes |= {name: size * n for name, size in term.parameters}
         layout, offset = {}, 0
@@ -147,7 +148,7 @@ class TrajectoryOptimizer:
         index = self._window_index()
         Z = ca.reshape(gather(x, index.T.ravel()), 3 * nq, n)
         dt = par("dt", 1)
-        stage_args = [Z, ca.horzcat(ca.MX(1), dt[:, : n - 1]), dt, par("f", 3), par("r", 1)]
+        stage_args = [Z, ca.horzcat(ca.MX(1), dt[:, : n - 1]), dt, par("f", 3), par("r", 1), par("q_nom", nq)]
         stage_args += [par(name, size) for t in self._stage for name, size in t.parameters]
         wvec = ca.DM([self.method_spec.term_weight(t, self.weights) for t in self._stage])
         stage_args.append(ca.repmat(wvec, 1, n))
@@ -155,9 +156,10 @@ class TrajectoryOptimizer:
         Qx = ca.mtimes(ca.DM(Q), x)
         cost = ca.sum2(kern.cost.map(n)(*stage_args)) + 0.5 * ca.dot(x, Qx)
         first = 1 if self.fix_initial else 0
+        self._pose_steps = self._posed_waypoints(first)
         pd, Rd = par("p_d", 3), par("R_d", 9)
         g_kin = self._kinematic_rows(X, dt)
-        g = ca.vertcat(ca.vec(kern.pose.map(n)(X, pd, Rd)[:, first:]), g_kin)
+        g = ca.vertcat(ca.vec(kern.pose.map(n)(X, pd, Rd)[:, self._pose_steps.tolist()]), g_kin)
         grad = ca.mtimes(dm(scatter_matrix(index.T.ravel(), nq * n)), ca.vec(kern.grad.map(n)(*stage_args))) + Qx
         jac = self._constraint_jacobian(x, X, pd, Rd, g_kin, first)
         lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", g.numel())
@@ -175,19 +177,44 @@ class TrajectoryOptimizer:
         quadratic = [0.5 * ca.dot(x, ca.mtimes(ca.DM(M), x)) for M in self._quadratic_matrices()]
         self._terms = ca.Function("terms", [x, P], [ca.vertcat(stage_values, *quadratic)])
 
+    @property
+    def rests_at_end(self) -> bool:
+        """Whether the plan is constrained to end at rest (``q_N = q_{N-1} = q_{N-2}``)."""
+        return self.limits.end_at_rest and self.fix_initial and self.n >= 3
+
+    def _posed_waypoints(self, first: int) -> FloatArray:
+        """Waypoints with a pose equality: from ``first``; with the end at rest, not N-1 and N-2,
+        whose configurations equal the last one (their poses differ from it only by the path's
+        own final motion)."""
+        steps = np.arange(first, self.n)
+        if self.rests_at_end:
+            steps = steps[(steps < self.n - 3) | (steps == self.n - 1)]
+        return steps
+
     def _constraint_jacobian(self, x: ca.MX, X: ca.MX, pd: ca.MX, Rd: ca.MX, g_kin: ca.MX, first: int) -> ca.MX:
-        """6 x nq pose blocks on the block diagonal (from waypoint ``first``), then the linear rows."""
+        """6 x nq pose blocks (one per posed waypoint), then the linear rows."""
         nq, n = self.robot.nq, self.n
-        blocks = self.kernels.pose_jac.map(n)(X, pd, Rd)[:, first * nq:]  # 6 x nq(n - first)
-        sp, nz = block_diagonal_pattern(6, nq, n - first, col_offset=first * nq, ncol=nq * n)
-        jac = ca.MX(sp, ca.mtimes(ca.DM(nz), ca.vec(blocks)))
+        steps = self._pose_steps
+        blocks = self.kernels.pose_jac.map(n)(X, pd, Rd)  # 6 x nq n
+        runs = np.split(steps, np.flatnonzero(np.diff(steps) != 1) + 1) if steps.size else []
+        parts = []
+        for run in runs:  # contiguous runs of posed waypoints: block-diagonal pieces
+            sp, nz = block_diagonal_pattern(6, nq, run.size, col_offset=int(run[0]) * nq, ncol=nq * n)
+            cols = blocks[:, int(run[0]) * nq:(int(run[-1]) + 1) * nq]
+            parts.append(ca.MX(sp, ca.mtimes(ca.DM(nz), ca.vec(cols))))
+        jac = ca.vertcat(*parts) if parts else ca.MX(0, nq * n)
         return ca.vertcat(jac, ca.jacobian(g_kin, x)) if g_kin.numel() else jac
 
     def _lagrangian_hessian(self, index: FloatArray, X: ca.MX, pd: ca.MX, Rd: ca.MX, stage_args: list[Any],
                             Q: sparse.csr_matrix, lam_f: ca.MX, lam_g: ca.MX, first: int) -> ca.MX:
         """Upper triangle of ``lam_f * Hess(cost) + sum lam_g Hess(g)`` (linear rows add nothing)."""
         nq, n = self.robot.nq, self.n
-        lam = ca.horzcat(ca.DM.zeros(6, first), ca.reshape(lam_g[: 6 * (n - first)], 6, n - first))
+        steps = self._pose_steps
+        lam_pose = ca.reshape(lam_g[: 6 * steps.size], 6, steps.size)
+        cols = [ca.MX.zeros(6, 1)] * n
+        for i, k in enumerate(steps.tolist()):
+            cols[k] = lam_pose[:, i]
+        lam = ca.horzcat(*cols)
         h_stage = self.kernels.hess.map(n)(*stage_args)  # 3nq x 3nq n
         h_pose = self.kernels.pose_hess.map(n)(X, pd, Rd, lam)  # nq x nq n
         sp, maps = hessian_pattern(index, nq, n, Q)
@@ -204,10 +231,14 @@ class TrajectoryOptimizer:
         if self.n < 2 or not self.fix_initial:
             self._vel_rows = self._acc_rows = np.array([], int)
             return ca.MX(0, 1)
+        if not self.limits.enabled and not self.rests_at_end:
+            return ca.MX(0, 1)
         step = X[:, 1:] - X[:, :-1]
         dq = step / ca.repmat(dt[:, 1:], X.shape[0], 1)
         dq_prev = ca.horzcat(ca.MX.zeros(X.shape[0], 1), dq[:, :-1])
         rows = [ca.vec(step[self._vel_rows.tolist(), :]), ca.vec((dq - dq_prev)[self._acc_rows.tolist(), :])]
+        if self.rests_at_end:  # v_N = 0 and a_N = (v_N - v_{N-1}) / dt_N = 0
+            rows += [step[:, -1], step[:, -2]]
         return ca.vertcat(*rows)
 
     def _kinematic_bounds(self, t: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -217,6 +248,8 @@ class TrajectoryOptimizer:
         vel = (self._vel[self._vel_rows][:, None] * dt[None, :]).ravel(order="F")
         acc = (self._acc[self._acc_rows][:, None] * dt[None, :]).ravel(order="F")
         ub = np.concatenate([vel, acc])
+        if self.rests_at_end:
+            ub = np.concatenate([ub, np.zeros(2 * self.robot.nq)])
         return -ub, ub
 
     def _ipopt_options(self) -> dict[str, Any]:
@@ -232,8 +265,9 @@ class TrajectoryOptimizer:
         return opts
 
     # -- solving ------------------------------------------------------------------------
-    def parameters(self, t: FloatArray, targets: FloatArray, f: FloatArray, r: FloatArray) -> FloatArray:
-        """Pack the task data into the NLP parameter vector."""
+    def parameters(self, t: FloatArray, targets: FloatArray, f: FloatArray, r: FloatArray,
+                   nominal: FloatArray | None = None) -> FloatArray:
+        """Pack the task data into the NLP parameter vector (``nominal``: N x nq, default zeros)."""
         n = self.n
         t = np.asarray(t, dtype=float)
         dt = np.ones(n)
@@ -242,6 +276,7 @@ class TrajectoryOptimizer:
         r = np.asarray(r, dtype=float)
         values = {
             "dt": dt, "f": f.ravel(), "r": r,
+            "q_nom": np.zeros(n * self.robot.nq) if nominal is None else np.asarray(nominal, dtype=float).ravel(),
             "p_d": targets[:, :3, 3].ravel(),
             "R_d": np.concatenate([T[:3, :3].ravel(order="F") for T in targets]),
         }
@@ -249,11 +284,17 @@ class TrajectoryOptimizer:
             values |= {name: term.parameter_values(name, f, r) for name, _ in term.parameters}
         return np.concatenate([values[name] for name in self._layout])
 
-    def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray) -> SolverResult:
-        """Solve for the whole-body trajectory (N x nq) from the initial guess ``q_guess``."""
+    def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,
+              nominal: FloatArray | None = None) -> SolverResult:
+        """Solve for the whole-body trajectory (N x nq) from the initial guess ``q_guess``.
+
+        ``nominal`` (N x nq) is the nominal trajectory of the nominal and base joint-limit terms
+        (default: ``q_guess``).
+        """
         n, nq = self.n, self.robot.nq
         targets = np.asarray(targets, dtype=float)
-        p = self.parameters(t, targets, f, r)
+        self._nominal = np.asarray(q_guess if nominal is None else nominal, dtype=float).reshape(n, nq)
+        p = self.parameters(t, targets, f, r, self._nominal)
         lbx = np.tile(np.r_[np.full(N_BASE, -np.inf), self.robot.lower], n)
         ubx = np.tile(np.r_[np.full(N_BASE, np.inf), self.robot.upper], n)
         if self.fix_initial:
@@ -261,7 +302,7 @@ class TrajectoryOptimizer:
         x0 = np.clip(np.asarray(q_guess, dtype=float).ravel(), lbx, ubx)
         start = time.perf_counter()
         klb, kub = self._kinematic_bounds(np.asarray(t, dtype=float))
-        n_pose = 6 * (n - (1 if self.fix_initial else 0))
+        n_pose = 6 * self._pose_steps.size
         lbg = np.concatenate([np.zeros(n_pose), klb])
         ubg = np.concatenate([np.zeros(n_pose), kub])
         try:
@@ -283,9 +324,12 @@ class TrajectoryOptimizer:
             solve_time=solve_time, codegen=self.codegen,
         )
 
-    def cost_terms(self, q: FloatArray, t: Any, targets: Any, f: Any, r: Any) -> dict[str, float]:
+    def cost_terms(self, q: FloatArray, t: Any, targets: Any, f: Any, r: Any,
+                   nominal: FloatArray | None = None) -> dict[str, float]:
         """Unweighted value of each cost term (capability-type terms are their smooth surrogates)."""
-        p = self.parameters(t, np.asarray(targets, dtype=float), f, r)
+        if nominal is None:
+            nominal = getattr(self, "_nominal", None)
+        p = self.parameters(t, np.asarray(targets, dtype=float), f, r, nominal)
         values = np.array(self._terms(np.asarray(q, dtype=float).ravel(), p)).ravel()
         return dict(zip(self.term_names, map(float, values), strict=True))
 

@@ -126,7 +126,8 @@ def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]
     coarse = task.resampled(COARSE_WAYPOINTS)
     force = coarse.force()
     opt = TrajectoryOptimizer(task.robot, coarse.n, method, task.weights, options=task.solver, limits=task.limits)
-    sol = opt.solve(coarse.t, coarse.targets, force.f, force.r, coarse.q_init, initial_guess(coarse))
+    nominal = coarse.nominal()
+    sol = opt.solve(coarse.t, coarse.targets, force.f, force.r, coarse.q_init, start_guess(coarse, nominal), nominal)
     if not sol.success:
         return None
     q = np.column_stack([np.interp(task.t, coarse.t, sol.q[:, j]) for j in range(sol.q.shape[1])])
@@ -134,9 +135,18 @@ def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]
     return q, {"waypoints": coarse.n, "iterations": sol.iterations, "solve_time_s": sol.solve_time}
 
 
+def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:
+    """The optimizer's initial guess: the nominal trajectory for taught configurations (the
+    authors' joint-space interpolation), else IK along the path / onto the pose."""
+    if task.knots is not None:
+        return task.nominal() if nominal is None else nominal
+    return initial_guess(task)
+
+
 def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None) -> tuple[SolverResult, dict]:
     """Solve the method's NLP (coarse-to-fine unless a guess is given); returns the result and facts."""
-    q_guess = initial_guess(task) if guess is None else guess
+    nominal = task.nominal()
+    q_guess = start_guess(task, nominal) if guess is None else guess
     options, info = task.solver, {}
     warm = coarse_guess(task, method) if guess is None else None
     if warm is not None:
@@ -145,7 +155,7 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         options = replace(options, extra={"mu_strategy": "monotone", "mu_init": 1e-4} | options.extra)
     opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
                               options=options, limits=task.limits)
-    sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess)
+    sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess, nominal)
     info |= {
         "status": sol.status, "success": sol.success, "iterations": sol.iterations,
         "objective": sol.objective, "constraint_violation": sol.constraint_violation,

@@ -12,7 +12,7 @@ import numpy as np
 import pinocchio as pin
 
 from forte.exceptions import ForteError, TaskFileError
-from forte.model.robot import MobileManipulator, ToolLoad, default_robot
+from forte.model.robot import ROBOT_PRESETS, MobileManipulator, ToolLoad, default_robot
 from forte.settings import CapabilityParameters
 from forte.validation import FloatArray
 
@@ -108,8 +108,14 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
             overrides["torque_limits"] = reader.vector("torque_limits", 7)
         return default_robot(**overrides)
     r = reader.sub("robot")
-    r.unknown({"urdf", "ee_frame", "arm_joints", "mount", "tool", "torque_limits", "gravity", "name"})
+    r.unknown({"preset", "urdf", "ee_frame", "arm_joints", "mount", "tool", "torque_limits", "gravity", "name",
+               "tool_force_mass"})
     kwargs: dict[str, Any] = {}
+    preset = str(r.get("preset", "authors"))
+    if preset not in ROBOT_PRESETS:
+        raise r.error("preset", f"expected one of {', '.join(ROBOT_PRESETS)}, got {preset!r}")
+    if r.has("tool_force_mass"):
+        kwargs["tool_force_mass"] = r.number("tool_force_mass", nonnegative=True)
     if r.has("urdf"):
         urdf = str(r.get("urdf"))
         if not urdf.startswith("erd:") and not Path(urdf).is_absolute():
@@ -147,7 +153,7 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
     if limits_key:
         kwargs["torque_limits"] = r.vector("torque_limits")
     elif reader.has("torque_limits"):
-        kwargs["torque_limits"] = reader.vector("torque_limits")
+        kwargs["torque_limits"] = reader.vector("torque_limits", None if "urdf" in kwargs else 7)
     if r.has("gravity"):
         kwargs["gravity"] = r.number("gravity", positive=True)
     if r.has("name"):
@@ -155,7 +161,7 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
     try:
         if "urdf" in kwargs:
             return MobileManipulator(**kwargs)
-        return default_robot(**kwargs)
+        return default_robot(variant=preset, **kwargs)
     except ForteError as exc:
         raise r.error("", str(exc)) from exc
 
@@ -189,6 +195,8 @@ def dataclass_from(reader: Reader, name: str, cls: type, base: Any) -> Any:
                 values[key] = r.integer(key, minimum=0)
             elif kind == "float":
                 values[key] = r.number(key, nonnegative=True)
+            elif kind == "float | None":
+                values[key] = None if value is None else r.number(key, nonnegative=True)
             elif kind.startswith("str"):
                 if not isinstance(value, str):
                     raise r.error(key, f"expected a string, got {value!r}")

@@ -24,7 +24,7 @@ from forte.force.taskforce import DEFAULT_RADIUS, TaskForce, given_force, payloa
 from forte.model.robot import MobileManipulator
 from forte.model.trajectory import quintic_blend, quintic_path
 from forte.planning.schema import Reader, check_joint_limits, dataclass_from, robot_section, rotation
-from forte.settings import CostWeights, KinematicLimits, SolverOptions
+from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights, KinematicLimits, SolverOptions
 from forte.validation import FloatArray
 
 MODES = ("trajectory", "hold")
@@ -45,6 +45,8 @@ class Task:
         targets_at, force_at: the path and the force profile as functions of time, so the task
             can be resampled (:meth:`resampled`) without re-reading its file.
         raw: the task's definition as read (recorded in plan.json).
+        knots: ``(times, configurations)`` of a path given by taught whole-body configurations
+            (``path.kind: taught``), else ``None``.
     """
 
     name: str
@@ -64,10 +66,27 @@ class Task:
     raw: dict[str, Any] = field(default_factory=dict)
     targets_at: TargetsAt | None = field(default=None, repr=False)
     force_at: ForceAt | None = field(default=None, repr=False)
+    knots: tuple[FloatArray, FloatArray] | None = field(default=None, repr=False)
 
     @property
     def n(self) -> int:
         return len(self.t)
+
+    def nominal(self) -> FloatArray:
+        """The task's nominal whole-body trajectory (N x nq).
+
+        Taught configurations: their joint-space interpolation, one quintic per segment with
+        zero velocity and acceleration at each knot (the authors' nominal trajectory, initial
+        guess and "quintic" baseline); a hold task: its teaching configuration (else the IK
+        solution); a path of poses: damped least-squares IK along it.
+        """
+        if self.knots is not None:
+            return quintic_path(self.knots[0], self.knots[1], self.t)
+        if self.mode == "hold" and self.teaching is not None:
+            return self.teaching[None].copy()
+        from forte.planning.ik import initial_guess
+
+        return initial_guess(self)
 
     def resampled(self, n: int) -> Task:
         """The same task on ``n`` equally spaced samples of its time span (trajectory mode)."""
@@ -84,7 +103,11 @@ class Task:
         return replace(self, payload=payload)
 
     def force(self, mass: float | None = None) -> TaskForce:
-        """Desired forces: the given profile, or ``m (p'' - g)`` along the path."""
+        """Desired forces: the given profile, or ``(m + m_tool) (p'' - g)`` along the path.
+
+        ``m`` is the payload mass (given or estimated), ``m_tool`` the robot's
+        ``tool_force_mass`` (the authors' end-effector load, 1.146 kg on the built-in robot).
+        """
         if self.force_profile is not None:
             return self.force_profile
         m = mass if mass is not None else self.payload.mass
@@ -93,7 +116,8 @@ class Task:
                 f"{self._where('payload.mass')}: no payload mass; give payload.mass, --mass KG, "
                 "or a payload description/image for the estimator"
             )
-        return payload_force(self.t, self.targets[:, :3, 3], m, self.radius, self.robot.gravity)
+        total = m + self.robot.tool_force_mass
+        return payload_force(self.t, self.targets[:, :3, 3], total, self.radius, self.robot.gravity)
 
     def _where(self, key: str) -> str:
         return f"{self.source}: {key}" if self.source else key
@@ -126,14 +150,56 @@ def _samples(r: Reader, t0: float, t1: float, waypoints: int | None) -> FloatArr
     return np.linspace(t0, t1, n)
 
 
-def _path(reader: Reader, T0: FloatArray, waypoints: int | None) -> tuple[FloatArray, TargetsAt]:
+def taught_knots(r: Reader, robot: MobileManipulator) -> tuple[FloatArray, FloatArray]:
+    """``(times, configurations)`` of ``path.configurations`` (``[{t, q}, ...]``, times increasing)."""
+    items = r.get("configurations")
+    if not isinstance(items, list) or len(items) < 2:
+        raise r.error("configurations", "expected a list of at least 2 taught configurations {t, q}")
+    times, qs = [], []
+    for i, item in enumerate(items):
+        w = Reader(item, r.path, f"{r.key('configurations')}[{i}].")
+        w.unknown({"t", "q"})
+        times.append(w.number("t"))
+        q = w.vector("q", robot.nq)
+        check_joint_limits(w, "q", robot, q)
+        qs.append(q)
+    kt = np.asarray(times)
+    bad = np.flatnonzero(np.diff(kt) <= 0)
+    if bad.size:
+        raise r.error(f"configurations[{bad[0] + 1}].t", f"times must increase, got {kt[bad[0]]} then {kt[bad[0] + 1]}")
+    return kt, np.asarray(qs)
+
+
+def taught_targets(robot: MobileManipulator, knot_times: FloatArray, knots: FloatArray) -> TargetsAt:
+    """End-effector poses through the forward kinematics of taught configurations: positions by
+    rest-to-rest quintic blends, orientations by slerp with the same blend, per segment."""
+    poses = np.array([robot.ee_pose(q) for q in knots])
+
+    def targets_at(ts: FloatArray) -> FloatArray:
+        ts = np.asarray(ts, dtype=float)
+        out = np.repeat(np.eye(4)[None], len(ts), axis=0)
+        out[:, :3, 3] = quintic_path(knot_times, poses[:, :3, 3], ts)
+        seg = np.clip(np.searchsorted(knot_times, ts, side="right") - 1, 0, len(knot_times) - 2)
+        s = quintic_blend(np.clip((ts - knot_times[seg]) / (knot_times[seg + 1] - knot_times[seg]), 0.0, 1.0))
+        for k, (i, sk) in enumerate(zip(seg, s, strict=True)):
+            Ra, Rb = poses[i, :3, :3], poses[i + 1, :3, :3]
+            out[k, :3, :3] = Ra @ pin.exp3(sk * pin.log3(Ra.T @ Rb))
+        return out
+    return targets_at
+
+
+def _path(reader: Reader, T0: FloatArray, waypoints: int | None,
+          robot: MobileManipulator | None = None) -> tuple[FloatArray, TargetsAt]:
     if not reader.has("path"):
         raise reader.error("path", "required for mode 'trajectory'")
     r = reader.sub("path")
     r.unknown({"kind", "waypoints", "relative", "samples", "rate", "orientation", "duration", "amplitude",
-               "frequency", "phase", "offset"})
+               "frequency", "phase", "offset", "configurations"})
     kind = r.get("kind", "waypoints")
     R = rotation(r, "orientation", T0[:3, :3])
+    if kind == "taught" and robot is not None:
+        kt, kq = taught_knots(r, robot)
+        return _samples(r, kt[0], kt[-1], waypoints), taught_targets(robot, kt, kq)
     if kind == "waypoints":
         pts = r.get("waypoints")
         if not isinstance(pts, list) or len(pts) < 2:
@@ -166,7 +232,7 @@ def _path(reader: Reader, T0: FloatArray, waypoints: int | None) -> tuple[FloatA
         def position_at(ts: FloatArray) -> FloatArray:
             return T0[:3, 3] + _windowed_sine(ts, duration, *sine)
     else:
-        raise r.error("kind", f"expected 'waypoints' or 'windowed-sine', got {kind!r}")
+        raise r.error("kind", f"expected 'waypoints', 'windowed-sine' or 'taught', got {kind!r}")
 
     def targets_at(ts: FloatArray) -> FloatArray:
         targets = np.repeat(np.eye(4)[None], len(ts), axis=0)
@@ -251,9 +317,17 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     if mode not in MODES:
         raise reader.error("mode", f"expected one of {', '.join(MODES)}, got {mode!r}")
     q_init = robot.home()
+    knots = None
+    if mode == "trajectory" and reader.has("path") and isinstance(reader.get("path"), dict) \
+            and reader.get("path").get("kind") == "taught":
+        knots = taught_knots(reader.sub("path"), robot)
+        q_init = knots[1][0].copy()
     if reader.has("initial_configuration"):
         q_init = reader.vector("initial_configuration", robot.nq)
         check_joint_limits(reader, "initial_configuration", robot, q_init)
+        if knots is not None and not np.allclose(q_init, knots[1][0], atol=1e-9):
+            raise reader.error("initial_configuration", "differs from the first taught configuration "
+                               "(path.configurations[0].q); leave it out")
     radius = reader.number("uncertainty_radius", DEFAULT_RADIUS, nonnegative=True)
     teaching = None
     if reader.has("teaching_configuration"):
@@ -263,7 +337,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     if mode == "trajectory":
         if waypoints is not None and waypoints < 2:
             raise TaskFileError(f"waypoints: expected at least 2 for a trajectory, got {waypoints}")
-        t, targets_at = _path(reader, T0, waypoints)
+        t, targets_at = _path(reader, T0, waypoints, robot)
         targets = targets_at(t)
         if not np.allclose(targets[0], T0, atol=1e-6):
             raise reader.error("path", "the path must start at the end-effector pose of initial_configuration "
@@ -280,7 +354,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     force_at = _force_profile(reader, t, radius)
     if force_at is None and payload is None:
         raise reader.error("payload", "give a payload (mass, or description/image) or a force profile")
-    weights = dataclass_from(reader, "weights", CostWeights, CostWeights())
+    weights = dataclass_from(reader, "weights", CostWeights, _weight_preset(reader, mode))
     solver = dataclass_from(reader, "solver", SolverOptions, SolverOptions())
     limits = dataclass_from(reader, "limits", KinematicLimits, KinematicLimits())
     try:
@@ -291,7 +365,19 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     return Task(name=name, source=path, robot=robot, mode=mode, t=t, targets=targets, q_init=q_init,
                 radius=radius, payload=payload or Payload(source="none"),
                 force_profile=None if force_at is None else force_at(t), weights=weights, solver=solver,
-                teaching=teaching, limits=limits, raw=data, targets_at=targets_at, force_at=force_at)
+                teaching=teaching, limits=limits, raw=data, targets_at=targets_at, force_at=force_at,
+                knots=knots)
+
+
+def _weight_preset(reader: Reader, mode: str) -> CostWeights:
+    """The weight set named by ``weights.preset`` (default: the mode's, see ``DEFAULT_WEIGHT_SET``)."""
+    name = DEFAULT_WEIGHT_SET[mode]
+    section = reader.get("weights")
+    if isinstance(section, dict) and "preset" in section:
+        name = section["preset"]
+        if name not in WEIGHT_SETS:
+            raise reader.sub("weights").error("preset", f"expected one of {', '.join(WEIGHT_SETS)}, got {name!r}")
+    return WEIGHT_SETS[name]
 
 
 def _hold_pose(reader: Reader, robot: MobileManipulator, T0: FloatArray, teaching: FloatArray | None) -> FloatArray:
