@@ -1,0 +1,202 @@
+"""The authors' setup: robot description, cost terms and baselines against independent computations."""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from forte.capability.polytope import cone_directions
+from forte.model.robot import default_robot, example_robot_data_dir
+from forte.model.twin import CasadiTwin
+from forte.planning.costs import BASE_BOX, COST_TERMS, Stage
+from forte.planning.methods import METHODS
+from forte.settings import WEIGHT_SETS, CostWeights
+
+
+@pytest.fixture(scope="module")
+def authors():
+    return default_robot()
+
+
+def stage_value(robot, name, q, q1=None, q2=None, dt=0.25, f=(0.0, 0.0, 40.0), r=10.0, nominal=None,
+                weights=CostWeights(), rays=None):
+    """Evaluate one registered stage term numerically at (q_{k-2}, q_{k-1}, q_k)."""
+    twin = CasadiTwin(robot)
+    nq = robot.nq
+    term = COST_TERMS[name].from_weights(weights)
+    params = {p: ca.SX.sym(p, size) for p, size in term.parameters}
+    s = Stage(twin, ca.SX.sym("a", nq), ca.SX.sym("b", nq), ca.SX.sym("c", nq), ca.SX.sym("d1"), ca.SX.sym("d0"),
+              ca.SX.sym("f", 3), ca.SX.sym("r"), params, nominal=ca.SX.sym("n", nq))
+    fn = ca.Function("t", [s.q2, s.q1, s.q0, s.dt1, s.dt0, s.f, s.r, s.nominal, *params.values()], [term.stage(s)])
+    q = np.asarray(q, float)
+    args = [q if q2 is None else q2, q if q1 is None else q1, q, dt, dt, list(f), r,
+            q if nominal is None else nominal]
+    if params:
+        args.append(term.parameter_values("rays", np.array([f]), np.array([r])))
+    return float(fn(*args))
+
+
+def test_authors_end_effector_is_flange_hand_plus_10_cm(authors):
+    urdf = example_robot_data_dir() / "panda_description/urdf/panda.urdf"
+    full = pin.buildModelFromUrdf(str(urdf))
+    data = full.createData()
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        q = np.r_[rng.normal(size=3) * 0.3, rng.uniform(authors.lower, authors.upper)]
+        pin.framesForwardKinematics(full, data, np.r_[q[3:], 0.0, 0.0])
+        flange = data.oMf[full.getFrameId("panda_link8")].homogeneous
+        hand = np.eye(4)
+        hand[:3, :3] = pin.rpy.rpyToMatrix(0, 0, -np.pi / 4)
+        hand[2, 3] = 0.10
+        mount = np.eye(4)
+        mount[:3, 3] = (0.2575, 0.0, 0.52)
+        expected = authors.base_transform(q[:3]) @ mount @ flange @ hand
+        np.testing.assert_allclose(authors.ee_pose(q), expected, atol=1e-12)
+
+
+def test_authors_hand_is_054_kg_without_double_counting(authors):
+    moca = default_robot(variant="moca-like")
+    mass = sum(authors.model.inertias[i].mass for i in range(authors.model.njoints))
+    other = sum(moca.model.inertias[i].mass for i in range(moca.model.njoints)) - moca.tool.mass
+    # example-robot-data's hand is 0.73 kg: replaced (not added) by the authors' 0.54 kg
+    assert mass == pytest.approx(other - 0.73 + 0.54, abs=1e-9)
+    assert authors.tool is None and authors.tool_force_mass == 1.146
+    # gravity torque at the authors' home equals Pinocchio on the URDF with the hand mass edited
+    from forte.execution.arm_spec import _with_link_mass
+    urdf = example_robot_data_dir() / "panda_description/urdf/panda.urdf"
+    edited = pin.buildModelFromXML(_with_link_mass(urdf.read_text(), "panda_hand", 0.54))
+    data = edited.createData()
+    q = np.r_[authors.home_arm, 0.0, 0.0]
+    tau_ref = pin.computeGeneralizedGravity(edited, data, q)[:7]
+    tau = authors.rnea(authors.home_arm, np.zeros(7), np.zeros(7))
+    np.testing.assert_allclose(tau, tau_ref, atol=1e-9)
+
+
+def test_weight_sets_are_the_authors():
+    w = WEIGHT_SETS["authors-trajectory"]
+    assert (w.capability, w.manipulability, w.joint_limits, w.smoothness, w.velocity, w.nominal,
+            w.base_smoothness, w.base_velocity, w.base_spectral, w.collision) == (1, 1, 8, 8, 10, 0.05, 8, 0.5, 8, 1)
+    assert w.alpha == 0.9 and w.joint_margin_fraction == 0.05 and w.collision_radius == 0.08
+    np.testing.assert_allclose(w.joint_dof_weights, np.array([0, 2, 1, 10, 0, 1, 2, 1, 0, 0]) / 10)
+    h = WEIGHT_SETS["authors-hold"]
+    assert (h.capability, h.manipulability, h.joint_limits, h.alpha) == (2, 1, 1, 0.7)
+    np.testing.assert_allclose(h.joint_dof_weights, np.array([0, 1, 1, 9, 0, 1, 1, 1, 0, 0]) / 9)
+    d = WEIGHT_SETS["paper-demo"]
+    assert (d.capability, d.manipulability, d.joint_limits, d.smoothness, d.base_spectral) == (5, 2, 3, 10, 1)
+
+
+def test_baselines_are_defined_as_the_authors_run_them():
+    traj = WEIGHT_SETS["authors-trajectory"]
+    radius = METHODS["rfp-radius"].resolve_weights(traj)
+    assert "manipulability" not in METHODS["rfp-radius"].terms and "base_spectral" in METHODS["rfp-radius"].terms
+    assert (radius.capability, radius.base_velocity, radius.base_spectral) == (60, 0.54, 8)
+    cone = METHODS["rfp-cone"].resolve_weights(traj)
+    assert not {"manipulability", "base_spectral"} & set(METHODS["rfp-cone"].terms)
+    assert (cone.capability, cone.joint_limits, cone.velocity, cone.collision) == (60, 2, 7, 0.1)
+    manip = METHODS["manipulability"]
+    assert manip.terms == ("manipulability", "joint_limits")
+    np.testing.assert_allclose(manip.resolve_weights(traj).joint_dof_weights,
+                               np.array([0, 2, 1, 10, 5, 1, 2, 1, 0, 0]) / 10)
+    assert METHODS["static-polytope"].resolve_weights(traj).capability == 2
+    # holding: one weight set for every method
+    hold = WEIGHT_SETS["authors-hold"]
+    assert METHODS["rfp-radius"].resolve_weights(hold) == hold
+
+
+def test_rfp_radius_is_the_clamped_alpha_scaled_centred_radius(authors):
+    q = authors.home()
+    J = authors.arm_jacobian(q)
+    tau = authors.rnea(q[3:], np.zeros(7), np.zeros(7))  # at rest: q_{k-2} = q_{k-1} = q_k
+    tm = authors.torque_limits
+    norms = np.linalg.norm(J, axis=0)
+    live = norms > 1e-9
+    R = 0.9 * np.min(np.r_[(tm - tau)[live] / norms[live], (tm + tau)[live] / norms[live]])
+    value = stage_value(authors, "rfp_radius", q)
+    # the smoothed minimum is a lower bound within s log(2n)/beta, s = |f| + r = 50 N
+    assert 1 / value <= R + 1e-6 and 1 / value >= R - 50 * np.log(14) / 50
+    # the static baseline uses the gravity residual: equal at rest
+    assert stage_value(authors, "static_radius", q) == pytest.approx(value, rel=1e-9)
+    # clamped at 0: an impossible torque budget gives 1 / 1e-6
+    weak = default_robot(torque_limits=[0.1] * 7)
+    assert stage_value(weak, "rfp_radius", weak.home()) == pytest.approx(1e6)
+
+
+def test_rfp_cone_uses_49_rays_of_0_1_rad(authors):
+    rays = cone_directions([0, 0, 1], 0.1, 4, 12)
+    assert rays.shape == (49, 3)
+    angles = np.degrees(np.arccos(rays @ [0, 0, 1]))
+    np.testing.assert_allclose(sorted(set(np.round(angles, 6))), np.degrees([0, 0.025, 0.05, 0.075, 0.1]), atol=1e-6)
+    term = COST_TERMS["rfp_cone"].from_weights(CostWeights())
+    assert (term.half_angle, term.rings, term.azimuths) == (0.1, 4, 12)
+    q = authors.home()
+    J = authors.arm_jacobian(q)
+    tau = authors.rnea(q[3:], np.zeros(7), np.zeros(7))
+    A, b = np.vstack([J.T, -J.T]), np.r_[authors.torque_limits - tau, authors.torque_limits + tau]
+    rho = []
+    for d in rays:
+        ad = A @ d
+        rho.append(max(0.0, np.min(b[ad > 1e-9] / ad[ad > 1e-9])))
+    V = 2 * np.pi * (1 - np.cos(0.1)) / (3 * 49) * np.sum(np.array(rho) ** 3)
+    assert 1 / stage_value(authors, "rfp_cone", q) == pytest.approx(V, rel=0.2)
+
+
+def test_joint_limit_term_with_dof_weights_and_5_percent_margins(authors):
+    q = authors.home() + np.r_[0.1, -0.2, 0.3, np.zeros(7)]
+    nominal = authors.home()
+    w = np.array([0, 2, 1, 10, 0, 1, 2, 1, 0, 0]) / 10
+    span = authors.upper - authors.lower
+    delta = 0.05 * span
+    mid, half = (authors.upper + authors.lower) / 2, span / 2 - delta
+    e = (q[3:] - mid) / half
+    v = np.maximum(0, (np.abs(q[3:] - mid) - half) / delta)
+    expected = np.sum(w[3:] * (e**2 + v**4)) + np.sum(w[:3] * (q[:3] - nominal[:3]) ** 2)
+    assert stage_value(authors, "joint_limits", q, nominal=nominal) == pytest.approx(expected, rel=1e-12)
+    # beyond the margin the quartic wall adds v^4
+    q2 = authors.home().copy()
+    q2[3] = authors.upper[0] - 0.01
+    e = (q2[3:] - mid) / half
+    v = np.maximum(0, (np.abs(q2[3:] - mid) - half) / delta)
+    assert v[0] > 0
+    assert stage_value(authors, "joint_limits", q2) == pytest.approx(np.sum(w[3:] * (e**2 + v**4)), rel=1e-12)
+
+
+def test_velocity_nominal_and_base_velocity_terms(authors):
+    rng = np.random.default_rng(5)
+    q0, q1, nom = authors.home() + rng.normal(size=(3, 10)) * 0.05
+    dt = 0.25
+    assert stage_value(authors, "velocity", q0, q1=q1, dt=dt) == pytest.approx(
+        0.5 * np.sum((q0[3:] - q1[3:]) ** 2) / dt**2, rel=1e-12)
+    assert stage_value(authors, "base_velocity", q0, q1=q1, dt=dt) == pytest.approx(
+        0.5 * np.sum((q0[:3] - q1[:3]) ** 2) / dt**2, rel=1e-12)
+    assert stage_value(authors, "nominal", q0, nominal=nom) == pytest.approx(
+        0.5 * np.sum((q0[3:] - nom[3:]) ** 2), rel=1e-12)
+
+
+def test_manipulability_yaw_column_is_the_base_yaw_derivative(authors):
+    q = authors.home() + np.r_[0.2, -0.1, 0.4, np.zeros(7)]
+    Jw = authors.whole_body_jacobian(q)[:3, 2:]  # yaw column + arm columns (Pinocchio-based)
+    mu = np.sqrt(np.linalg.det(Jw @ Jw.T + 1e-6 * np.eye(3)))
+    value = stage_value(authors, "manipulability", q, weights=CostWeights(manipulability_yaw=True))
+    assert 1 / value == pytest.approx(mu, rel=1e-9)
+    Ja = authors.arm_jacobian(q)
+    assert 1 / stage_value(authors, "manipulability", q) == pytest.approx(
+        np.sqrt(np.linalg.det(Ja @ Ja.T + 1e-6 * np.eye(3))), rel=1e-9)
+
+
+def test_collision_term_against_a_hand_computation(authors):
+    term = COST_TERMS["collision"].from_weights(CostWeights())
+    assert stage_value(authors, "collision", authors.home()) == 0.0  # home is clear
+    # turn the arm backwards and down over the base: sphere centres enter the base box
+    q = authors.home().copy()
+    q[3:] = [2.8, 1.76, 0.0, -0.2, 0.0, 1.5, 0.8]
+    data = authors.model.createData()
+    pin.forwardKinematics(authors.model, data, q[3:])
+    centres = np.array([data.oMi[j + 1].translation for j in term.joints] + [authors.ee_position(q)])
+    lo, hi = np.array(BASE_BOX[0]), np.array(BASE_BOX[1])
+    out = np.maximum(np.abs(centres - (lo + hi) / 2) - (hi - lo) / 2, 0)
+    d_box = np.sqrt(np.sum(out**2, axis=1) + 1e-10)
+    expected = np.sum(np.maximum(0, 1 - d_box / 0.08) ** 2 + np.maximum(0, 1 - centres[:, 2] / 0.08) ** 2)
+    assert expected > 0.3
+    assert stage_value(authors, "collision", q) == pytest.approx(expected, rel=1e-9)
