@@ -49,6 +49,9 @@ def run_experiment(args: argparse.Namespace) -> int:
         print("forte: error: --waypoints must be >= 2", file=sys.stderr)
         return 2
     out = args.out or Path("runs") / "experiments" / args.name
+    from forte.io.plandir import check_output
+
+    check_output(out)  # before minutes of planning: never replace what forte did not write
 
     def log(text: str) -> None:
         if not args.quiet:

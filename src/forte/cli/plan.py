@@ -100,7 +100,7 @@ def run_compare(args: argparse.Namespace) -> int:
     def build(tmp: Path) -> None:
         for res in results:
             write_plan(res, tmp / res.method, figures=not args.no_figures)
-        write_comparison(results, tmp, figures=not args.no_figures)
+        write_comparison(results, tmp)  # comparison.png is part of a comparison, figures or not
 
     if not any(r.success for r in results) and (out / "summary.csv").exists():
         out = out.with_name(out.name + ".failed")  # never replace an earlier comparison with a total failure

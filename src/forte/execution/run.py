@@ -357,3 +357,7 @@ def write_results(result: SimResult, out_dir: Path) -> tuple[Path, Path]:
     atomic_write(csv_path, buf.getvalue())
     atomic_write(json_path, json.dumps(result.to_json(), indent=1) + "\n")
     return csv_path, json_path
+
+
+#: ``forte.simulate``: the public name of :func:`simulate_plan`.
+simulate = simulate_plan

@@ -359,10 +359,8 @@ def default_robot(torque_limits: Any = PAPER_TORQUE_LIMITS, **overrides: Any) ->
         "tool": MOCA_TOOL,
         "torque_limits": torque_limits,
         "name": "moca-panda",
-        "home_arm": PANDA_HOME,
-        "acceleration_limits": PANDA_ACCELERATION_LIMITS,
     }
-    kwargs.update(overrides)
+    kwargs.update(overrides)  # the Panda's home and acceleration limits come with its description
     return MobileManipulator(**kwargs)
 
 

@@ -21,6 +21,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+import uuid
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -148,12 +149,17 @@ def _compile(functions: dict[str, ca.Function], lib: Path, compiler: str) -> Non
 
 
 def _class_digest(cls: type) -> str:
-    """Hash of a term class's source (terms defined outside forte invalidate their kernels too)."""
+    """Hash of the file that defines a term class, so editing a term (or a helper or constant
+    next to it) invalidates its kernels, also for terms defined outside forte. A class whose
+    source cannot be found (defined in a REPL) gets a fresh key each time: never a stale kernel."""
     try:
-        text = inspect.getsource(cls)
+        path = inspect.getsourcefile(cls)
+        text = Path(path).read_bytes() if path else None
     except (OSError, TypeError):
-        text = cls.__qualname__
-    return hashlib.sha256(text.encode()).hexdigest()[:12]
+        text = None
+    if text is None:
+        return uuid.uuid4().hex[:12]
+    return hashlib.sha256(text + cls.__qualname__.encode()).hexdigest()[:12]
 
 
 def _source_digest() -> str:

@@ -108,7 +108,8 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
             overrides["torque_limits"] = reader.vector("torque_limits", 7)
         return default_robot(**overrides)
     r = reader.sub("robot")
-    r.unknown({"urdf", "ee_frame", "arm_joints", "mount", "tool", "torque_limits", "gravity", "name"})
+    r.unknown({"urdf", "ee_frame", "arm_joints", "mount", "tool", "torque_limits", "gravity", "name", "home_arm",
+               "acceleration_limits"})
     kwargs: dict[str, Any] = {}
     if r.has("urdf"):
         urdf = str(r.get("urdf"))
@@ -152,6 +153,9 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
         kwargs["gravity"] = r.number("gravity", positive=True)
     if r.has("name"):
         kwargs["name"] = str(r.get("name"))
+    for key in ("home_arm", "acceleration_limits"):  # what a URDF does not carry
+        if r.has(key):
+            kwargs[key] = tuple(r.vector(key))
     try:
         if "urdf" in kwargs:
             return MobileManipulator(**kwargs)
