@@ -35,7 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "paper's controllers at 1 kHz and write PLAN_DIR/sim.csv and PLAN_DIR/sim.json.",
     )
     p.add_argument("plan_dir", type=Path, metavar="PLAN_DIR", help="output folder of 'forte plan'")
-    p.add_argument("--mass", type=float, default=None,
+    p.add_argument("--mass", "--true-mass", dest="mass", type=float, default=None,
                    help="true payload mass in kg (default: the plan's payload mass). A different "
                    "mass > 0 models an estimation error (the force feedforward keeps the plan's "
                    "force); 0 means no payload: no payload and no force feedforward")
@@ -65,8 +65,33 @@ def register(sub: argparse._SubParsersAction) -> None:
                        help="watch the run in MuJoCo's interactive viewer, in real time (needs a display); "
                        "the results are written when the run ends, the command returns when the window "
                        "is closed")
+    p.add_argument("--replan", action="store_true",
+                   help="identify the payload from the joint torques and re-plan the remaining motion at "
+                   "--replan-rate when the estimate departs from the plan's mass")
+    p.add_argument("--replan-rate", type=float, default=10.0, metavar="HZ", help="re-plan check rate (10 Hz)")
+    p.add_argument("--add-mass", type=_time_and_mass, default=None, metavar="T:KG",
+                   help="the payload gains KG kilograms at time T seconds (with or without --replan)")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=run)
+
+
+def _time_and_mass(text: str) -> tuple[float, float]:
+    try:
+        t, kg = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected T:KG (seconds:kilograms), got {text!r}") from None
+    if not (t >= 0 and kg > 0):
+        raise argparse.ArgumentTypeError(f"expected T >= 0 s and KG > 0, got {text!r}")
+    return t, kg
+
+
+def _replan_options(args: argparse.Namespace) -> object | None:
+    if not args.replan and args.add_mass is None:
+        return None
+    from forte.execution.closed_loop import ReplanOptions
+
+    # without --replan a mass change is simulated (and identified) but never re-planned for
+    return ReplanOptions(rate_hz=args.replan_rate, add_mass=args.add_mass, enabled=args.replan)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -92,6 +117,7 @@ def run(args: argparse.Namespace) -> int:
         args.plan_dir, args.mass, force_feedforward=False if args.no_force else None,
         out_dir=args.out, gains=gains, thresholds=th, hold=args.hold,
         stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video, viewer=args.viewer,
+        replan=_replan_options(args),
     )
     out = args.out or args.plan_dir
     s = result.summary
@@ -99,6 +125,13 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"success: {s['duration']:.2f} s simulated in {s['wall_time_s']:.2f} s, max end-effector "
                   f"error {1000 * s['max_ee_error_m']:.1f} mm; wrote {out}/sim.csv, {out}/sim.json")
+    if "replanning" in s and not args.quiet:
+        r = s["replanning"]
+        latency = (f"; latency median {1000 * r['latency_median_s']:.0f} ms, p95 {1000 * r['latency_p95_s']:.0f} ms, "
+                   f"max {1000 * r['latency_max_s']:.0f} ms" if r["replans"] else "")
+        print(f"payload estimate {r['final_mass_estimate']:.3f} kg (sigma {r['final_sigma']:.4f}); "
+              f"{r['replans']} re-plans ({r['replans_failed']} not converged){latency}", file=sys.stderr)
+    if result.success:
         return 0
     print(f"failure at t = {result.failure_time:.3f} s: {result.reason} ({result.detail}); "
           f"wrote {out}/sim.csv, {out}/sim.json", file=sys.stderr)

@@ -18,9 +18,11 @@ and reports a confidence: the standard error ``sigma_m = sqrt(s2 / S_k)`` with `
 forgetting-weighted mean squared residual per joint. :meth:`PayloadIdentifier.radius` turns it
 into a force-ball radius for re-planning: ``r = max(r_min, |a - g| * k_sigma * sigma_m)``.
 
-Assumptions (documented departures from a full inertial identification): the payload's
-rotational inertia and centre-of-mass offset are neglected, and the base is treated as fixed
-(its accelerations are small in the planned motions; they enter as noise).
+A translating base (acceleration ``a_b``, world frame) shifts both sides like a change of
+gravity: the arm feels ``g - a_b``, so ``RNEA`` is evaluated with that gravity and
+``phi = J_t^T (a_ee + a_b - g)``. Assumptions (documented departures from a full inertial
+identification): the payload's rotational inertia and centre-of-mass offset are neglected, and
+so are the base's yaw rate and yaw acceleration (they enter as noise).
 """
 
 from __future__ import annotations
@@ -64,20 +66,23 @@ class PayloadIdentifier:
         self.mass = float(self.prior_mass)
         self.information = float(self.prior_weight)
 
-    def regressor(self, q: FloatArray, dq_a: FloatArray, ddq_a: FloatArray) -> FloatArray:
-        """``phi = J_t^T (a_ee - g)`` at whole-body ``q`` with arm velocity and acceleration."""
+    def regressor(self, q: FloatArray, dq_a: FloatArray, ddq_a: FloatArray, base_acc: FloatArray | None = None
+                  ) -> FloatArray:
+        """``phi = J_t^T (a_ee + a_b - g)`` at whole-body ``q`` with arm velocity and acceleration."""
         J = self.robot.arm_jacobian(q)
         a_ee = J @ ddq_a + self._jacobian_rate(q, dq_a) @ dq_a
-        return J.T @ (a_ee - np.array([0.0, 0.0, -self.robot.gravity]))
+        return J.T @ (a_ee + _base_translation(base_acc) - np.array([0.0, 0.0, -self.robot.gravity]))
 
-    def update(self, q: FloatArray, dq_a: FloatArray, ddq_a: FloatArray, tau_measured: FloatArray) -> float:
-        """Add one sample (whole-body ``q``; arm ``dq``, ``ddq``, measured torque); returns ``m``."""
+    def update(self, q: FloatArray, dq_a: FloatArray, ddq_a: FloatArray, tau_measured: FloatArray,
+               base_acc: FloatArray | None = None) -> float:
+        """Add one sample (whole-body ``q``; arm ``dq``, ``ddq``, measured torque; base ``(a_x, a_y,
+        yaw'')`` in the world frame, default at rest); returns ``m``."""
         q = self.robot.check_configuration(q)
         n = self.robot.n_arm
         dq_a, ddq_a = as_vector(dq_a, "dq_a", n), as_vector(ddq_a, "ddq_a", n)
-        model = self.robot.rnea(q[N_BASE:], dq_a, ddq_a) + self.armature * ddq_a
+        model = self._rnea(q, dq_a, ddq_a, _base_translation(base_acc)) + self.armature * ddq_a
         residual = as_vector(tau_measured, "tau_measured", n) - model
-        phi = self.regressor(q, dq_a, ddq_a)
+        phi = self.regressor(q, dq_a, ddq_a, base_acc)
         lam = self.forgetting
         self.information = lam * self.information + float(phi @ phi)
         error = residual - phi * self.mass
@@ -100,7 +105,29 @@ class PayloadIdentifier:
         scale = np.linalg.norm(acc - np.array([0.0, 0.0, -self.robot.gravity]), axis=1)
         return np.maximum(r_min, scale * k_sigma * self.sigma)
 
+    def _rnea(self, q: FloatArray, dq_a: FloatArray, ddq_a: FloatArray, a_b: FloatArray) -> FloatArray:
+        """Arm RNEA with the gravity the arm feels on an accelerating base, ``g - a_b``."""
+        if not np.any(a_b):
+            return self.robot.rnea(q[N_BASE:], dq_a, ddq_a)
+        model = self.robot.model
+        saved = model.gravity.linear.copy()
+        c, s = np.cos(q[2]), np.sin(q[2])
+        felt = np.array([0.0, 0.0, -self.robot.gravity]) - a_b
+        model.gravity.linear = np.array([c * felt[0] + s * felt[1], -s * felt[0] + c * felt[1], felt[2]])
+        try:
+            return self.robot.rnea(q[N_BASE:], dq_a, ddq_a)
+        finally:
+            model.gravity.linear = saved
+
     def _jacobian_rate(self, q: FloatArray, dq_a: FloatArray, h: float = 1e-6) -> FloatArray:
         """``dJ_t/dt`` along ``dq`` by a central difference of the Jacobian."""
         step = np.concatenate([np.zeros(N_BASE), dq_a]) * h
         return (self.robot.arm_jacobian(q + step) - self.robot.arm_jacobian(q - step)) / (2 * h)
+
+
+def _base_translation(base_acc: FloatArray | None) -> FloatArray:
+    """World-frame translational base acceleration ``(a_x, a_y, 0)`` (yaw acceleration dropped)."""
+    if base_acc is None:
+        return np.zeros(3)
+    a = np.asarray(base_acc, dtype=float)
+    return np.array([a[0], a[1], 0.0])

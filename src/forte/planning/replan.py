@@ -82,11 +82,12 @@ class Replanner:
         guess[0] = task.q_init
         return self._commit(task, new_force, guess, (self.last.lam_x, self.last.lam_g))
 
-    def shift(self, steps: int, q_now: FloatArray | None = None) -> ReplanResult:
+    def shift(self, steps: int, q_now: FloatArray | None = None, mass: float | None = None) -> ReplanResult:
         """Move the horizon ``steps`` waypoints forward; the tail holds the last target.
 
         ``q_now`` (the measured configuration) becomes the new first waypoint (default: the
-        planned one at the new start).
+        planned one at the new start); ``mass``, when given, is the payload's new mass. The new
+        first waypoint starts at rest, as every plan does (the backward differences need it).
         """
         n, nq = self.task.n, self.task.robot.nq
         if not 0 < steps < n:
@@ -95,6 +96,8 @@ class Replanner:
         guess = _shift_rows(self.last.q, steps)
         guess[0] = guess[0] if q_now is None else self.task.robot.check_configuration(q_now, "q_now")
         task = replace(self.task, targets=targets, q_init=guess[0].copy())
+        if mass is not None:
+            task = task.with_payload(task.payload.with_mass(mass, source="replan"))
         force = self.force if self.task.force_profile is not None else task.force()
         if self.task.force_profile is not None:
             force = TaskForce(self.force.t, _shift_rows(self.force.f, steps), _shift_rows(self.force.r, steps))
