@@ -56,3 +56,14 @@ def test_bad_replan_options():
     with pytest.raises(SystemExit) as exc:  # argparse: one usage line, exit 2
         main(["simulate", "x", "--add-mass", "soon"])
     assert exc.value.code == 2
+
+
+def test_replan_experiment_writes_its_summary(tmp_path):
+    from forte.experiments import run_replan
+
+    doc = run_replan(tmp_path / "replan", waypoints=25)
+    runs = doc["runs"]
+    misjudged = next(v for k, v in runs.items() if k.startswith("misjudged"))
+    assert not misjudged["without"]["success"] and misjudged["with"]["success"]
+    assert (tmp_path / "replan" / "replan.png").is_file() and doc["generator"] == "forte"
+    assert "| scenario |" in (tmp_path / "replan" / "summary.md").read_text()

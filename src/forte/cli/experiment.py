@@ -11,6 +11,7 @@ EXPERIMENTS: dict[str, tuple[str, str]] = {
     "continuous": ("run_continuous", "5.2, continuous trajectory with a time-varying force"),
     "lift": ("run_lift", "5.3, lifting with 0.33 L and 2.7 L payloads"),
     "hold": ("run_hold", "5.4, single-point holding with 0.33 L and 2.7 L payloads"),
+    "replan": ("run_replan", "6 (future work), online re-planning with a misjudged or growing payload"),
 }
 #: Figure formats (the same as :data:`forte.experiments.common.FORMATS`, kept here so that
 #: ``forte --help`` does not import the planner).

@@ -28,11 +28,14 @@ import numpy as np
 
 from forte.exceptions import InvalidInputError
 from forte.execution.control import Reference, interpolate_plan
-from forte.execution.identification import PayloadIdentifier
+from forte.execution.identification import PayloadIdentifier, WholeBodyTorqueModel
 from forte.execution.model import SimModel
 from forte.model.robot import N_BASE
 from forte.planning.replan import Replanner
 from forte.validation import FloatArray
+
+#: Smallest payload mass a re-plan is made for (kg).
+MIN_PAYLOAD = 0.01
 
 
 @dataclass(frozen=True)
@@ -74,6 +77,7 @@ class ReplanLoop:
     def __post_init__(self) -> None:
         self.identifier = PayloadIdentifier(self.sim.robot, armature=self.sim.armature,
                                             prior_mass=self.replanner.task.payload.mass or 0.0)
+        self.torque_model = WholeBodyTorqueModel(self.sim)
         self.plan_t = self.replanner.task.t.copy()
         self.plan_q = self.replanner.last.q.copy()
         self.offset = 0  # waypoints the planner's horizon has moved
@@ -83,11 +87,13 @@ class ReplanLoop:
     def __call__(self, k: int, q: FloatArray, dq: FloatArray) -> None:
         """After step ``k`` (state ``q, dq`` before it): identify, maybe re-plan, maybe add mass."""
         sim = self.sim
-        arm = sim.dof_idx[N_BASE:]
         t = k * sim.timestep
-        base = sim.dof_idx[:N_BASE]
-        m = self.identifier.update(q, dq[N_BASE:], sim.data.qacc[arm], sim.data.qfrc_actuator[arm],
-                                   base_acc=sim.data.qacc[base])
+        qpos = sim.data.qpos.copy()
+        qpos[sim.qpos_idx] = q  # the state the step started from (qacc belongs to it)
+        qvel = sim.data.qvel.copy()
+        qvel[sim.dof_idx] = dq
+        arm = sim.dof_idx[N_BASE:]
+        m = self.identifier.add(*self.torque_model(qpos, qvel, sim.data.qacc, sim.data.qfrc_actuator[arm]))
         if k % 100 == 0:
             self.estimates.append((t, m, self.identifier.sigma))
         self._maybe_add_mass(t)
@@ -105,6 +111,7 @@ class ReplanLoop:
         self.mass_added = True
 
     def _maybe_replan(self, k: int, m: float) -> None:
+        m = max(m, MIN_PAYLOAD)  # a transient estimate below zero means "(almost) nothing"
         planned = float(self.replanner.task.payload.mass or 0.0)
         change = abs(m - planned)
         if change < max(self.options.threshold * planned, 3 * self.identifier.sigma, self.options.min_change):

@@ -28,7 +28,9 @@ so are the base's yaw rate and yaw acceleration (they enter as noise).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
+import mujoco
 import numpy as np
 
 from forte.exceptions import InvalidInputError
@@ -82,7 +84,11 @@ class PayloadIdentifier:
         dq_a, ddq_a = as_vector(dq_a, "dq_a", n), as_vector(ddq_a, "ddq_a", n)
         model = self._rnea(q, dq_a, ddq_a, _base_translation(base_acc)) + self.armature * ddq_a
         residual = as_vector(tau_measured, "tau_measured", n) - model
-        phi = self.regressor(q, dq_a, ddq_a, base_acc)
+        return self.add(residual, self.regressor(q, dq_a, ddq_a, base_acc))
+
+    def add(self, residual: FloatArray, phi: FloatArray) -> float:
+        """Add one sample given its torque residual ``r`` and regressor ``phi`` (``r = phi m``)."""
+        n = self.robot.n_arm
         lam = self.forgetting
         self.information = lam * self.information + float(phi @ phi)
         error = residual - phi * self.mass
@@ -131,3 +137,36 @@ def _base_translation(base_acc: FloatArray | None) -> FloatArray:
         return np.zeros(3)
     a = np.asarray(base_acc, dtype=float)
     return np.array([a[0], a[1], 0.0])
+
+
+class WholeBodyTorqueModel:
+    """Residual and regressor from a MuJoCo model of the robot *without* the payload.
+
+    ``mj_inverse`` of the whole body (base joints included) gives the arm torques the robot and
+    its tool need for the measured ``qpos, qvel, qacc``, with every base effect (translation,
+    yaw rate and yaw acceleration) exact; the end-effector acceleration is
+    ``a_ee = J qacc + dJ/dt qvel`` (MuJoCo's site Jacobian and its time derivative). Then
+    ``r = tau_measured - tau_model`` and ``phi = J_a^T (a_ee - g)``, ``J_a`` the arm columns.
+    """
+
+    def __init__(self, sim: Any) -> None:
+        from forte.execution.model import build_sim_model
+
+        self.sim = build_sim_model(sim.robot, 0.0, armature=sim.armature, timestep=sim.timestep)
+        self.sim.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT  # limits: not the payload's
+        nv = self.sim.model.nv
+        self._jac, self._jac_dot = np.zeros((3, nv)), np.zeros((3, nv))
+        self._gravity = np.array([0.0, 0.0, -sim.robot.gravity])
+
+    def __call__(self, qpos: FloatArray, qvel: FloatArray, qacc: FloatArray, tau_measured: FloatArray
+                 ) -> tuple[FloatArray, FloatArray]:
+        """``(r, phi)`` for the full MuJoCo state vectors and the measured arm torques."""
+        m, d = self.sim.model, self.sim.data
+        arm = self.sim.dof_idx[N_BASE:]
+        d.qpos[:], d.qvel[:], d.qacc[:] = qpos, qvel, qacc
+        mujoco.mj_inverse(m, d)
+        mujoco.mj_jacSite(m, d, self._jac, None, self.sim.ee_site)
+        mujoco.mj_jacDot(m, d, self._jac_dot, None, d.site_xpos[self.sim.ee_site], m.site_bodyid[self.sim.ee_site])
+        a_ee = self._jac @ qacc + self._jac_dot @ qvel
+        phi = self._jac[:, arm].T @ (a_ee - self._gravity)
+        return np.asarray(tau_measured, dtype=float) - d.qfrc_inverse[arm], phi
