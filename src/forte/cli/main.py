@@ -22,6 +22,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "forte.cli.estimation",
     "forte.cli.simulate",
     "forte.cli.experiment",
+    "forte.cli.export",
 )
 
 
