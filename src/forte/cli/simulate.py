@@ -89,11 +89,14 @@ def run(args: argparse.Namespace) -> int:
         check_display()
         if not args.quiet:
             print("viewer: the run plays in real time; close the window to finish", file=sys.stderr)
-    result = simulate_plan(
-        args.plan_dir, args.mass, force_feedforward=False if args.no_force else None,
-        out_dir=args.out, gains=gains, thresholds=th, hold=args.hold,
-        stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video, viewer=args.viewer,
-    )
+    from forte import progress
+
+    with progress.step(f"simulating {args.plan_dir} in MuJoCo (1 kHz)"):
+        result = simulate_plan(
+            args.plan_dir, args.mass, force_feedforward=False if args.no_force else None,
+            out_dir=args.out, gains=gains, thresholds=th, hold=args.hold,
+            stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video, viewer=args.viewer,
+        )
     out = args.out or args.plan_dir
     s = result.summary
     if result.success:

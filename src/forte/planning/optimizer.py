@@ -30,6 +30,7 @@ import casadi as ca
 import numpy as np
 from scipy import sparse
 
+from forte import progress
 from forte.exceptions import InvalidInputError, SolverError
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.planning.assembly import block_diagonal_pattern, dm, gather, hessian_pattern, scatter_matrix
@@ -166,6 +167,11 @@ class TrajectoryOptimizer:
         opts["grad_f"] = ca.Function("nlp_grad_f", [x, P], [cost, grad])
         opts["jac_g"] = ca.Function("nlp_jac_g", [x, P], [g, jac])
         opts["hess_lag"] = ca.Function("nlp_hess_l", [x, P, lam_f, lam_g], [hess])
+        self._progress = None
+        if progress.active() is not None:  # IPOPT's iterations on the progress line (off in the library)
+            from forte.planning.ipopt_progress import IpoptProgress
+
+            opts["iteration_callback"] = self._progress = IpoptProgress(x.numel(), g.numel(), P.numel())
         try:
             self.solver = ca.nlpsol("forte", "ipopt", {"x": x, "p": P, "f": cost, "g": g}, opts)
         except RuntimeError as exc:  # e.g. an option IPOPT rejects
@@ -264,8 +270,11 @@ class TrajectoryOptimizer:
         n_pose = 6 * (n - (1 if self.fix_initial else 0))
         lbg = np.concatenate([np.zeros(n_pose), klb])
         ubg = np.concatenate([np.zeros(n_pose), kub])
+        if self._progress is not None:
+            self._progress.start(lbg, ubg)
         try:
-            result = self.solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+            with progress.step(f"solving with IPOPT ({self.method}, N = {n})"):
+                result = self.solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         except RuntimeError as exc:  # IPOPT refused the problem (bad option values, inconsistent bounds)
             raise SolverError(f"IPOPT refused the problem: {str(exc).splitlines()[-1]}", status="error") from exc
         solve_time = time.perf_counter() - start
