@@ -23,6 +23,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "forte.cli.simulate",
     "forte.cli.experiment",
     "forte.cli.export",
+    "forte.cli.view",
 )
 
 
