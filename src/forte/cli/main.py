@@ -12,7 +12,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-from forte import __version__
+from forte import __version__, progress
 from forte.exceptions import ForteError
 
 #: Modules that add sub-commands (each has ``register(subparsers)``).
@@ -22,6 +22,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "forte.cli.estimation",
     "forte.cli.simulate",
     "forte.cli.experiment",
+    "forte.cli.export",
+    "forte.cli.view",
 )
 
 
@@ -50,8 +52,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 1
-    try:
-        return int(args.func(args) or 0)
+    try:  # progress (rich) on standard error when it is a terminal and --quiet is not given
+        with progress.activate(progress.for_cli(quiet=bool(getattr(args, "quiet", False)))):
+            return int(args.func(args) or 0)
     except ForteError as exc:
         print(f"forte: error: {exc}", file=sys.stderr)
         return 2

@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from forte.io.figures import figure_format
 from forte.io.plandir import check_output, plan_summary, replace_directory, write_plan
 from forte.io.reports import write_comparison
 from forte.planning.methods import method_names
@@ -19,7 +20,9 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("task", type=Path, help="task file (YAML), e.g. examples/tasks/lift.yaml")
     p.add_argument("--mass", type=float, help="payload mass in kg (overrides the task file and the estimator)")
     p.add_argument("--waypoints", type=int, help="number of waypoints N (trajectory mode)")
-    p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures")
+    p.add_argument("--format", default="png", choices=("png", "pdf", "svg"),
+                   help="figure file format (default png; pdf and svg are vector)")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     p.add_argument("--vlm-base-url", help="OpenAI-compatible server for the mass estimate (else offline)")
     p.add_argument("--model", default="gpt-4o", help="VLM model name (default gpt-4o)")
@@ -37,7 +40,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run_plan)
     c = sub.add_parser("compare", help="plan a task with every method and compare them",
                        description="Run every method that applies to the task and write one directory per "
-                       "method plus summary.md, summary.csv and comparison.png to --out.")
+                       "method plus summary.md, summary.csv and the comparison figure to --out.")
     _common(c)
     c.add_argument("--out", type=Path, help="output directory (default runs/<task>-compare)")
     c.set_defaults(func=run_compare)
@@ -74,7 +77,8 @@ def run_plan(args: argparse.Namespace) -> int:
     check_output(out)  # before any work: never plan for minutes and then refuse
     _say(args, f"planning {task.name} ({task.mode}, {task.n} waypoints) with {args.method} ...")
     res = plan(task, args.method, _estimator_options(args))
-    where = write_plan(res, out, figures=not args.no_figures)
+    with figure_format(args.format):
+        where = write_plan(res, out, figures=not args.no_figures)
     _say(args, _describe(res))
     if not res.success:
         print(f"forte: error: optimization failed ({res.status}); report in {where}/plan.json, "
@@ -104,7 +108,8 @@ def run_compare(args: argparse.Namespace) -> int:
 
     if not any(r.success for r in results) and (out / "summary.csv").exists():
         out = out.with_name(out.name + ".failed")  # never replace an earlier comparison with a total failure
-    replace_directory(build, out)
+    with figure_format(args.format):
+        replace_directory(build, out)
     if not args.quiet:
         print((out / "summary.md").read_text())
     _say(args, f"wrote {out}")

@@ -6,8 +6,9 @@ unavailable).
 
 Controller gains: the defaults of :mod:`forte.execution.gains` (Franka's on the Panda, the
 bandwidth rule ``K_i = M_ii (2 pi f)^2``, ``D_i = 2 zeta sqrt(K_i M_ii)`` on other arms);
-``--gains FILE.yaml`` holds a ``controller:`` mapping (or the mapping's fields at the top
-level), and ``--bandwidth`` / ``--damping-ratio`` set the rule's ``f`` and ``zeta`` on top.
+the task file's ``controller:`` block (recorded in plan.json) replaces them; ``--gains FILE.yaml``
+holds a ``controller:`` mapping (or the mapping's fields at the top level) used instead of the
+task's, and ``--bandwidth`` / ``--damping-ratio`` set the rule's ``f`` and ``zeta`` on top.
 """
 
 from __future__ import annotations
@@ -113,12 +114,15 @@ def run(args: argparse.Namespace) -> int:
         check_display()
         if not args.quiet:
             print("viewer: the run plays in real time; close the window to finish", file=sys.stderr)
-    result = simulate_plan(
-        args.plan_dir, args.mass, force_feedforward=False if args.no_force else None,
-        out_dir=args.out, gains=gains, thresholds=th, hold=args.hold,
-        stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video, viewer=args.viewer,
-        replan=_replan_options(args),
-    )
+    from forte import progress
+
+    with progress.step(f"simulating {args.plan_dir} in MuJoCo (1 kHz)"):
+        result = simulate_plan(
+            args.plan_dir, args.mass, force_feedforward=False if args.no_force else None,
+            out_dir=args.out, gains=gains, thresholds=th, hold=args.hold,
+            stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video, viewer=args.viewer,
+            replan=_replan_options(args),
+        )
     out = args.out or args.plan_dir
     s = result.summary
     if result.success:
@@ -139,17 +143,22 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _gains(args: argparse.Namespace) -> Any:
-    """``ControlGains`` from ``--gains``/``--bandwidth``/``--damping-ratio``, or None (defaults).
+    """``ControlGains`` from ``--gains`` (else the task's ``controller:`` block recorded in plan.json)
+    with ``--bandwidth``/``--damping-ratio`` on top, or None (defaults).
 
-    The file's fields are checked against the plan's robot here, so that errors name the file.
+    The fields are checked against the plan's robot here, so that errors name the file.
     """
     from forte.execution.gains import gains_from_mapping
-    from forte.io.plandir import read_plan_dir
+    from forte.io.plandir import PLAN_FILE, read_controller, read_plan_dir
     from forte.model.robot import N_BASE
 
-    if args.gains is None and args.bandwidth is None and args.damping_ratio is None:
+    if args.gains is not None:
+        mapping, prefix = _read_gains_file(args.gains)
+    else:
+        mapping = read_controller(args.plan_dir) if (args.plan_dir / PLAN_FILE).is_file() else {}
+        prefix = f"{args.plan_dir / PLAN_FILE}: controller."
+    if not mapping and args.bandwidth is None and args.damping_ratio is None:
         return None
-    mapping, prefix = ({}, "") if args.gains is None else _read_gains_file(args.gains)
     for flag, key, value in (("--bandwidth", "bandwidth_hz", args.bandwidth),
                              ("--damping-ratio", "damping_ratio", args.damping_ratio)):
         if value is not None:

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from forte import progress
 from forte.execution.run import simulate_plan
 from forte.experiments.claims import Claim, claims_section, fmt_num
 from forte.io.figures import pyplot
@@ -157,7 +158,8 @@ def simulate_cases(tmp: Path, cases: list[Case], trials: int, seed: int, log: Lo
     for case in cases:
         for method, res in case.results.items():
             d = write_plan(res, tmp / f"{case.mass}kg" / method, figures=False)
-            case.sims[method] = simulate_runs(d, case.mass, trials, rng, hold)
+            with progress.step(f"simulating {method} at {case.mass} kg (nominal + {trials} trials)"):
+                case.sims[method] = simulate_runs(d, case.mass, trials, rng, hold)
             log(f"  simulated {case.label} {method}: {sim_text(case.sims[method])}")
 
 

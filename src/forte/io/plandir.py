@@ -227,6 +227,7 @@ def plan_document(plan: Plan) -> dict[str, Any]:
                         "given_profile": task is not None and task.force_profile is not None}
     if task is not None:
         doc["q_init"] = task.q_init
+        doc["controller"] = task.controller
     if plan.metrics:
         doc["summary"] = plan_summary(plan)
     doc["versions"] = package_versions()
@@ -259,6 +260,35 @@ def read_plan_dir(plan_dir: str | Path) -> Plan:
     status = str(meta.get("status", "unknown"))
     return Plan(method=str(meta.get("method", "unknown")), robot=robot, t=t, q=q, force=force, payload=payload,
                 success=status == "success", status=status)
+
+
+def read_controller(plan_dir: str | Path) -> dict[str, Any]:
+    """The ``controller:`` mapping the plan's task gave (empty: none, or an older plan.json)."""
+    path = Path(plan_dir) / PLAN_FILE
+    try:
+        controller = json.loads(path.read_text(encoding="utf-8")).get("controller") or {}
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, AttributeError) as exc:
+        raise TaskFileError(f"{path}: not valid JSON: {exc}") from exc
+    if not isinstance(controller, dict):
+        raise TaskFileError(f"{path}: field 'controller': expected a mapping, got {type(controller).__name__}")
+    return controller
+
+
+def read_metrics(plan_dir: str | Path) -> dict[str, FloatArray]:
+    """The columns of ``metrics.csv`` (:data:`METRIC_COLUMNS`); empty when the plan has none."""
+    path = Path(plan_dir) / METRICS_FILE
+    if not path.is_file():
+        return {}
+    rows = list(csv.reader(path.read_text(encoding="utf-8").splitlines()))
+    header = [h.strip() for h in rows[0]] if rows else []
+    if header != list(METRIC_COLUMNS):
+        raise TaskFileError(f"{path}: header: expected {','.join(METRIC_COLUMNS)}, got {','.join(header)}")
+    body = [r for r in rows[1:] if any(c.strip() for c in r)]
+    try:  # d may be +-inf (vacuous or empty RFP rows): no finiteness check here
+        data = np.array([[float(c) for c in r] for r in body], dtype=float).reshape(len(body), len(header))
+    except ValueError as exc:
+        raise TaskFileError(f"{path}: expected {len(header)} numbers per row: {exc}") from None
+    return {name: data[:, i] for i, name in enumerate(header)}
 
 
 def _read_payload(plan_path: Path, payload: Any) -> Payload:

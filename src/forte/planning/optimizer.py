@@ -30,6 +30,7 @@ import casadi as ca
 import numpy as np
 from scipy import sparse
 
+from forte import progress
 from forte.exceptions import InvalidInputError, SolverError
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.planning.assembly import block_diagonal_pattern, dm, gather, hessian_pattern, scatter_matrix
@@ -172,6 +173,11 @@ class TrajectoryOptimizer:
         opts["grad_f"] = ca.Function("nlp_grad_f", [x, P], [cost, grad])
         opts["jac_g"] = ca.Function("nlp_jac_g", [x, P], [g, jac])
         opts["hess_lag"] = ca.Function("nlp_hess_l", [x, P, lam_f, lam_g], [hess])
+        self._progress = None
+        if progress.active() is not None:  # IPOPT's iterations on the progress line (off in the library)
+            from forte.planning.ipopt_progress import IpoptProgress
+
+            opts["iteration_callback"] = self._progress = IpoptProgress(x.numel(), g.numel(), P.numel())
         self._nlp = {"x": x, "p": P, "f": cost, "g": g}
         self._nlp_options = opts
         self.solver = self._nlpsol(opts)
@@ -296,8 +302,11 @@ class TrajectoryOptimizer:
         solver, extra = self.solver, {}
         if warm is not None:
             solver, extra = self.warm_solver(), {"lam_x0": warm[0], "lam_g0": warm[1]}
+        if self._progress is not None:
+            self._progress.start(lbg, ubg)
         try:
-            result = solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **extra)
+            with progress.step(f"solving with IPOPT ({self.method}, N = {n})"):
+                result = solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **extra)
         except RuntimeError as exc:  # IPOPT refused the problem (bad option values, inconsistent bounds)
             raise SolverError(f"IPOPT refused the problem: {str(exc).splitlines()[-1]}", status="error") from exc
         solve_time = time.perf_counter() - start

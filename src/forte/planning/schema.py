@@ -164,6 +164,21 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
         raise r.error("", str(exc)) from exc
 
 
+#: Fields of a ``controller:`` block (their values are checked against the robot by
+#: :func:`forte.execution.gains.gains_from_mapping` when the plan is simulated).
+CONTROLLER_FIELDS = frozenset({"bandwidth_hz", "damping_ratio", "K_a", "D_a", "M_b", "B_b", "K_b", "D_b",
+                               "base_feedforward", "force_feedforward"})
+
+
+def controller_section(reader: Reader) -> dict[str, Any]:
+    """The task's ``controller:`` mapping (empty when absent); unknown fields are errors."""
+    if "controller" not in reader.data or reader.get("controller") is None:
+        return {}
+    r = reader.sub("controller")
+    r.unknown(set(CONTROLLER_FIELDS))
+    return dict(r.data)
+
+
 def dataclass_from(reader: Reader, name: str, cls: type, base: Any) -> Any:
     """Override fields of the dataclass instance ``base`` from ``reader[name]``, by field type."""
     if not reader.has(name):

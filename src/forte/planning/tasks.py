@@ -23,7 +23,14 @@ from forte.force.payload import Payload
 from forte.force.taskforce import DEFAULT_RADIUS, TaskForce, given_force, payload_force
 from forte.model.robot import MobileManipulator
 from forte.model.trajectory import quintic_blend, quintic_path
-from forte.planning.schema import Reader, check_joint_limits, dataclass_from, robot_section, rotation
+from forte.planning.schema import (
+    Reader,
+    check_joint_limits,
+    controller_section,
+    dataclass_from,
+    robot_section,
+    rotation,
+)
 from forte.settings import CostWeights, KinematicLimits, SolverOptions
 from forte.validation import FloatArray
 
@@ -45,6 +52,8 @@ class Task:
         targets_at, force_at: the path and the force profile as functions of time, so the task
             can be resampled (:meth:`resampled`) without re-reading its file.
         raw: the task's definition as read (recorded in plan.json).
+        controller: the task's ``controller:`` mapping for ``forte simulate`` (empty: the defaults
+            of :mod:`forte.execution.gains`).
     """
 
     name: str
@@ -62,6 +71,7 @@ class Task:
     teaching: FloatArray | None = None
     limits: KinematicLimits = field(default_factory=KinematicLimits)
     raw: dict[str, Any] = field(default_factory=dict)
+    controller: dict[str, Any] = field(default_factory=dict)
     targets_at: TargetsAt | None = field(default=None, repr=False)
     force_at: ForceAt | None = field(default=None, repr=False)
 
@@ -244,7 +254,8 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     """Validate an already-parsed task (see :func:`load_task`)."""
     reader = Reader(data, path)
     reader.unknown({"name", "robot", "mode", "initial_configuration", "path", "pose", "payload", "force",
-                    "uncertainty_radius", "weights", "torque_limits", "solver", "teaching_configuration", "limits"})
+                    "uncertainty_radius", "weights", "torque_limits", "solver", "teaching_configuration", "limits",
+                    "controller"})
     base = path.parent if path else Path.cwd()
     robot = robot_section(reader, base)
     mode = reader.get("mode", "trajectory")
@@ -291,7 +302,8 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     return Task(name=name, source=path, robot=robot, mode=mode, t=t, targets=targets, q_init=q_init,
                 radius=radius, payload=payload or Payload(source="none"),
                 force_profile=None if force_at is None else force_at(t), weights=weights, solver=solver,
-                teaching=teaching, limits=limits, raw=data, targets_at=targets_at, force_at=force_at)
+                teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
+                targets_at=targets_at, force_at=force_at)
 
 
 def _hold_pose(reader: Reader, robot: MobileManipulator, T0: FloatArray, teaching: FloatArray | None) -> FloatArray:
