@@ -41,6 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run_experiment(args: argparse.Namespace) -> int:
     """Run the chosen experiment; print its summary.md unless ``--quiet``."""
     import forte.experiments as experiments  # the runners load the planner and MuJoCo
+    from forte.io.plandir import check_output, output_lock
 
     if args.trials < 0:
         print("forte: error: --trials must be >= 0", file=sys.stderr)
@@ -58,7 +59,10 @@ def run_experiment(args: argparse.Namespace) -> int:
     kwargs = {"trials": args.trials, "waypoints": args.waypoints, "log": log, "fmt": getattr(args, "fmt", "png")}
     if args.name != "continuous":
         kwargs["seed"] = args.seed
-    func(out, **kwargs)
+    check_output(out)  # before any work: never run for minutes and then refuse
+    with output_lock(out):
+        check_output(out)
+        func(out, **kwargs)
     if not args.quiet:
         print((out / "summary.md").read_text())
         print(f"wrote {out}", file=sys.stderr)

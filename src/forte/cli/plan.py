@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from forte.io.plandir import check_output, plan_summary, replace_directory, write_plan
+from forte.io.plandir import check_output, output_lock, plan_summary, replace_directory, write_plan
 from forte.io.reports import write_comparison
 from forte.planning.methods import method_names
 from forte.planning.planner import Plan, methods_for, plan, resolve_payload
@@ -72,9 +72,11 @@ def run_plan(args: argparse.Namespace) -> int:
     task = load_task(args.task, mass=args.mass, waypoints=args.waypoints)
     out = args.out or Path("runs") / f"{task.name}-{args.method}"
     check_output(out)  # before any work: never plan for minutes and then refuse
-    _say(args, f"planning {task.name} ({task.mode}, {task.n} waypoints) with {args.method} ...")
-    res = plan(task, args.method, _estimator_options(args))
-    where = write_plan(res, out, figures=not args.no_figures)
+    with output_lock(out):  # one writer per --out, from the check to the write
+        check_output(out)
+        _say(args, f"planning {task.name} ({task.mode}, {task.n} waypoints) with {args.method} ...")
+        res = plan(task, args.method, _estimator_options(args))
+        where = write_plan(res, out, figures=not args.no_figures)
     _say(args, _describe(res))
     if not res.success:
         print(f"forte: error: optimization failed ({res.status}); report in {where}/plan.json, "
@@ -88,6 +90,12 @@ def run_compare(args: argparse.Namespace) -> int:
     task = load_task(args.task, mass=args.mass, waypoints=args.waypoints)
     out = args.out or Path("runs") / f"{task.name}-compare"
     check_output(out)
+    with output_lock(out):  # one writer per --out, from the check to the write
+        check_output(out)
+        return _compare(args, task, out)
+
+
+def _compare(args: argparse.Namespace, task: Any, out: Path) -> int:
     task = resolve_payload(task, _estimator_options(args))  # one estimate for every method
     methods = methods_for(task)
     results: list[Plan] = []
