@@ -36,13 +36,21 @@ from typing import Any
 
 import numpy as np
 
-from forte.exceptions import ForteError, InvalidInputError, OutputError, TaskFileError
+from forte.exceptions import InvalidInputError, OutputError, TaskFileError
 from forte.force.payload import Payload
 from forte.force.taskforce import TaskForce, payload_force
 from forte.model.robot import MobileManipulator, robot_from_description
 from forte.model.trajectory import trajectory_header
 from forte.planning.planner import Plan
-from forte.validation import FloatArray, as_array, as_positive, check_times
+from forte.validation import (
+    MAX_DURATION_S,
+    MAX_FILE_BYTES,
+    MAX_WAYPOINTS,
+    FloatArray,
+    as_array,
+    as_positive,
+    check_times,
+)
 
 TRAJECTORY_FILE = "trajectory.csv"
 LAST_ITERATE_FILE = "last_iterate.csv"
@@ -478,19 +486,30 @@ def read_plan_dir(plan_dir: str | Path) -> Plan:
     for path in (plan_path, traj_path):
         if not path.is_file():
             raise TaskFileError(f"{path}: file missing (expected the output of 'forte plan')")
+    for path in (plan_path, traj_path):
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise TaskFileError(f"{path}: {size} bytes; expected at most {MAX_FILE_BYTES} (not a plan of forte's)")
     try:
         meta = json.loads(plan_path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise TaskFileError(f"{plan_path}: not valid JSON: {exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise TaskFileError(f"{plan_path}: not UTF-8 text (offset {exc.start})") from None
+    except (OSError, json.JSONDecodeError) as exc:
+        raise TaskFileError(f"{plan_path}: not valid JSON: {exc}") from None
+    except RecursionError:
+        raise TaskFileError(f"{plan_path}: nested too deeply to be a plan.json") from None
     if not isinstance(meta, dict) or not isinstance(meta.get("robot"), dict):
         raise TaskFileError(f"{plan_path}: field 'robot': expected the robot description object")
     try:
         robot = robot_from_description(meta["robot"])
-    except (ForteError, TypeError, ValueError) as exc:
-        raise TaskFileError(f"{plan_path}: field 'robot': {exc}") from exc
+    except Exception as exc:  # noqa: BLE001 - any malformed field (Pinocchio raises its own types) is bad input
+        raise TaskFileError(f"{plan_path}: field 'robot': expected the description forte wrote, "
+                            f"{type(exc).__name__}: {exc}") from None
     payload = _read_payload(plan_path, meta.get("payload"))
     t, q = _read_trajectory(traj_path, robot)
     force = _read_force(plan_path, meta.get("force"))
+    if force is not None and force.t.size > MAX_WAYPOINTS:
+        raise TaskFileError(f"{plan_path}: field 'force.t': {force.t.size} samples; expected at most {MAX_WAYPOINTS}")
     status = str(meta.get("status", "unknown"))
     return Plan(method=str(meta.get("method", "unknown")), robot=robot, t=t, q=q, force=force, payload=payload,
                 success=status == "success", status=status)
@@ -515,7 +534,7 @@ def _read_force(plan_path: Path, fmeta: Any) -> TaskForce | None:
         f = as_array(fmeta["f"], "force.f", (t.size, 3))
         r = fmeta.get("r", np.zeros(t.size))
         return TaskForce(t, f, as_array(r, "force.r", (t.size,)))
-    except (KeyError, TypeError, AttributeError) as exc:
+    except (KeyError, TypeError, AttributeError, IndexError) as exc:
         raise TaskFileError(f"{plan_path}: field 'force': expected {{'t': [...], 'f': [...], 'r': [...]}}") from exc
     except InvalidInputError as exc:
         raise TaskFileError(f"{plan_path}: field {exc}") from exc
@@ -525,8 +544,10 @@ def _read_trajectory(path: Path, robot: MobileManipulator) -> tuple[FloatArray, 
     expected = trajectory_header(robot.n_arm)
     try:
         rows = list(csv.reader(path.read_text(encoding="utf-8").splitlines()))
-    except (OSError, csv.Error, UnicodeDecodeError) as exc:
-        raise TaskFileError(f"{path}: cannot read: {exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise TaskFileError(f"{path}: not UTF-8 text (offset {exc.start})") from None
+    except (OSError, csv.Error) as exc:
+        raise TaskFileError(f"{path}: cannot read: {exc}") from None
     if not rows:
         raise TaskFileError(f"{path}: empty file (expected header {','.join(expected)})")
     header = [h.strip() for h in rows[0]]
@@ -536,6 +557,8 @@ def _read_trajectory(path: Path, robot: MobileManipulator) -> tuple[FloatArray, 
     body = [r for r in rows[1:] if any(c.strip() for c in r)]
     if not body:
         raise TaskFileError(f"{path}: no waypoint rows after the header")
+    if len(body) > MAX_WAYPOINTS:
+        raise TaskFileError(f"{path}: {len(body)} waypoint rows; expected at most {MAX_WAYPOINTS} (forte's bound)")
     data = np.empty((len(body), len(expected)))
     for i, row in enumerate(body):
         if len(row) != len(expected):
@@ -545,6 +568,8 @@ def _read_trajectory(path: Path, robot: MobileManipulator) -> tuple[FloatArray, 
         t = check_times(data[:, 0], "t")
     except InvalidInputError as exc:
         raise TaskFileError(f"{path}: column {exc}") from exc
+    if t[-1] - t[0] > MAX_DURATION_S:
+        raise TaskFileError(f"{path}: column t: spans {t[-1] - t[0]:g} s; expected at most {MAX_DURATION_S:g} s")
     return t, data[:, 1:]
 
 
