@@ -209,3 +209,34 @@ def test_unexpected_exception_is_one_line_with_a_saved_report(capsys, tmp_path, 
     assert str(report) in err and "Traceback" in report.read_text() and "1 / 0" in report.read_text()
 
 
+
+
+def test_grams_typed_as_kilograms_is_an_infeasible_task(capsys, tmp_path):
+    path = task_file(tmp_path, lambda d: d["payload"].__setitem__("mass", 1500))
+    code, err = run(capsys, "plan", str(path), "--method", "teaching", "--quiet", "--out", str(tmp_path / "o"))
+    assert code == 2 and not (tmp_path / "o").exists()
+    one_error(err, "infeasible task", "1500 kg", "14715.0 N", "343.8 N")
+
+
+def test_negative_margin_is_reported_recorded_and_can_be_required(capsys, tmp_path):
+    out = tmp_path / "o"
+    code, err = run(capsys, "plan", str(HOLD), "--method", "teaching", "--mass", "3.5", "--no-figures",
+                    "--out", str(out))
+    assert code == 0 and "forte: warning: teaching: the force ball leaves the RFP (d < 0) at 1 of 1" in err
+    cap = json.loads((out / "plan.json").read_text())["capacity"]
+    assert cap["sufficient"] is False and cap["negative_margin_waypoints"] == [0] and cap["worst_margin_n"] < -20
+    code, err = run(capsys, "plan", str(HOLD), "--method", "teaching", "--mass", "3.5", "--no-figures", "--quiet",
+                    "--out", str(out), "--require-capacity")
+    assert code == 1
+    one_error(err, "leaves the RFP", "waypoint 0")
+    assert json.loads((out / "plan.json").read_text())["status"] == "success"  # the earlier plan is kept
+    doc = json.loads((tmp_path / "o.failed" / "plan.json").read_text())
+    assert doc["status"] == "failure" and doc["solver_status"] == "insufficient_capacity"
+    path = task_file(tmp_path, lambda d: d.__setitem__("require_capacity", True))
+    code, err = run(capsys, "plan", str(path), "--method", "teaching", "--mass", "3.5", "--no-figures", "--quiet",
+                    "--out", str(tmp_path / "p"))
+    assert code == 1 and not (tmp_path / "p" / "trajectory.csv").exists()
+    code, err = run(capsys, "plan", str(HOLD), "--method", "teaching", "--mass", "1", "--no-figures", "--quiet",
+                    "--out", str(tmp_path / "q"), "--require-capacity")
+    assert code == 0 and err == ""
+    assert json.loads((tmp_path / "q" / "plan.json").read_text())["capacity"]["sufficient"] is True

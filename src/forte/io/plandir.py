@@ -471,7 +471,12 @@ def plan_document(plan: Plan) -> dict[str, Any]:
     if task is not None:
         doc["q_init"] = task.q_init
     if plan.metrics:
+        from forte.planning.sanity import negative_margins
+
         doc["summary"] = plan_summary(plan)
+        doc["capacity"] = negative_margins(plan.metrics)  # where the force ball leaves the RFP (d < 0)
+        doc["capacity"]["required"] = bool(getattr(task, "require_capacity", False) or
+                                           plan.status == "insufficient_capacity")
     doc["versions"] = package_versions()
     return jsonable(doc)
 
