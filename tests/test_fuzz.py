@@ -206,7 +206,7 @@ def argvs(draw):
 
 
 def _argv_case(argv: list[str]) -> None:
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, contextlib.chdir(tmp):  # relative --out paths land in tmp
         (Path(tmp) / "afile").write_text("keep")
         (Path(tmp) / "dir").mkdir()
         (Path(tmp) / "dir" / "mine.txt").write_text("keep")
