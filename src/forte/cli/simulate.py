@@ -100,9 +100,11 @@ def run(args: argparse.Namespace) -> int:
 
     from forte.execution.judge import Thresholds
     from forte.execution.run import simulate_plan
+    from forte.io.plandir import output_lock
 
     if args.video is not None and args.video.suffix.lower() != ".mp4":
         raise InvalidInputError(f"--video: expected a .mp4 file name, got {args.video}")
+    _check_arguments(args)
     th = Thresholds()
     overrides = {k: v for k, v in (("sag", args.sag), ("drop_sag", args.drop_sag),
                                    ("saturation_time", args.saturation_time)) if v is not None}
@@ -114,16 +116,16 @@ def run(args: argparse.Namespace) -> int:
         check_display()
         if not args.quiet:
             print("viewer: the run plays in real time; close the window to finish", file=sys.stderr)
+    out = args.out or args.plan_dir
     from forte import progress
 
-    with progress.step(f"simulating {args.plan_dir} in MuJoCo (1 kHz)"):
-        result = simulate_plan(
+    with output_lock(out), progress.step(f"simulating {args.plan_dir} in MuJoCo (1 kHz)"):
+        result = simulate_plan(  # one writer of sim.csv / sim.json at a time
             args.plan_dir, args.mass, force_feedforward=False if args.no_force else None,
             out_dir=args.out, gains=gains, thresholds=th, hold=args.hold,
             stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video, viewer=args.viewer,
             replan=_replan_options(args),
         )
-    out = args.out or args.plan_dir
     s = result.summary
     if result.success:
         if not args.quiet:
@@ -140,6 +142,44 @@ def run(args: argparse.Namespace) -> int:
     print(f"failure at t = {result.failure_time:.3f} s: {result.reason} ({result.detail}); "
           f"wrote {out}/sim.csv, {out}/sim.json", file=sys.stderr)
     return 1
+
+
+def _check_arguments(args: argparse.Namespace) -> None:
+    """Numbers in range and output paths forte may write, before the (long) simulation."""
+    from forte.io.plandir import check_output, read_plan_dir
+    from forte.validation import MAX_HOLD_S, MAX_MASS_KG
+
+    for flag, value, low, high in (("--hold", args.hold, 0.0, MAX_HOLD_S), ("--mass", args.mass, 0.0, MAX_MASS_KG),
+                                   ("--sag", args.sag, 1e-9, 10.0), ("--drop-sag", args.drop_sag, 1e-9, 10.0),
+                                   ("--saturation-time", args.saturation_time, 1e-9, MAX_HOLD_S)):
+        if value is not None and not low <= value <= high:  # NaN fails too
+            raise InvalidInputError(f"{flag}: expected a number in [{low:g}, {high:g}], got {value}")
+    read_plan_dir(args.plan_dir)  # a missing or tampered plan directory: one line, now
+    if args.out is not None:
+        out = Path(args.out)
+        if out.exists() and out.is_dir() and not _simulation_folder(out):
+            raise InvalidInputError(f"--out {out}: holds files forte did not write; expected a new folder, an empty "
+                                    "one or a plan directory")
+        if not out.is_dir():
+            check_output(out)
+    if args.frames is not None:
+        frames = Path(args.frames)
+        if frames.exists() and (not frames.is_dir() or any(
+                not p.name.startswith("frame_") for p in frames.iterdir())):
+            raise InvalidInputError(f"--frames {frames}: exists and is not a folder of forte's frames; "
+                                    "expected a new or empty folder")
+        if not frames.exists():
+            check_output(frames, "--frames")
+    if args.video is not None and Path(args.video).is_dir():
+        raise InvalidInputError(f"--video {args.video}: is a directory; expected a .mp4 file name")
+
+
+def _simulation_folder(folder: Path) -> bool:
+    """An empty folder, a plan directory, or one holding only forte's simulation results."""
+    from forte.io.plandir import is_forte_output
+
+    names = {p.name for p in folder.iterdir()}
+    return not names or is_forte_output(folder) or names <= {"sim.csv", "sim.json"}
 
 
 def _gains(args: argparse.Namespace) -> Any:
