@@ -66,7 +66,7 @@ def main() -> None:
     # CasADi J1 (smooth surrogate) and its gradient at N = 100, from the twin
     N = 100
     dt = 0.1
-    mapped = capability_stage(CasadiTwin(robot), robot.torque_limits, params).map(N)
+    mapped = capability_stage(CasadiTwin(robot), params).map(N)
     xm, fm, rm = ca.MX.sym("x", robot.nq, N), ca.MX.sym("f", 3, N), ca.MX.sym("r", 1, N)
     prevm = ca.horzcat(xm[:, 0], xm[:, : N - 1])
     prev2m = ca.horzcat(xm[:, 0], xm[:, 0], xm[:, : N - 2])

@@ -28,7 +28,7 @@ from forte.experiments.claims import (
     some_run_fails,
     unloaded_succeeds,
 )
-from forte.experiments.common import Case, methods_for, style, write_summary
+from forte.experiments.common import Case, paper_methods, style, write_summary
 from forte.experiments.continuous import continuous_claims
 from forte.experiments.hold import clip_polygon, polytope_section
 from forte.experiments.lift import lift_claims, lift_notes
@@ -234,10 +234,10 @@ def test_continuous_claims_fail_on_a_failed_solve_of_any_compared_method():
 
 # -- methods, figures, CLI -------------------------------------------------------------------
 def test_every_compared_method_has_its_own_colour():
-    methods = {m for e in ("continuous", "lift", "hold") for m in methods_for(e)}
+    methods = {m for e in ("continuous", "lift", "hold") for m in paper_methods(e)}
     colours = [style(m)[0] for m in methods]
     assert len(set(colours)) == len(methods)
-    assert methods_for("lift")[-1] == "quintic" and methods_for("hold")[-1] == "teaching"
+    assert paper_methods("lift")[-1] == "quintic" and paper_methods("hold")[-1] == "teaching"
 
 
 def test_polytope_section_of_a_cube():

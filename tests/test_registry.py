@@ -97,3 +97,34 @@ def test_every_method_has_a_distinct_colour_and_label():
     styles = [m.style for m in METHODS.values()]
     assert len({s.color for s in styles}) == len(styles)
     assert all(s.label for s in styles)
+
+
+def test_registry_rejects_what_would_load_stale_kernels_or_escape_the_cache():
+    class Loose(CostTerm):  # not a frozen dataclass: its state would not be in the cache key
+        name: ClassVar[str] = "loose"
+
+    with pytest.raises(InvalidInputError, match="frozen dataclass"):
+        register_term(Loose)
+    with pytest.raises(InvalidInputError, match="method name"):
+        Method("../escape", "", terms=("manipulability",))
+    with pytest.raises(InvalidInputError, match="weights: 'capabilty' is not one of its terms"):
+        Method("typo", "", terms=("capability",), weights={"capabilty": 3.0})
+
+
+def test_baked_arrays_enter_the_key_exactly(robot):
+    @dataclass(frozen=True)
+    class Offset(CostTerm):
+        name: ClassVar[str] = "offset_toy"
+        offset: tuple[float, ...] = (0.0,)
+
+        def stage(self, s: Stage) -> ca.SX:
+            return ca.sumsqr(s.q0[:1] - self.offset[0])
+
+    a, b = Offset((0.123456789012,)), Offset((0.123456789013,))
+    assert a.baked() != b.baked()  # 1e-12 apart: different kernels
+
+
+def test_a_method_object_that_is_not_registered_plans_too():
+    task = load_task(LIFT, waypoints=5)
+    custom = Method("unregistered-manip", "", terms=("manipulability", "joint_limits"))
+    assert plan(task, custom).method == "unregistered-manip"

@@ -70,7 +70,7 @@ def __getattr__(name: str) -> Any:
     if name not in _API:
         raise AttributeError(f"module 'forte' has no attribute '{name}'")
     module = importlib.import_module(_API[name])
-    value = getattr(module, "simulate_plan" if name == "simulate" else name)
+    value = getattr(module, name)
     globals()[name] = value
     return value
 

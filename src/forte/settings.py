@@ -21,8 +21,7 @@ from typing import Any
 import numpy as np
 
 from forte.exceptions import InvalidInputError
-
-FloatArray = np.ndarray
+from forte.validation import FloatArray
 
 
 def _require(condition: bool, name: str, expected: str, value: Any) -> None:

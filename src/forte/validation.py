@@ -11,6 +11,30 @@ from forte.exceptions import InvalidInputError
 
 FloatArray = NDArray[np.float64]
 
+# Documented upper bounds, checked before anything is allocated from an input (a typo or a
+# hostile file must give one line, never exhaust memory).
+#: Waypoints of a trajectory (``--waypoints``, ``path.samples``, ``rate`` x duration, CSV rows).
+MAX_WAYPOINTS = 2000
+#: Duration of a path or a plan, and time stamps, in seconds.
+MAX_DURATION_S = 3600.0
+#: Seconds simulated after a plan's end (``forte simulate --hold``).
+MAX_HOLD_S = 600.0
+#: Payload mass accepted as a number (kg); physics decides below this (planning.sanity).
+MAX_MASS_KG = 10_000.0
+#: Bytes of a task file, plan.json, a CSV or an image read from disk.
+MAX_FILE_BYTES = 64 * 2**20
+#: Pixels of an image array.
+MAX_IMAGE_PIXELS = 50_000_000
+
+
+def reject_bools(value: Any, name: str, _depth: int = 0) -> None:
+    """``True``/``False`` are not numbers: raise when ``value`` (or a list inside it) holds one."""
+    if isinstance(value, bool | np.bool_):
+        raise InvalidInputError(f"{name}: expected a number, got {value!r}")
+    if isinstance(value, list | tuple) and _depth < 4:
+        for item in value[:10_000]:
+            reject_bools(item, name, _depth + 1)
+
 
 def as_array(value: Any, name: str, shape: tuple[int | None, ...]) -> FloatArray:
     """Return ``value`` as a finite float array of ``shape`` (``None`` = any length).
@@ -19,10 +43,11 @@ def as_array(value: Any, name: str, shape: tuple[int | None, ...]) -> FloatArray
         InvalidInputError: naming ``name``, the expected and the received shape, or the first
             non-finite entry.
     """
+    reject_bools(value, name)
     try:
         arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name}: expected numbers, got {value!r}") from exc
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InvalidInputError(f"{name}: expected numbers, got {_short(value)}") from exc
     dims = tuple("N" if s is None else str(s) for s in shape)
     expected = "(" + ", ".join(dims) + ("," if len(dims) == 1 else "") + ")"
     if arr.ndim != len(shape) or any(
@@ -44,9 +69,10 @@ def as_vector(value: Any, name: str, size: int) -> FloatArray:
 
 def as_positive(value: Any, name: str, allow_zero: bool = False) -> float:
     """A finite scalar > 0 (or >= 0 with ``allow_zero``)."""
+    reject_bools(value, name)
     try:
         x = float(value)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise InvalidInputError(f"{name}: expected a number, got {value!r}") from exc
     if not np.isfinite(x) or x < 0 or (x == 0 and not allow_zero):
         bound = ">= 0" if allow_zero else "> 0"
@@ -68,3 +94,9 @@ def check_times(t: Any, name: str = "t") -> FloatArray:
             f"got {times[k - 1]} then {times[k]}"
         )
     return times
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    """``repr(value)`` cut to ``limit`` characters (a message stays one readable line)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."

@@ -56,7 +56,27 @@ def _add_vlm_options(p: argparse.ArgumentParser) -> None:
     )
 
 
+#: Upper bounds of the numeric options (documented; checked before any work).
+MAX_BOOTSTRAP, MAX_WORKERS, MAX_RETRIES, MAX_TIMEOUT_S = 100_000, 64, 20, 3600.0
+
+
+def _check_numbers(args: argparse.Namespace) -> None:
+    """Every numeric option in its range (NaN and inf fail), one line naming the option."""
+    from forte.validation import MAX_MASS_KG
+
+    checks = [("--timeout", args.timeout, 1e-3, MAX_TIMEOUT_S), ("--retries", args.retries, 0, MAX_RETRIES),
+              ("--backoff", args.backoff, 0.0, MAX_TIMEOUT_S)]
+    if hasattr(args, "r_min"):
+        checks += [("--r-min", args.r_min, 0.0, 1e6), ("--mass", args.mass, 1e-12, MAX_MASS_KG)]
+    if hasattr(args, "bootstrap"):
+        checks += [("--bootstrap", args.bootstrap, 0, MAX_BOOTSTRAP), ("--workers", args.workers, 1, MAX_WORKERS)]
+    for flag, value, low, high in checks:
+        if value is not None and not low <= value <= high:
+            raise InvalidInputError(f"{flag}: expected a number in [{low:g}, {high:g}], got {value}")
+
+
 def _vlm_config(args: argparse.Namespace) -> VLMConfig | None:
+    _check_numbers(args)
     if not args.vlm_base_url:
         return None
     if args.retries < 0:
@@ -117,6 +137,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run_estimate_mass(args: argparse.Namespace) -> int:
     if args.image is None and not args.description and args.mass is None:
         raise InvalidInputError("estimate-mass: give --image, --description or both (or --mass)")
+    if args.image is not None:  # checked even when the estimator would not look at it
+        from forte.force.images import image_bytes
+
+        image_bytes(args.image, option="--image")
     vlm = _vlm_config(args)
     cache = args.cache_dir if args.cache_dir is not None else (default_cache_dir() if vlm else None)
     estimate = estimate_payload(args.description, args.image, mass=args.mass, vlm=vlm, cache_dir=cache)
@@ -127,8 +151,11 @@ def run_estimate_mass(args: argparse.Namespace) -> int:
 
 
 def run_bench_mass(args: argparse.Namespace) -> int:
-    if args.workers < 1:
-        raise InvalidInputError(f"--workers: expected >= 1, got {args.workers}")
+    from forte.io.plandir import check_output, output_lock, replace_directory
+
+    _check_numbers(args)
+    out = Path(args.out)
+    check_output(out)  # before any work: a folder of the user's is never written into
     items = load_dataset(args.dataset)
     vlm = _vlm_config(args)
     estimator: MassEstimator
@@ -144,16 +171,16 @@ def run_bench_mass(args: argparse.Namespace) -> int:
         items, estimator, workers=args.workers, progress=None if args.quiet else sys.stderr
     )
     summary = summarize_results(results, n_boot=args.bootstrap)
-    out = Path(args.out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "results.md").write_text(markdown_table(summary, label, args.dataset.name), encoding="utf-8")
-        write_per_item_csv(results, out / "items.csv")
-        (out / "summary.json").write_text(
-            json.dumps({"estimator": label, **summary}, indent=2, allow_nan=True), encoding="utf-8"
-        )
-    except OSError as exc:
-        raise InvalidInputError(f"--out {str(out)!r}: cannot write results ({exc.strerror or exc})") from exc
+
+    def build(tmp: Path) -> None:
+        (tmp / "results.md").write_text(markdown_table(summary, label, args.dataset.name), encoding="utf-8")
+        write_per_item_csv(results, tmp / "items.csv")
+        (tmp / "summary.json").write_text(
+            json.dumps({"generator": "forte", "estimator": label, **summary}, indent=2, allow_nan=True),
+            encoding="utf-8")
+
+    with output_lock(out):
+        replace_directory(build, out)
     m = summary["metrics"]
     print(
         f"{label}: {summary['n_ok']}/{summary['n_items']} estimated, {summary['n_failed']} failed; "

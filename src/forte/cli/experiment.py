@@ -11,10 +11,13 @@ EXPERIMENTS: dict[str, tuple[str, str]] = {
     "continuous": ("run_continuous", "5.2, continuous trajectory with a time-varying force"),
     "lift": ("run_lift", "5.3, lifting with 0.33 L and 2.7 L payloads"),
     "hold": ("run_hold", "5.4, single-point holding with 0.33 L and 2.7 L payloads"),
+    "replan": ("run_replan", "6 (future work), online re-planning with a misjudged or growing payload"),
 }
 #: Figure formats (the same as :data:`forte.experiments.common.FORMATS`, kept here so that
 #: ``forte --help`` does not import the planner).
 FORMATS = ("png", "pdf", "svg")
+#: Upper bound of --trials (documented).
+MAX_TRIALS = 1000
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,14 +44,18 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run_experiment(args: argparse.Namespace) -> int:
     """Run the chosen experiment; print its summary.md unless ``--quiet``."""
     import forte.experiments as experiments  # the runners load the planner and MuJoCo
+    from forte.io.plandir import check_output, output_lock
+    from forte.validation import MAX_WAYPOINTS
 
-    if args.trials < 0:
-        print("forte: error: --trials must be >= 0", file=sys.stderr)
+    if not 0 <= args.trials <= MAX_TRIALS:
+        print(f"forte: error: --trials: expected 0 to {MAX_TRIALS}, got {args.trials}", file=sys.stderr)
         return 2
-    if args.waypoints is not None and args.waypoints < 2:
-        print("forte: error: --waypoints must be >= 2", file=sys.stderr)
+    if args.waypoints is not None and not 2 <= args.waypoints <= MAX_WAYPOINTS:
+        print(f"forte: error: --waypoints: expected 2 to {MAX_WAYPOINTS}, got {args.waypoints}", file=sys.stderr)
         return 2
     out = args.out or Path("runs") / "experiments" / args.name
+
+    check_output(out)  # before minutes of planning: never replace what forte did not write
 
     def log(text: str) -> None:
         if not args.quiet:
@@ -58,7 +65,10 @@ def run_experiment(args: argparse.Namespace) -> int:
     kwargs = {"trials": args.trials, "waypoints": args.waypoints, "log": log, "fmt": getattr(args, "fmt", "png")}
     if args.name != "continuous":
         kwargs["seed"] = args.seed
-    func(out, **kwargs)
+    check_output(out)  # before any work: never run for minutes and then refuse
+    with output_lock(out):
+        check_output(out)
+        func(out, **kwargs)
     if not args.quiet:
         print((out / "summary.md").read_text())
         print(f"wrote {out}", file=sys.stderr)

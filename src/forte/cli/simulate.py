@@ -6,8 +6,9 @@ unavailable).
 
 Controller gains: the defaults of :mod:`forte.execution.gains` (Franka's on the Panda, the
 bandwidth rule ``K_i = M_ii (2 pi f)^2``, ``D_i = 2 zeta sqrt(K_i M_ii)`` on other arms);
-``--gains FILE.yaml`` holds a ``controller:`` mapping (or the mapping's fields at the top
-level), and ``--bandwidth`` / ``--damping-ratio`` set the rule's ``f`` and ``zeta`` on top.
+the task file's ``controller:`` block (recorded in plan.json) replaces them; ``--gains FILE.yaml``
+holds a ``controller:`` mapping (or the mapping's fields at the top level) used instead of the
+task's, and ``--bandwidth`` / ``--damping-ratio`` set the rule's ``f`` and ``zeta`` on top.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "paper's controllers at 1 kHz and write PLAN_DIR/sim.csv and PLAN_DIR/sim.json.",
     )
     p.add_argument("plan_dir", type=Path, metavar="PLAN_DIR", help="output folder of 'forte plan'")
-    p.add_argument("--mass", type=float, default=None,
+    p.add_argument("--mass", "--true-mass", dest="mass", type=float, default=None,
                    help="true payload mass in kg (default: the plan's payload mass). A different "
                    "mass > 0 models an estimation error (the force feedforward keeps the plan's "
                    "force); 0 means no payload: no payload and no force feedforward")
@@ -65,8 +66,33 @@ def register(sub: argparse._SubParsersAction) -> None:
                        help="watch the run in MuJoCo's interactive viewer, in real time (needs a display); "
                        "the results are written when the run ends, the command returns when the window "
                        "is closed")
+    p.add_argument("--replan", action="store_true",
+                   help="identify the payload from the joint torques and re-plan the remaining motion at "
+                   "--replan-rate when the estimate departs from the plan's mass")
+    p.add_argument("--replan-rate", type=float, default=10.0, metavar="HZ", help="re-plan check rate (10 Hz)")
+    p.add_argument("--add-mass", type=_time_and_mass, default=None, metavar="T:KG",
+                   help="the payload gains KG kilograms at time T seconds (with or without --replan)")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=run)
+
+
+def _time_and_mass(text: str) -> tuple[float, float]:
+    try:
+        t, kg = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected T:KG (seconds:kilograms), got {text!r}") from None
+    if not (t >= 0 and kg > 0):
+        raise argparse.ArgumentTypeError(f"expected T >= 0 s and KG > 0, got {text!r}")
+    return t, kg
+
+
+def _replan_options(args: argparse.Namespace) -> object | None:
+    if not args.replan and args.add_mass is None:
+        return None
+    from forte.execution.closed_loop import ReplanOptions
+
+    # without --replan a mass change is simulated (and identified) but never re-planned for
+    return ReplanOptions(rate_hz=args.replan_rate, add_mass=args.add_mass, enabled=args.replan)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -74,9 +100,11 @@ def run(args: argparse.Namespace) -> int:
 
     from forte.execution.judge import Thresholds
     from forte.execution.run import simulate_plan
+    from forte.io.plandir import output_lock
 
     if args.video is not None and args.video.suffix.lower() != ".mp4":
         raise InvalidInputError(f"--video: expected a .mp4 file name, got {args.video}")
+    _check_arguments(args)
     th = Thresholds()
     overrides = {k: v for k, v in (("sag", args.sag), ("drop_sag", args.drop_sag),
                                    ("saturation_time", args.saturation_time)) if v is not None}
@@ -88,35 +116,89 @@ def run(args: argparse.Namespace) -> int:
         check_display()
         if not args.quiet:
             print("viewer: the run plays in real time; close the window to finish", file=sys.stderr)
-    result = simulate_plan(
-        args.plan_dir, args.mass, force_feedforward=False if args.no_force else None,
-        out_dir=args.out, gains=gains, thresholds=th, hold=args.hold,
-        stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video, viewer=args.viewer,
-    )
     out = args.out or args.plan_dir
+    from forte import progress
+
+    with output_lock(out), progress.step(f"simulating {args.plan_dir} in MuJoCo (1 kHz)"):
+        result = simulate_plan(  # one writer of sim.csv / sim.json at a time
+            args.plan_dir, args.mass, force_feedforward=False if args.no_force else None,
+            out_dir=args.out, gains=gains, thresholds=th, hold=args.hold,
+            stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video, viewer=args.viewer,
+            replan=_replan_options(args),
+        )
     s = result.summary
     if result.success:
         if not args.quiet:
             print(f"success: {s['duration']:.2f} s simulated in {s['wall_time_s']:.2f} s, max end-effector "
                   f"error {1000 * s['max_ee_error_m']:.1f} mm; wrote {out}/sim.csv, {out}/sim.json")
+    if "replanning" in s and not args.quiet:
+        r = s["replanning"]
+        latency = (f"; latency median {1000 * r['latency_median_s']:.0f} ms, p95 {1000 * r['latency_p95_s']:.0f} ms, "
+                   f"max {1000 * r['latency_max_s']:.0f} ms" if r["replans"] else "")
+        print(f"payload estimate {r['final_mass_estimate']:.3f} kg (sigma {r['final_sigma']:.4f}); "
+              f"{r['replans']} re-plans ({r['replans_failed']} not converged){latency}", file=sys.stderr)
+    if result.success:
         return 0
     print(f"failure at t = {result.failure_time:.3f} s: {result.reason} ({result.detail}); "
           f"wrote {out}/sim.csv, {out}/sim.json", file=sys.stderr)
     return 1
 
 
-def _gains(args: argparse.Namespace) -> Any:
-    """``ControlGains`` from ``--gains``/``--bandwidth``/``--damping-ratio``, or None (defaults).
+def _check_arguments(args: argparse.Namespace) -> None:
+    """Numbers in range and output paths forte may write, before the (long) simulation."""
+    from forte.io.plandir import check_output, read_plan_dir
+    from forte.validation import MAX_HOLD_S, MAX_MASS_KG
 
-    The file's fields are checked against the plan's robot here, so that errors name the file.
+    for flag, value, low, high in (("--hold", args.hold, 0.0, MAX_HOLD_S), ("--mass", args.mass, 0.0, MAX_MASS_KG),
+                                   ("--sag", args.sag, 1e-9, 10.0), ("--drop-sag", args.drop_sag, 1e-9, 10.0),
+                                   ("--saturation-time", args.saturation_time, 1e-9, MAX_HOLD_S)):
+        if value is not None and not low <= value <= high:  # NaN fails too
+            raise InvalidInputError(f"{flag}: expected a number in [{low:g}, {high:g}], got {value}")
+    read_plan_dir(args.plan_dir)  # a missing or tampered plan directory: one line, now
+    if args.out is not None:
+        out = Path(args.out)
+        if out.exists() and out.is_dir() and not _simulation_folder(out):
+            raise InvalidInputError(f"--out {out}: holds files forte did not write; expected a new folder, an empty "
+                                    "one or a plan directory")
+        if not out.is_dir():
+            check_output(out)
+    if args.frames is not None:
+        frames = Path(args.frames)
+        if frames.exists() and (not frames.is_dir() or any(
+                not p.name.startswith("frame_") for p in frames.iterdir())):
+            raise InvalidInputError(f"--frames {frames}: exists and is not a folder of forte's frames; "
+                                    "expected a new or empty folder")
+        if not frames.exists():
+            check_output(frames, "--frames")
+    if args.video is not None and Path(args.video).is_dir():
+        raise InvalidInputError(f"--video {args.video}: is a directory; expected a .mp4 file name")
+
+
+def _simulation_folder(folder: Path) -> bool:
+    """An empty folder, a plan directory, or one holding only forte's simulation results."""
+    from forte.io.plandir import is_forte_output
+
+    names = {p.name for p in folder.iterdir()}
+    return not names or is_forte_output(folder) or names <= {"sim.csv", "sim.json"}
+
+
+def _gains(args: argparse.Namespace) -> Any:
+    """``ControlGains`` from ``--gains`` (else the task's ``controller:`` block recorded in plan.json)
+    with ``--bandwidth``/``--damping-ratio`` on top, or None (defaults).
+
+    The fields are checked against the plan's robot here, so that errors name the file.
     """
     from forte.execution.gains import gains_from_mapping
-    from forte.io.plandir import read_plan_dir
+    from forte.io.plandir import PLAN_FILE, read_controller, read_plan_dir
     from forte.model.robot import N_BASE
 
-    if args.gains is None and args.bandwidth is None and args.damping_ratio is None:
+    if args.gains is not None:
+        mapping, prefix = _read_gains_file(args.gains)
+    else:
+        mapping = read_controller(args.plan_dir) if (args.plan_dir / PLAN_FILE).is_file() else {}
+        prefix = f"{args.plan_dir / PLAN_FILE}: controller."
+    if not mapping and args.bandwidth is None and args.damping_ratio is None:
         return None
-    mapping, prefix = ({}, "") if args.gains is None else _read_gains_file(args.gains)
     for flag, key, value in (("--bandwidth", "bandwidth_hz", args.bandwidth),
                              ("--damping-ratio", "damping_ratio", args.damping_ratio)):
         if value is not None:

@@ -220,6 +220,28 @@ def build_sim_model(
         SimulationError: when the URDF cannot be turned into a MuJoCo model.
     """
     payload_mass = as_positive(payload_mass, "mass", allow_zero=True)
+    rotor = armature_vector(armature, robot.n_arm)
+    spec = build_sim_spec(robot, payload_mass, payload_com=payload_com, payload_radius=payload_radius,
+                          meshes=meshes, timestep=timestep, base_mass=base_mass, base_inertia=base_inertia,
+                          base_kv=base_kv, armature=rotor)
+    return _index_model(robot, _compile(spec), payload_mass, rotor)
+
+
+def build_sim_spec(
+    robot: MobileManipulator,
+    payload_mass: float = 0.0,
+    *,
+    payload_com: Any = (0.0, 0.0, 0.0),
+    payload_radius: float = 0.05,
+    meshes: bool = False,
+    timestep: float = 1e-3,
+    base_mass: float = BASE_MASS,
+    base_inertia: tuple[float, float, float] = BASE_INERTIA,
+    base_kv: tuple[float, float, float] = BASE_KV,
+    armature: Any = ARM_ARMATURE,
+) -> mujoco.MjSpec:
+    """The ``MjSpec`` that :func:`build_sim_model` compiles (same arguments)."""
+    payload_mass = as_positive(payload_mass, "mass", allow_zero=True)
     timestep = as_positive(timestep, "timestep")
     com = as_vector(payload_com, "payload_com", 3)
     rotor = armature_vector(armature, robot.n_arm)
@@ -233,11 +255,25 @@ def build_sim_model(
     frame.attach_body(root, ARM_PREFIX, "")
     _add_end_effector(spec, robot, payload_mass, com, payload_radius)
     _add_actuators(spec, robot, base_kv)
+    return spec
+
+
+def _compile(spec: mujoco.MjSpec) -> mujoco.MjModel:
     try:
-        model = spec.compile()
+        return spec.compile()
     except Exception as exc:
         raise SimulationError(f"simulation model: MuJoCo compile failed: {exc}") from exc
-    return _index_model(robot, model, payload_mass, rotor)
+
+
+def whole_body_mjcf(robot: MobileManipulator, payload_mass: float = 0.0, meshes: bool = True) -> str:
+    """The simulation model of ``robot`` (base joints ``base_x``, ``base_y``, ``base_yaw``, the arm
+    under :data:`ARM_PREFIX`, torque motors and base velocity actuators) as MJCF text.
+
+    Mesh files are referenced by absolute path, so the file loads from anywhere on this machine.
+    """
+    spec = build_sim_spec(robot, payload_mass, meshes=meshes)
+    _compile(spec)  # to_xml needs a compiled spec
+    return spec.to_xml()
 
 
 def _world_spec(robot: MobileManipulator, timestep: float) -> mujoco.MjSpec:

@@ -23,7 +23,7 @@ from __future__ import annotations
 import io
 import json
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
@@ -166,6 +166,7 @@ def run_simulation(
     record_every: int = 10,
     stop_on_failure: bool = False,
     sinks: Sequence[FrameSink] = (),
+    after_step: Callable[[int, FloatArray, FloatArray], None] | None = None,
 ) -> SimResult:
     """Run the controllers on ``sim`` along ``reference`` (sampled at every control step).
 
@@ -173,7 +174,9 @@ def run_simulation(
     (``reference.t`` must be ``k * timestep``). With ``reaction_force`` the environment's
     reaction ``-f_d`` is applied at the end-effector point. Each of ``sinks`` (offscreen
     recorder, live viewer) captures the state every ``sink.every`` steps. ``gains`` default to
-    :func:`forte.execution.gains.default_gains` at the start configuration.
+    :func:`forte.execution.gains.default_gains` at the start configuration. ``after_step(k, q,
+    dq)`` runs after every step (state before it); it may change the reference's future rows
+    (closed-loop re-planning, :mod:`forte.execution.closed_loop`).
     """
     gains = gains or default_gains(sim.robot, reference.q[0, N_BASE:], sim.armature)
     th = thresholds or Thresholds()
@@ -199,6 +202,8 @@ def run_simulation(
         if stop_on_failure and judge.reason is not None:
             break
         mujoco.mj_step(sim.model, sim.data)
+        if after_step is not None:
+            after_step(k, q, dq)
     wall = time.perf_counter() - start
     summary = {
         "duration": float(steps_run * dt),
@@ -231,6 +236,7 @@ def simulate_plan(
     fps: float = 30.0,
     viewer: bool = False,
     write: bool = True,
+    replan: Any = None,
 ) -> SimResult:
     """Simulate the plan in ``plan_dir`` and (with ``write``) store ``sim.csv`` and ``sim.json``.
 
@@ -260,6 +266,8 @@ def simulate_plan(
         frames_dir, video: Offscreen rendering to PNG frames / an mp4 file at ``fps``.
         viewer: Show the run in MuJoCo's interactive viewer, paced to real time; after the
             run (and after writing the results) wait until the user closes the window.
+        replan: :class:`~forte.execution.closed_loop.ReplanOptions` to identify the payload
+            online and re-plan the remaining motion (:mod:`forte.execution.closed_loop`).
         write: Write ``sim.csv``/``sim.json``, after the run, each through a temporary file
             and a rename: an interrupted or crashed run never replaces earlier results.
 
@@ -290,13 +298,20 @@ def simulate_plan(
     reference = _plan_reference(plan, sim.timestep, hold)
     recorder = FrameRecorder(sim, _optional_path(frames_dir), _optional_path(video), fps) if offscreen else None
     live = LiveViewer(sim) if viewer else None
+    loop = None
+    if replan is not None:
+        from forte.execution.closed_loop import make_replan_loop
+
+        loop = make_replan_loop(Path(plan_dir), plan, sim, reference, replan)
     result = run_simulation(
         sim, reference, gains=gains, thresholds=thresholds,
         reaction_force=plan.payload.mass is None and plan.force is not None and bool(np.any(plan.force.f)),
         record_every=record_every, stop_on_failure=stop_on_failure,
-        sinks=[s for s in (recorder, live) if s is not None],
+        sinks=[s for s in (recorder, live) if s is not None], after_step=loop,
     )
     result.summary.update(_run_facts(plan, Path(plan_dir), sim, gains))
+    if loop is not None:
+        result.summary["replanning"] = loop.summary()
     if recorder is not None:
         result.summary["rendered"] = [str(p) for p in recorder.finish()]
     if write:
@@ -360,3 +375,7 @@ def write_results(result: SimResult, out_dir: Path) -> tuple[Path, Path]:
     atomic_write(csv_path, buf.getvalue())
     atomic_write(json_path, json.dumps(result.to_json(), indent=1) + "\n")
     return csv_path, json_path
+
+
+#: ``forte.simulate``: the public name of :func:`simulate_plan`.
+simulate = simulate_plan

@@ -24,9 +24,9 @@ from __future__ import annotations
 from importlib import import_module
 from typing import Any
 
-__all__ = ["run_continuous", "run_hold", "run_lift"]
+__all__ = ["run_continuous", "run_hold", "run_lift", "run_replan"]
 
-_RUNNERS = {"run_continuous": "continuous", "run_lift": "lift", "run_hold": "hold"}
+_RUNNERS = {"run_continuous": "continuous", "run_lift": "lift", "run_hold": "hold", "run_replan": "replan"}
 
 
 def __getattr__(name: str) -> Any:

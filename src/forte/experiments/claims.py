@@ -30,7 +30,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from forte.experiments.common import Case
-    from forte.planning.planner import PlanResult
+    from forte.planning.planner import Plan
 
 
 def fmt_num(value: Any, digits: int = 2) -> str:
@@ -102,7 +102,7 @@ def compare(left: str, value: float, op: str, right: str, bound: float, unit: st
     return Check(f"{left} {_SYMBOLS[op]} {right}", ok, f"{value:.{digits}f} vs {bound:.{digits}f}{unit}")
 
 
-def solved(results: dict[str, PlanResult], *methods: str) -> Check:
+def solved(results: dict[str, Plan], *methods: str) -> Check:
     """The plans of ``methods`` are solutions (a failed solve's metrics are its last iterate's)."""
     missing = [m for m in methods if m not in results]
     failed = [m for m in methods if m in results and not results[m].success]

@@ -14,13 +14,14 @@ from typing import Any
 
 import numpy as np
 
+from forte import progress
 from forte.execution.run import simulate_plan
 from forte.experiments.claims import Claim, claims_section, fmt_num
 from forte.io.figures import pyplot
-from forte.io.plandir import plan_summary, write_plan
+from forte.io.plandir import FORMAT_VERSION, GENERATOR, TRAJECTORY_FILE, plan_summary, write_plan
 from forte.io.reports import jsonable, package_versions
 from forte.planning.methods import METHODS, method_names
-from forte.planning.planner import PlanResult, plan
+from forte.planning.planner import Plan, plan
 from forte.planning.tasks import load_task
 
 TASKS_DIR = Path(__file__).resolve().parents[3] / "examples" / "tasks"
@@ -34,7 +35,7 @@ DPI = 150
 
 Log = Callable[[str], None]
 
-def methods_for(experiment: str) -> tuple[str, ...]:
+def paper_methods(experiment: str) -> tuple[str, ...]:
     """The methods the paper compares in ``experiment`` ("continuous", "lift" or "hold"), in order.
 
     From the method registry: every method marked ``in_paper`` for the experiment's mode (the
@@ -62,7 +63,7 @@ class Case:
 
     label: str
     mass: float | None
-    results: dict[str, PlanResult] = field(default_factory=dict)
+    results: dict[str, Plan] = field(default_factory=dict)
     sims: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
@@ -74,7 +75,7 @@ def task_path(name: str) -> Path:
     return path
 
 
-def plan_methods(task: Any, methods: tuple[str, ...], log: Log, tag: str) -> dict[str, PlanResult]:
+def plan_methods(task: Any, methods: tuple[str, ...], log: Log, tag: str) -> dict[str, Plan]:
     """Plan ``task`` with every method, logging one line each."""
     out = {}
     for method in methods:
@@ -97,7 +98,7 @@ def plan_payloads(name: str, methods: tuple[str, ...], waypoints: int | None, lo
     return cases
 
 
-def metrics(res: PlanResult) -> dict[str, Any]:
+def metrics(res: Plan) -> dict[str, Any]:
     """Planning quantities the paper discusses (per plan)."""
     cap, mag, r = res.metrics["directional_capacity"], res.force.magnitude, res.force.r
     return {
@@ -126,7 +127,7 @@ def mean_std(values: list[float]) -> tuple[float | None, float | None]:
 def simulate_runs(plan_dir: Path, mass: float | None, trials: int, rng: np.random.Generator,
                   hold: float) -> dict[str, Any]:
     """Nominal simulation (written to the plan dir) plus ``trials`` runs with a payload-mass error."""
-    if not (plan_dir / "trajectory.csv").exists():
+    if not (plan_dir / TRAJECTORY_FILE).exists():
         return {"verdict": "not simulated", "reason": "planning failed (no trajectory)", "failure_time": None}
     nominal = simulate_plan(plan_dir, mass, hold=hold)
     out: dict[str, Any] = {"verdict": "success" if nominal.success else "failure", "reason": nominal.reason,
@@ -157,7 +158,8 @@ def simulate_cases(tmp: Path, cases: list[Case], trials: int, seed: int, log: Lo
     for case in cases:
         for method, res in case.results.items():
             d = write_plan(res, tmp / f"{case.mass}kg" / method, figures=False)
-            case.sims[method] = simulate_runs(d, case.mass, trials, rng, hold)
+            with progress.step(f"simulating {method} at {case.mass} kg (nominal + {trials} trials)"):
+                case.sims[method] = simulate_runs(d, case.mass, trials, rng, hold)
             log(f"  simulated {case.label} {method}: {sim_text(case.sims[method])}")
 
 
@@ -166,7 +168,7 @@ def unloaded_runs(tmp: Path, case: Case, hold: float, log: Log) -> dict[str, dic
     out = {}
     for method in case.results:
         d = tmp / f"{case.mass}kg" / method
-        if (d / "trajectory.csv").exists():
+        if (d / TRAJECTORY_FILE).exists():
             r = simulate_plan(d, 0.0, hold=hold, write=False)
             out[method] = {"label": "no payload", "mass": 0.0, "success": r.success, "reason": r.reason,
                            "failure_time": r.failure_time}
@@ -216,6 +218,7 @@ def write_summary(directory: Path, title: str, intro: list[str], cases: list[Cas
                   figures: list[str], settings: dict[str, Any], notes: list[str]) -> dict[str, Any]:
     """``summary.json`` and ``summary.md``: per-case tables, the paper's claims, our notes, figures."""
     doc = {
+        "generator": GENERATOR, "format_version": FORMAT_VERSION,
         "experiment": title,
         "settings": settings,
         "cases": {c.label: {"mass": c.mass,
@@ -253,7 +256,7 @@ def save(fig: Any, directory: Path, stem: str, fmt: str) -> str:
     return name
 
 
-def band(ax: Any, res: PlanResult) -> None:
+def band(ax: Any, res: Plan) -> None:
     """The desired force magnitude |f| (black) and its uncertainty band |f| ± r (orange) over time."""
     mag, r = res.force.magnitude, res.force.r
     ax.fill_between(res.t, mag - r, mag + r, color="orange", alpha=0.3, lw=0, label="|f| ± r (desired force ± r)")

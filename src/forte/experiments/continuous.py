@@ -24,7 +24,7 @@ from forte.experiments.common import (
     check_format,
     mean_std,
     method_line,
-    methods_for,
+    paper_methods,
     plan_methods,
     quiet,
     save,
@@ -35,13 +35,13 @@ from forte.experiments.common import (
 )
 from forte.io.figures import pyplot
 from forte.io.plandir import replace_directory, write_plan
-from forte.planning.planner import PlanResult
+from forte.planning.planner import Plan
 from forte.planning.tasks import load_task
 
 LABEL = "force profile (Section 5.2)"
 
 
-def plot_continuous(results: dict[str, PlanResult], directory: Path, fmt: str) -> str:
+def plot_continuous(results: dict[str, Plan], directory: Path, fmt: str) -> str:
     """Capacity along f (top) and manipulability (bottom) vs time; legend outside the axes."""
     plt = pyplot()
     fig, (ax_c, ax_m) = plt.subplots(2, 1, figsize=(8, 5.6), sharex=True, layout="constrained")
@@ -62,11 +62,11 @@ def plot_continuous(results: dict[str, PlanResult], directory: Path, fmt: str) -
     return save(fig, directory, "continuous", fmt)
 
 
-def _plan_trials(task: Any, trials: int, log: Log) -> list[dict[str, PlanResult]]:
-    return [plan_methods(task, methods_for("continuous"), log, f"trial {k + 1}:") for k in range(max(trials, 1))]
+def _plan_trials(task: Any, trials: int, log: Log) -> list[dict[str, Plan]]:
+    return [plan_methods(task, paper_methods("continuous"), log, f"trial {k + 1}:") for k in range(max(trials, 1))]
 
 
-def _variation(per_trial: list[dict[str, PlanResult]]) -> dict[str, dict[str, Any]]:
+def _variation(per_trial: list[dict[str, Plan]]) -> dict[str, dict[str, Any]]:
     """Per method: solve time mean/std and the largest capacity spread over the planning trials."""
     out = {}
     for method in per_trial[0]:
@@ -87,7 +87,8 @@ def run_continuous(out: str | Path, trials: int = 3, waypoints: int | None = Non
     """
     out, fmt = Path(out), check_format(fmt)
     task = load_task(task_path("continuous"), waypoints=waypoints)
-    log(f"continuous: {task.n} waypoints, {len(methods_for('continuous'))} methods, {max(trials, 1)} planning trial(s)")
+    log(f"continuous: {task.n} waypoints, {len(paper_methods('continuous'))} methods, "
+        f"{max(trials, 1)} planning trial(s)")
     per_trial = _plan_trials(task, trials, log)
     case = Case(LABEL, None, per_trial[-1])
     variation = _variation(per_trial)
@@ -103,7 +104,7 @@ def run_continuous(out: str | Path, trials: int = 3, waypoints: int | None = Non
         notes = continuous_notes(per_trial[-1]) + [
             "Spread over the planning trials (max over waypoints of max − min capacity, N): "
             + ", ".join(f"{m} {v['max_capacity_spread_N']:.2g}" for m, v in variation.items()) + "."]
-        ref = case.results[methods_for("continuous")[0]]
+        ref = case.results[paper_methods("continuous")[0]]
         write_summary(tmp, "Section 5.2: continuous trajectory with a time-varying task force", [
             f"Task `examples/tasks/continuous.yaml`, {task.n} waypoints over {ref.t[-1]:.0f} s; force profile given "
             f"directly (peak |f| = {ref.force.magnitude.max():.0f} N, r = {ref.force.r[0]:.0f} N). Planning is "
@@ -117,14 +118,14 @@ def run_continuous(out: str | Path, trials: int = 3, waypoints: int | None = Non
     return json.loads((out / "summary.json").read_text())
 
 
-def _intervals(res: PlanResult) -> tuple[np.ndarray, np.ndarray]:
+def _intervals(res: Plan) -> tuple[np.ndarray, np.ndarray]:
     """The paper's high-demand interval (|f| at least half its peak) and its complement."""
     mag = res.force.magnitude
     high = mag >= 0.5 * mag.max()
     return high, ~high
 
 
-def continuous_claims(results: dict[str, PlanResult]) -> list[Claim]:
+def continuous_claims(results: dict[str, Plan]) -> list[Claim]:
     """The claims of Section 5.2 on the plans of one planning trial."""
     ours = results["forte"]
     high, low = _intervals(ours)
@@ -155,7 +156,7 @@ def continuous_claims(results: dict[str, PlanResult]) -> list[Claim]:
     ]
 
 
-def continuous_notes(results: dict[str, PlanResult]) -> list[str]:
+def continuous_notes(results: dict[str, Plan]) -> list[str]:
     """Our observations on the plans (not claims of the paper), with their numbers."""
     ours = results["forte"]
     mag, r = ours.force.magnitude, ours.force.r

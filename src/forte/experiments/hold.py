@@ -26,8 +26,8 @@ from forte.experiments.common import (
     Case,
     Log,
     check_format,
-    methods_for,
     metrics,
+    paper_methods,
     plan_payloads,
     quiet,
     save,
@@ -40,7 +40,7 @@ from forte.experiments.common import (
 )
 from forte.io.figures import pyplot
 from forte.io.plandir import replace_directory
-from forte.planning.planner import PlanResult
+from forte.planning.planner import Plan
 
 HOLD_SECONDS = 3.0
 
@@ -115,7 +115,7 @@ def polytope_section(A: np.ndarray, b: np.ndarray, f: np.ndarray, box: tuple[flo
     return poly
 
 
-def _section_data(res: PlanResult) -> dict[str, Any]:
+def _section_data(res: Plan) -> dict[str, Any]:
     """Half-spaces (alpha = 1), the metric's alpha, the force ball and the capacity point of a hold plan."""
     rfp = trajectory_rfp(res.task.robot, res.q, res.t, alpha=1.0)
     A, b = rfp.A[0], rfp.b[0]
@@ -139,7 +139,7 @@ def _window(data: list[dict[str, Any]]) -> tuple[float, float, float, float]:
     return centre[0] - half, centre[0] + half, centre[1] - half, centre[1] + half
 
 
-def _draw_section(ax: Any, d: dict[str, Any], box: tuple[float, float, float, float], res: PlanResult) -> None:
+def _draw_section(ax: Any, d: dict[str, Any], box: tuple[float, float, float, float], res: Plan) -> None:
     full = polytope_section(d["A"], d["b"], d["f"], box)
     shrunk = polytope_section(d["A"], d["alpha"] * d["b"], d["f"], box)
     if len(full):
@@ -231,7 +231,7 @@ def run_hold(out: str | Path, trials: int = 3, waypoints: int | None = None, see
     the figure format (png, pdf or svg).
     """
     out, fmt = Path(out), check_format(fmt)
-    cases = plan_payloads("hold", methods_for("hold"), waypoints, log)
+    cases = plan_payloads("hold", paper_methods("hold"), waypoints, log)
 
     def build(tmp: Path) -> None:
         simulate_cases(tmp, cases, trials, seed, log, hold=HOLD_SECONDS)
@@ -253,7 +253,7 @@ def run_hold(out: str | Path, trials: int = 3, waypoints: int | None = None, see
 
 
 # -- claims ----------------------------------------------------------------------------------
-def min_axis(res: PlanResult) -> float:
+def min_axis(res: Plan) -> float:
     """Smallest semi-axis of the velocity-manipulability ellipsoid at the held configuration (m/s)."""
     return float(np.linalg.svd(res.task.robot.arm_jacobian(res.q[0]), compute_uv=False)[-1])
 

@@ -24,8 +24,8 @@ from forte.experiments.common import (
     band,
     check_format,
     method_line,
-    methods_for,
     metrics,
+    paper_methods,
     plan_payloads,
     quiet,
     save,
@@ -37,7 +37,7 @@ from forte.experiments.common import (
 )
 from forte.io.figures import pyplot
 from forte.io.plandir import replace_directory
-from forte.planning.planner import PlanResult
+from forte.planning.planner import Plan
 
 
 def plot_lift(cases: list[Case], directory: Path, fmt: str) -> str:
@@ -73,7 +73,7 @@ def run_lift(out: str | Path, trials: int = 3, waypoints: int | None = None, see
     ``fmt`` is the figure format (png, pdf or svg).
     """
     out, fmt = Path(out), check_format(fmt)
-    cases = plan_payloads("lift", methods_for("lift"), waypoints, log)
+    cases = plan_payloads("lift", paper_methods("lift"), waypoints, log)
 
     def build(tmp: Path) -> None:
         simulate_cases(tmp, cases, trials, seed, log, hold=1.0)
@@ -95,7 +95,7 @@ def run_lift(out: str | Path, trials: int = 3, waypoints: int | None = None, see
     return json.loads((out / "summary.json").read_text())
 
 
-def stays_below(res: PlanResult) -> Check:
+def stays_below(res: Plan) -> Check:
     """After the capacity first drops below |f| it stays below at every later waypoint."""
     below = res.metrics["directional_capacity"] < res.force.magnitude
     what = f"{res.method}'s capacity stays below |f| once it drops below"

@@ -32,7 +32,12 @@ _MAGIC = (
 )
 
 
-def image_bytes(image: ImageInput) -> tuple[bytes, str]:
+#: Largest image file read (bytes) and image array encoded (pixels).
+MAX_IMAGE_BYTES = 32 * 2**20
+MAX_IMAGE_PIXELS = 50_000_000
+
+
+def image_bytes(image: ImageInput, option: str = "image") -> tuple[bytes, str]:
     """The encoded bytes and MIME type of ``image``.
 
     Files are sent as they are (PNG, JPEG, WebP, GIF, recognised by suffix or magic bytes); a
@@ -40,17 +45,25 @@ def image_bytes(image: ImageInput) -> tuple[bytes, str]:
     encoded to PNG with matplotlib.
     """
     if isinstance(image, np.ndarray):
+        if image.size > MAX_IMAGE_PIXELS * 4:
+            raise InvalidInputError(f"{option}: {image.shape} is larger than {MAX_IMAGE_PIXELS} pixels")
         return _encode_array(image), "image/png"
     path = Path(image)
     try:
+        if not path.is_file():
+            raise InvalidInputError(f"{option} {str(path)!r}: cannot be read (no such file; expected a PNG, "
+                                    "JPEG, WebP or GIF image)")
+        size = path.stat().st_size
+        if size > MAX_IMAGE_BYTES:
+            raise InvalidInputError(f"{option} {str(path)!r}: {size} bytes; expected at most {MAX_IMAGE_BYTES}")
         data = path.read_bytes()
     except OSError as exc:
-        raise InvalidInputError(f"image {str(path)!r}: cannot be read ({exc.strerror or exc})") from exc
+        raise InvalidInputError(f"{option} {str(path)!r}: cannot be read ({exc.strerror or exc})") from None
     mime = _MIME_BY_SUFFIX.get(path.suffix.lower()) or _sniff_mime(data)
     if mime is None:
-        raise InvalidInputError(f"image {str(path)!r}: expected a PNG, JPEG, WebP or GIF file")
+        raise InvalidInputError(f"{option} {str(path)!r}: expected a PNG, JPEG, WebP or GIF file")
     if not data:
-        raise InvalidInputError(f"image {str(path)!r}: the file is empty")
+        raise InvalidInputError(f"{option} {str(path)!r}: the file is empty")
     return data, mime
 
 

@@ -171,9 +171,17 @@ def load_dataset(csv_path: Path) -> list[BenchItem]:
     """
     path = Path(csv_path)
     try:
+        if path.stat().st_size > 64 * 2**20:
+            raise InvalidInputError(f"dataset {str(path)!r}: larger than 64 MiB; expected a CSV of items")
         text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InvalidInputError(f"dataset {str(path)!r}: not UTF-8 text (offset {exc.start}); "
+                                "save it as UTF-8") from None
     except OSError as exc:
         raise InvalidInputError(f"dataset {str(path)!r}: cannot be read ({exc.strerror or exc})") from exc
+    if "\0" in text:
+        raise InvalidInputError(f"dataset {str(path)!r}: contains a NUL character (line "
+                                f"{text.count(chr(10), 0, text.index(chr(0))) + 1}); expected CSV text")
     reader = csv.DictReader(text.splitlines())
     fields = [f.strip().lower() for f in reader.fieldnames or []]
     image_col = next((c for c in _IMAGE_COLUMNS if c in fields), None)
@@ -185,6 +193,10 @@ def load_dataset(csv_path: Path) -> list[BenchItem]:
     items: list[BenchItem] = []
     for raw in reader:
         row_no = reader.line_num  # the physical line, so blank lines do not shift the numbers
+        if None in raw or None in raw.values():  # more or fewer cells than the header names
+            cells = sum(v is not None for k, v in raw.items() if k is not None) + len(raw.get(None) or [])
+            raise InvalidInputError(f"dataset {str(path)!r}, row {row_no}: expected {len(fields)} cells "
+                                    f"({', '.join(fields)}), got {cells}")
         row = {(k or "").strip().lower(): (v or "").strip() for k, v in raw.items()}
         if not any(row.values()):
             continue

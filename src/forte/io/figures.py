@@ -1,7 +1,17 @@
-"""Figures of plans and comparisons (matplotlib, Agg backend: no display needed)."""
+"""Figures of plans and comparisons (matplotlib, Agg backend: no display needed).
+
+Every figure uses the method colours and labels of :data:`forte.planning.methods.METHODS`, puts
+its legend outside the data, labels its axes with units and says what each symbol is: ``f`` the
+desired end-effector force, ``r`` the radius of its uncertainty ball, ``d`` the signed distance
+of the ball to the RFP boundary (negative: the ball leaves the polytope). The file format is that
+of :func:`figure_format` (PNG by default; PDF and SVG are vector).
+"""
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
 
@@ -9,7 +19,42 @@ import numpy as np
 
 from forte.capability.metrics import ellipsoid_axes
 from forte.capability.polytope import halfspaces, residual_margins, trajectory_rfp, vertices
+from forte.exceptions import InvalidInputError
+from forte.planning.methods import METHODS
 from forte.planning.planner import Plan
+
+FORMATS = ("png", "pdf", "svg")
+_FORMAT: ContextVar[str] = ContextVar("forte_figure_format", default="png")
+BAND_COLOR = "#f4a261"
+
+
+@contextlib.contextmanager
+def figure_format(fmt: str) -> Iterator[None]:
+    """Write the figures drawn inside the ``with`` block as ``fmt`` (png, pdf or svg)."""
+    if fmt not in FORMATS:
+        raise InvalidInputError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
+    token = _FORMAT.set(fmt)
+    try:
+        yield
+    finally:
+        _FORMAT.reset(token)
+
+
+def figure_path(directory: Path, stem: str) -> Path:
+    """``directory/stem.<format>`` in the format in effect."""
+    return Path(directory) / f"{stem}.{_FORMAT.get()}"
+
+
+def _save(fig: Any, path: Path) -> None:
+    path = Path(path)
+    fmt = path.suffix.lstrip(".").lower() or _FORMAT.get()
+    fig.savefig(path, dpi=150 if fmt == "png" else None, format=fmt, bbox_inches="tight")
+
+
+def style(method: str) -> tuple[str, str]:
+    """(colour, label) of a method from the registry (grey and the name when unregistered)."""
+    m = METHODS.get(method)
+    return (m.style.color, m.style.label) if m is not None else ("0.4", method)
 
 
 def pyplot() -> Any:
@@ -22,36 +67,41 @@ def pyplot() -> Any:
     return plt
 
 
-def plot_capacity(results: list[Plan], path: Path) -> None:
-    """Directional capacity vs time, with the desired |f| and its +-r band."""
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7, 3.6))
-    ref = results[0]
+def _force_band(ax: Any, ref: Plan) -> None:
     mag = ref.force.magnitude
-    ax.fill_between(ref.t, mag - ref.force.r, mag + ref.force.r, color="orange", alpha=0.3, label="|f| ± r")
-    ax.plot(ref.t, mag, "k-", lw=1.5, label="|f| desired")
+    ax.fill_between(ref.t, mag - ref.force.r, mag + ref.force.r, color=BAND_COLOR, alpha=0.35, lw=0,
+                    label="|f| ± r (desired force ± uncertainty radius)")
+    ax.plot(ref.t, mag, color="k", lw=1.2, label="|f| (desired force magnitude)")
+
+
+def plot_capacity(results: list[Plan], path: Path) -> None:
+    """Directional capacity (RFP boundary along f) vs time, with |f| and its ±r band."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.5, 3.6), layout="constrained")
+    _force_band(ax, results[0])
     for res in results:
-        ax.plot(res.t, res.metrics["directional_capacity"], lw=1.5, label=res.method)
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("RFP capacity along f (N)")
+        color, label = style(res.method)
+        ax.plot(res.t, res.metrics["directional_capacity"], color=color, lw=1.6, label=f"capacity along f: {label}")
+    ax.set_xlabel("time t (s)")
+    ax.set_ylabel("force (N)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, ncol=2)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.legend(loc="outside lower center", ncol=2, fontsize=8, frameon=False)
+    _save(fig, path)
     plt.close(fig)
 
 
 def plot_manipulability(results: list[Plan], path: Path) -> None:
+    """Yoshikawa manipulability sqrt(det(J J^T)) of the arm's translational Jacobian vs time."""
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7, 3.2))
+    fig, ax = plt.subplots(figsize=(6.5, 3.2), layout="constrained")
     for res in results:
-        ax.plot(res.t, res.metrics["manipulability"], lw=1.5, label=res.method)
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("manipulability (Yoshikawa)")
+        color, label = style(res.method)
+        ax.plot(res.t, res.metrics["manipulability"], color=color, lw=1.6, label=label)
+    ax.set_xlabel("time t (s)")
+    ax.set_ylabel("manipulability √det(J Jᵀ) (m³)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.legend(loc="outside lower center", ncol=4, fontsize=8, frameon=False)
+    _save(fig, path)
     plt.close(fig)
 
 
@@ -59,49 +109,130 @@ def worst_waypoint(result: Plan) -> int:
     return int(np.argmin(result.metrics["d"]))
 
 
-def draw_polytope(ax: Any, result: Plan, k: int) -> None:
-    """The RFP (alpha = 1) at waypoint k with the force ball, on a 3-D axis."""
+def _rfp_halfspaces(result: Plan, k: int) -> tuple[np.ndarray, np.ndarray]:
+    robot = result.robot
+    rfp = trajectory_rfp(robot, result.q, result.t, alpha=1.0)
+    return halfspaces(rfp.J[k], *residual_margins(rfp.tau_nom[k], robot.torque_limits))
+
+
+def _ball_wireframe(ax: Any, f: np.ndarray, r: float, color: str = "tab:red") -> None:
+    u, v = np.mgrid[0:2 * np.pi:24j, 0:np.pi:12j]
+    ax.plot_wireframe(f[0] + r * np.cos(u) * np.sin(v), f[1] + r * np.sin(u) * np.sin(v), f[2] + r * np.cos(v),
+                      color=color, linewidth=0.4)
+
+
+def draw_polytope(ax: Any, result: Plan, k: int, color: str | None = None) -> None:
+    """The RFP (alpha = 1) at waypoint k with the force f and its ball of radius r, on a 3-D axis."""
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
     from scipy.spatial import ConvexHull, QhullError
 
-    robot = result.robot
-    rfp = trajectory_rfp(robot, result.q, result.t, alpha=1.0)
-    A, b = halfspaces(rfp.J[k], *residual_margins(rfp.tau_nom[k], robot.torque_limits))
+    color = color or style(result.method)[0]
+    A, b = _rfp_halfspaces(result, k)
     V = vertices(A, b)
     if len(V) >= 4:
         try:
             hull = ConvexHull(V)
-            ax.add_collection3d(Poly3DCollection(V[hull.simplices], alpha=0.25, facecolor="tab:blue",
-                                                 edgecolor="tab:blue", linewidth=0.3))
+            ax.add_collection3d(Poly3DCollection(V[hull.simplices], alpha=0.2, facecolor=color,
+                                                 edgecolor=color, linewidth=0.3))
         except QhullError:
             pass
     f, r = result.force.f[k], result.force.r[k]
-    u, v = np.mgrid[0:2 * np.pi:24j, 0:np.pi:12j]
-    ax.plot_wireframe(f[0] + r * np.cos(u) * np.sin(v), f[1] + r * np.sin(u) * np.sin(v), f[2] + r * np.cos(v),
-                      color="tab:red", linewidth=0.4)
+    _ball_wireframe(ax, f, r)
+    ax.quiver(0, 0, 0, *f, color="tab:red", linewidth=1.2, arrow_length_ratio=0.08)
     pts = np.vstack([V, f + r, f - r]) if len(V) else np.vstack([f + r, f - r])
     lim = np.max(np.abs(pts)) * 1.05 + 1e-9
-    ax.set_xlim(-lim, lim)
-    ax.set_ylim(-lim, lim)
-    ax.set_zlim(-lim, lim)
-    ax.set_xlabel("fx (N)")
-    ax.set_ylabel("fy (N)")
-    ax.set_zlabel("fz (N)")
+    for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
+        setter(-lim, lim)
+    ax.set_xlabel("fx (N)", labelpad=-2)
+    ax.set_ylabel("fy (N)", labelpad=-2)
+    ax.set_zlabel("fz (N)", labelpad=-2)
+    ax.tick_params(labelsize=7, pad=0)
+
+
+def _slice_basis(f: np.ndarray) -> tuple[np.ndarray, np.ndarray, str]:
+    """A vertical plane through f and the origin: (horizontal unit u, e_z, name of u)."""
+    h = np.array([f[0], f[1], 0.0])
+    if np.linalg.norm(h) < 1e-6 * max(1.0, np.linalg.norm(f)):
+        return np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]), "fx"
+    u = h / np.linalg.norm(h)
+    return u, np.array([0.0, 0.0, 1.0]), f"f along ({u[0]:.2f}, {u[1]:.2f}, 0)"
+
+
+def slice_polygon(A: np.ndarray, b: np.ndarray, c: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
+    """Vertices (in order) of the slice ``{(s, t) : A (c + s e1 + t e2) <= b}`` (empty: 0 x 2)."""
+    A2 = np.column_stack([A @ e1, A @ e2])
+    b2 = b - A @ c
+    norms = np.linalg.norm(A2, axis=1)
+    flat = norms <= 1e-12
+    if np.any(b2[flat] < 0):
+        return np.zeros((0, 2))
+    A2, b2 = A2[~flat], b2[~flat]
+    pts = []
+    for i in range(len(A2)):
+        for j in range(i + 1, len(A2)):
+            M = A2[[i, j]]
+            if abs(np.linalg.det(M)) > 1e-10 * np.linalg.norm(M[0]) * np.linalg.norm(M[1]):
+                pts.append(np.linalg.solve(M, b2[[i, j]]))
+    if not pts:
+        return np.zeros((0, 2))
+    P = np.array(pts)
+    scale = max(1.0, float(np.abs(b2).max()))
+    P = P[np.all(P @ A2.T <= b2 + 1e-7 * scale, axis=1)]
+    if len(P) < 3:
+        return np.zeros((0, 2))
+    centre = P.mean(axis=0)
+    return P[np.argsort(np.arctan2(P[:, 1] - centre[1], P[:, 0] - centre[0]))]
+
+
+def draw_slice(ax: Any, result: Plan, k: int, color: str | None = None) -> None:
+    """Zoomed 2-D slice of the RFP through the ball's centre f (a vertical plane through f and 0)."""
+    color = color or style(result.method)[0]
+    A, b = _rfp_halfspaces(result, k)
+    f, r = result.force.f[k], float(result.force.r[k])
+    e1, e2, name = _slice_basis(f)
+    fc = np.array([f @ e1, f @ e2])
+    poly = slice_polygon(A, b, np.zeros(3), e1, e2)
+    if len(poly):
+        closed = np.vstack([poly, poly[:1]])
+        ax.fill(closed[:, 0], closed[:, 1], color=color, alpha=0.2, lw=0)
+        ax.plot(closed[:, 0], closed[:, 1], color=color, lw=1.2, label="RFP boundary (slice)")
+    theta = np.linspace(0, 2 * np.pi, 200)
+    ax.plot(fc[0] + r * np.cos(theta), fc[1] + r * np.sin(theta), color="tab:red", lw=1.2,
+            label=f"force ball, radius r = {r:.0f} N")
+    ax.plot(*fc, "+", color="tab:red", ms=9, mew=1.5, label=f"desired force f (|f| = {np.linalg.norm(f):.1f} N)")
+    d = float(result.metrics["d"][k])
+    reach = max(4 * r, 1.3 * (abs(d) + r)) if np.isfinite(d) else 4 * r
+    ax.set_xlim(fc[0] - reach, fc[0] + reach)
+    ax.set_ylim(fc[1] - reach, fc[1] + reach)
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"{name} (N)")
+    ax.set_ylabel("fz (N)")
+    ax.grid(alpha=0.3)
 
 
 def plot_polytope(result: Plan, path: Path) -> None:
+    """The RFP at the worst waypoint (least d): full 3-D polytope beside a zoomed slice through f."""
     plt = pyplot()
     k = worst_waypoint(result)
-    fig = plt.figure(figsize=(5.5, 5.5))
-    ax = fig.add_subplot(projection="3d")
-    draw_polytope(ax, result, k)
-    ax.set_title(f"{result.method}: RFP at t = {result.t[k]:.2f} s (d = {result.metrics['d'][k]:.1f} N)", fontsize=9)
-    fig.savefig(path, dpi=110)
+    fig = plt.figure(figsize=(9.5, 4.6), layout="constrained")
+    ax3 = fig.add_subplot(1, 2, 1, projection="3d")
+    draw_polytope(ax3, result, k)
+    ax3.set_title("full residual force polytope (RFP)", fontsize=9)
+    ax2 = fig.add_subplot(1, 2, 2)
+    draw_slice(ax2, result, k)
+    ax2.set_title("zoom: vertical slice through f", fontsize=9)
+    label = style(result.method)[1]
+    fig.suptitle(f"{label}: RFP at t = {result.t[k]:.2f} s, the waypoint of least d "
+                 f"(d = {result.metrics['d'][k]:.1f} N: the ball's 3-D margin to the RFP scaled by the metric's α)",
+                 fontsize=9)
+    fig.legend(*ax2.get_legend_handles_labels(), loc="outside lower center", ncol=3, fontsize=8, frameon=False)
+    _save(fig, path)
     plt.close(fig)
 
 
-def draw_ellipses(axes: Any, result: Plan, k: int, color: str = "tab:green") -> None:
-    """Projections of the velocity-manipulability ellipsoid on the xy, xz and yz planes."""
+def draw_ellipses(axes: Any, result: Plan, k: int, color: str | None = None) -> None:
+    """Projections of the velocity-manipulability ellipsoid ``{J w : |w| <= 1 rad/s}`` on xy, xz, yz."""
+    color = color or style(result.method)[0]
     J = result.robot.arm_jacobian(result.q[k])
     cov = J @ J.T
     theta = np.linspace(0, 2 * np.pi, 100)
@@ -109,68 +240,71 @@ def draw_ellipses(axes: Any, result: Plan, k: int, color: str = "tab:green") -> 
         sub = cov[np.ix_([i, j], [i, j])]
         w, U = np.linalg.eigh(sub)
         pts = U @ (np.sqrt(np.maximum(w, 0))[:, None] * np.vstack([np.cos(theta), np.sin(theta)]))
-        ax.plot(pts[0], pts[1], color=color, label=result.method)
+        ax.plot(pts[0], pts[1], color=color, label=style(result.method)[1])
         ax.set_aspect("equal")
-        ax.set_xlabel("xyz"[i] + " (m/s)")
-        ax.set_ylabel("xyz"[j] + " (m/s)")
+        ax.set_xlabel("v" + "xyz"[i] + " (m/s)")
+        ax.set_ylabel("v" + "xyz"[j] + " (m/s)")
         ax.grid(alpha=0.3)
 
 
 def plot_ellipsoid(result: Plan, path: Path) -> None:
+    """The velocity-manipulability ellipsoid at the worst waypoint, projected on three planes."""
     plt = pyplot()
     k = worst_waypoint(result)
-    fig, axes = plt.subplots(1, 3, figsize=(9, 3.2))
+    fig, axes = plt.subplots(1, 3, figsize=(9, 3.4), layout="constrained")
     draw_ellipses(axes, result, k)
     lengths, _ = ellipsoid_axes(result.robot.arm_jacobian(result.q[k]))
-    fig.suptitle(f"{result.method}: manipulability ellipsoid at t = {result.t[k]:.2f} s, "
-                 f"semi-axes {np.round(lengths, 3).tolist()} m/s", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.suptitle(f"{style(result.method)[1]}: end-effector velocities v = J q̇ for joint speeds |q̇| ≤ 1 rad/s "
+                 f"at t = {result.t[k]:.2f} s (semi-axes {', '.join(f'{x:.3f}' for x in lengths)} m/s)", fontsize=9)
+    _save(fig, path)
     plt.close(fig)
 
 
 def plot_comparison(results: list[Plan], path: Path) -> None:
-    """Capacity along f and manipulability of every method: bars (hold) or curves (trajectory)."""
+    """Every method side by side: grouped bars and points (hold: categories) or curves over time."""
     plt = pyplot()
-    mode = results[0].task.mode if results[0].task is not None else "trajectory"
+    mode = results[0].task.mode if results[0].task is not None else ("hold" if len(results[0].t) == 1
+                                                                      else "trajectory")
+    styles = [style(r.method) for r in results]
     if mode == "hold":
-        fig, ax = plt.subplots(figsize=(7, 3.5))
-        names = [r.method for r in results]
-        caps = [r.metrics["directional_capacity"][0] for r in results]
-        ax.bar(names, caps, color="tab:blue", alpha=0.7, label="capacity along f")
-        need = results[0].force.magnitude[0]
-        rad = results[0].force.r[0]
-        ax.axhspan(need - rad, need + rad, color="orange", alpha=0.3, label="|f| ± r")
-        ax.set_ylabel("N")
-        ax2 = ax.twinx()
-        ax2.plot(names, [r.metrics["manipulability"][0] for r in results], "o-", color="tab:green",
-                 label="manipulability")
-        ax2.set_ylabel("manipulability")
-        ax.legend(loc="upper left", fontsize=8)
-        ax2.legend(loc="upper right", fontsize=8)
-    else:
-        fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
-        ref = results[0]
-        mag = ref.force.magnitude
-        ax.fill_between(ref.t, mag - ref.force.r, mag + ref.force.r, color="orange", alpha=0.3, label="|f| ± r")
-        ax.plot(ref.t, mag, "k-", label="|f|")
-        for r in results:
-            ax.plot(r.t, r.metrics["directional_capacity"], label=r.method)
-            ax2.plot(r.t, r.metrics["manipulability"], "--", label=r.method)
+        fig, (ax, ax2) = plt.subplots(1, 2, figsize=(9, 3.8), layout="constrained")
+        x = np.arange(len(results))
+        labels = [label for _, label in styles]
+        caps = [float(r.metrics["directional_capacity"][0]) for r in results]
+        ax.bar(x, caps, color=[c for c, _ in styles], width=0.6, edgecolor="k", linewidth=0.5)
+        need, rad = float(results[0].force.magnitude[0]), float(results[0].force.r[0])
+        ax.axhline(need + rad, color="tab:red", ls="--", lw=1.2, label=f"|f| + r = {need + rad:.1f} N")
+        ax.axhline(need, color="k", lw=1.0, label=f"|f| = {need:.1f} N (desired force)")
         ax.set_ylabel("capacity along f (N)")
-        ax2.set_ylabel("manipulability")
-        ax2.set_xlabel("time (s)")
-        ax.legend(fontsize=8, ncol=3)
+        ax.set_title("force capacity (bar above the dashed line: enough)", fontsize=9)
+        ax2.scatter(x, [float(r.metrics["manipulability"][0]) for r in results], c=[c for c, _ in styles],
+                    s=60, edgecolor="k", linewidth=0.5, zorder=3)
+        ax2.set_ylabel("manipulability √det(J Jᵀ) (m³)")
+        ax2.set_title("manipulability (points: one per method)", fontsize=9)
+        for a in (ax, ax2):
+            a.set_xticks(x, labels, rotation=20, ha="right", fontsize=8)
+            a.grid(axis="y", alpha=0.3)
+        ax2.set_ylim(bottom=0)
+        fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", ncol=2, fontsize=8, frameon=False)
+    else:
+        fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True, layout="constrained")
+        _force_band(ax, results[0])
+        for r, (color, label) in zip(results, styles, strict=True):
+            ax.plot(r.t, r.metrics["directional_capacity"], color=color, lw=1.5, label=label)
+            ax2.plot(r.t, r.metrics["manipulability"], color=color, lw=1.5)
+        ax.set_ylabel("capacity along f (N)")
+        ax2.set_ylabel("manipulability √det(J Jᵀ) (m³)")
+        ax2.set_xlabel("time t (s)")
         ax.grid(alpha=0.3)
         ax2.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+        fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", ncol=3, fontsize=8, frameon=False)
+    _save(fig, path)
     plt.close(fig)
 
 
 def plan_figures(plan: Plan, directory: Path) -> None:
-    """The four figures of a plan directory."""
-    plot_capacity([plan], directory / "capacity.png")
-    plot_manipulability([plan], directory / "manipulability.png")
-    plot_polytope(plan, directory / "rfp_worst.png")
-    plot_ellipsoid(plan, directory / "ellipsoid.png")
+    """The four figures of a plan directory (in the format of :func:`figure_format`)."""
+    plot_capacity([plan], figure_path(directory, "capacity"))
+    plot_manipulability([plan], figure_path(directory, "manipulability"))
+    plot_polytope(plan, figure_path(directory, "rfp_worst"))
+    plot_ellipsoid(plan, figure_path(directory, "ellipsoid"))

@@ -60,7 +60,7 @@ def comparison_rows(results: list[Plan]) -> list[dict[str, Any]]:
 
 
 def write_comparison(results: list[Plan], directory: Path, figures: bool = True) -> None:
-    """summary.md, summary.csv and comparison.png for the plans of every method."""
+    """summary.md, summary.csv and the comparison figure (comparison.png, or .pdf/.svg) for every method."""
     rows = comparison_rows(results)
     keys = list(rows[0])
     with (directory / "summary.csv").open("w", newline="") as fh:
@@ -81,6 +81,6 @@ def write_comparison(results: list[Plan], directory: Path, figures: bool = True)
     atomic_write(directory / COMPARISON_FILE, json.dumps(jsonable(
         {"generator": GENERATOR, "format_version": FORMAT_VERSION, "task": task.name, "methods": rows}), indent=2))
     if figures:
-        from forte.io.figures import plot_comparison
+        from forte.io.figures import figure_path, plot_comparison
 
-        plot_comparison(results, directory / "comparison.png")
+        plot_comparison(results, figure_path(directory, "comparison"))

@@ -472,6 +472,9 @@ def default_robot(torque_limits: Any = PAPER_TORQUE_LIMITS, variant: str = "auth
                            "name": "moca-panda", "home_arm": PANDA_HOME}
     else:
         raise InvalidInputError(f"robot preset: expected one of {', '.join(ROBOT_PRESETS)}, got {variant!r}")
+    if "urdf" in overrides:  # another arm: the Panda's own values do not apply
+        for key in ("home_arm", "acceleration_limits", "hand_mass", "arm_joints"):
+            kwargs.pop(key, None)
     kwargs.update(overrides)
     return MobileManipulator(**kwargs)
 

@@ -34,6 +34,7 @@ A new term is a subclass registered with :func:`register_term`; a method
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, ClassVar
@@ -122,13 +123,14 @@ class CostTerm:
 
     def weight(self, weights: CostWeights) -> float:
         """``w_i`` from ``weights`` (methods may override it, see ``Method.weights``)."""
-        return float(getattr(weights, self.weight_field or self.name, self.default_weight))
+        field_name = self.weight_field or self.name
+        if field_name in WEIGHT_FIELDS:
+            return float(getattr(weights, field_name))
+        return float(self.default_weight)
 
     def baked(self) -> tuple[Any, ...]:
         """Everything compiled into the kernels (the dataclass fields): part of the cache key."""
-        if dataclasses.is_dataclass(self):
-            return tuple((f.name, getattr(self, f.name)) for f in dataclasses.fields(self))
-        return ()
+        return tuple((f.name, _stable(getattr(self, f.name))) for f in dataclasses.fields(self))
 
     def stage(self, s: Stage) -> ca.SX:  # pragma: no cover - abstract
         raise NotImplementedError(f"{type(self).__name__} is not a stage term")
@@ -140,18 +142,47 @@ class CostTerm:
         raise NotImplementedError(f"{type(self).__name__} declares no parameter '{name}'")
 
 
+#: The weight fields of :class:`~forte.settings.CostWeights` a term may draw its weight from.
+WEIGHT_FIELDS = ("capability", "manipulability", "joint_limits", "smoothness", "base_spectral")
 #: The registry: term name -> term class.
 COST_TERMS: dict[str, type[CostTerm]] = {}
 
 
+def _stable(value: Any) -> Any:
+    """A repr-stable form of a baked value: arrays by their exact bytes, containers recursively."""
+    if isinstance(value, np.ndarray):
+        digest = hashlib.sha256(np.ascontiguousarray(value).tobytes()).hexdigest()
+        return ("array", value.shape, str(value.dtype), digest)
+    if isinstance(value, tuple | list):
+        return tuple(_stable(v) for v in value)
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return (type(value).__qualname__, tuple((f.name, _stable(getattr(value, f.name)))
+                                               for f in dataclasses.fields(value)))
+    if isinstance(value, float | np.floating):
+        return float(value).hex()  # exact
+    return value
+
+
 def register_term(cls: type[CostTerm], *, replace: bool = False) -> type[CostTerm]:
-    """Add a term class to :data:`COST_TERMS` (usable as a class decorator)."""
+    """Add a term class to :data:`COST_TERMS` (usable as a class decorator).
+
+    A term must be a frozen dataclass: its fields are what it bakes into the compiled kernels
+    and so part of their cache key.
+    """
     if not cls.name or cls.kind not in ("stage", "quadratic"):
         raise InvalidInputError(f"cost term {cls.__name__}: needs a name and kind 'stage' or 'quadratic'")
+    params = getattr(cls, "__dataclass_params__", None)
+    if params is None or not params.frozen:
+        raise InvalidInputError(f"cost term {cls.__name__}: expected a frozen dataclass (@dataclass(frozen=True))")
     if cls.name in COST_TERMS and COST_TERMS[cls.name] is not cls and not replace:
         raise InvalidInputError(f"cost term '{cls.name}' is already registered")
     COST_TERMS[cls.name] = cls
     return cls
+
+
+def unregister_term(name: str) -> None:
+    """Remove a term (e.g. one a test registered)."""
+    COST_TERMS.pop(name, None)
 
 
 def make_terms(names: tuple[str, ...], weights: CostWeights) -> tuple[CostTerm, ...]:

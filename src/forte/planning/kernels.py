@@ -17,17 +17,20 @@ from __future__ import annotations
 
 import hashlib
 import inspect
+import json
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
+import uuid
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import casadi as ca
 
-from forte import __version__
+from forte import __version__, progress
 from forte.exceptions import SolverError
 from forte.model.robot import MobileManipulator
 from forte.model.twin import CasadiTwin
@@ -109,20 +112,94 @@ def kernel_key(robot: MobileManipulator, method: str | Method, w: CostWeights) -
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
+#: Measured first-compile times on a 2-core machine (README), shown as the expected time.
+COMPILE_SECONDS = {"default": 10.0, "rfp-cone": 70.0}
+
+
 def load_kernels(robot: MobileManipulator, method: str | Method, w: CostWeights, options: SolverOptions) -> Kernels:
-    """Kernels from the on-disk cache, compiling them first when needed (and possible)."""
+    """Kernels from the on-disk cache, compiling them first when needed (and possible).
+
+    A cached library is loaded only when its size and sha256 match the record written next to it
+    when it was compiled (``.so.json``): a truncated, empty, foreign or garbled file is never
+    ``dlopen``-ed (a truncated one would kill the process with SIGBUS); it is rebuilt with one line
+    of notice on stderr. When the cache folder cannot be written (read-only, a file, ...) or the
+    compiler fails, the kernels run in CasADi's virtual machine, with a notice.
+    """
     method = get_method(method)
     compiler = shutil.which("gcc") or shutil.which("cc")
     if options.codegen and compiler:
         lib = cache_root(options) / f"kernels_{method.name}_{kernel_key(robot, method, w)}.so"
+        fns = _load_verified(lib)
         origin = "cached"
-        if not lib.exists():
-            _compile(build_kernels(robot, method, w), lib, compiler)
-            origin = "compiled"
-        fns = {name: ca.external(name, str(lib)) for name in KERNEL_NAMES}
-    else:
-        fns, origin = build_kernels(robot, method, w), "virtual-machine"
-    return Kernels(*(fns[name] for name in KERNEL_NAMES), origin)
+        if fns is None:
+            try:
+                expected = COMPILE_SECONDS.get(method.name, COMPILE_SECONDS["default"])
+                with progress.step(f"compiling the {method.name} kernels to C (once per robot and method)",
+                                   expected):
+                    _compile(build_kernels(robot, method, w), lib, compiler)
+                fns = _load_verified(lib, quiet=False)
+                origin = "compiled"
+            except (OSError, SolverError) as exc:
+                reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc).splitlines()[0]
+                notice(f"cannot build the kernel cache in {lib.parent} ({reason}); using CasADi's virtual "
+                       "machine (slower, same results)")
+        if fns is not None:
+            return Kernels(*(fns[name] for name in KERNEL_NAMES), origin)
+    return Kernels(*(build_kernels(robot, method, w)[name] for name in KERNEL_NAMES), "virtual-machine")
+
+
+def notice(text: str) -> None:
+    """One line on stderr about something forte repaired or worked around."""
+    print(f"forte: notice: {text}", file=sys.stderr, flush=True)
+
+
+def _record_path(lib: Path) -> Path:
+    return lib.with_name(lib.name + ".json")
+
+
+def _digest(path: Path) -> str:
+    h = hashlib.sha256()
+    with path.open("rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def verify_library(lib: Path) -> str | None:
+    """None when ``lib`` matches its compile-time record, else why not (it must not be loaded)."""
+    try:
+        record = json.loads(_record_path(lib).read_text(encoding="utf-8"))
+        size, digest = int(record["size"]), str(record["sha256"])
+    except FileNotFoundError:
+        return "no compile record"
+    except (OSError, ValueError, KeyError, TypeError, RecursionError):
+        return "unreadable compile record"
+    try:
+        st = lib.stat()
+        if st.st_size != size:
+            return f"size {st.st_size} bytes, compiled as {size}"
+        if _digest(lib) != digest:
+            return "content differs from the compiled library (sha256)"
+    except OSError as exc:
+        return f"unreadable ({exc.strerror or exc})"
+    return None
+
+
+def _load_verified(lib: Path, quiet: bool = True) -> dict[str, ca.Function] | None:
+    """The library's functions when it exists and verifies; else None (with a notice when it was
+    there but bad)."""
+    if not lib.exists() and not _record_path(lib).exists():
+        return None
+    problem = verify_library(lib) if lib.exists() else "library missing"
+    if problem is None:
+        try:
+            return {name: ca.external(name, str(lib)) for name in KERNEL_NAMES}
+        except RuntimeError as exc:  # verified bytes that still do not load (another machine's build)
+            problem = f"does not load ({str(exc).strip().splitlines()[-1][:120] if str(exc).strip() else 'error'})"
+    if not quiet:
+        raise SolverError(f"the freshly compiled kernels {lib} {problem}", status="codegen")
+    notice(f"kernel cache entry {lib} is invalid ({problem}); rebuilding it")
+    return None
 
 
 def _compile(functions: dict[str, ca.Function], lib: Path, compiler: str) -> None:
@@ -144,16 +221,27 @@ def _compile(functions: dict[str, ca.Function], lib: Path, compiler: str) -> Non
         proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
         if proc.returncode != 0:
             raise SolverError(f"compiling the NLP kernels failed: {proc.stderr[-2000:]}", status="codegen")
-        os.replace(out, lib)  # atomic: a concurrent run never loads a half-written library
+        record = {"size": out.stat().st_size, "sha256": _digest(out), "casadi": ca.__version__, "forte": __version__}
+        rec_tmp = Path(tmp) / "record.json"
+        rec_tmp.write_text(json.dumps(record) + "\n", encoding="utf-8")
+        # atomic renames; the record goes first: a library without a matching record is rebuilt,
+        # never loaded, so a concurrent run or a kill in between costs a rebuild at worst
+        os.replace(rec_tmp, _record_path(lib))
+        os.replace(out, lib)
 
 
 def _class_digest(cls: type) -> str:
-    """Hash of a term class's source (terms defined outside forte invalidate their kernels too)."""
+    """Hash of the file that defines a term class, so editing a term (or a helper or constant
+    next to it) invalidates its kernels, also for terms defined outside forte. A class whose
+    source cannot be found (defined in a REPL) gets a fresh key each time: never a stale kernel."""
     try:
-        text = inspect.getsource(cls)
+        path = inspect.getsourcefile(cls)
+        text = Path(path).read_bytes() if path else None
     except (OSError, TypeError):
-        text = cls.__qualname__
-    return hashlib.sha256(text.encode()).hexdigest()[:12]
+        text = None
+    if text is None:
+        return uuid.uuid4().hex[:12]
+    return hashlib.sha256(text + cls.__qualname__.encode()).hexdigest()[:12]
 
 
 def _source_digest() -> str:

@@ -30,6 +30,7 @@ Built-in methods (definitions and weights as the authors run them, ``AUTHORS_SET
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
@@ -38,10 +39,10 @@ from typing import Any
 from forte.exceptions import InvalidInputError, TaskFileError
 from forte.planning.costs import COST_TERMS, CostTerm, make_terms
 from forte.planning.ik import initial_guess
+from forte.planning.tasks import MODES
 from forte.settings import CostWeights
 from forte.validation import FloatArray
 
-MODES: tuple[str, ...] = ("trajectory", "hold")
 PRODUCTIONS: tuple[str, ...] = ("optimized", "interpolated", "given")
 
 
@@ -92,6 +93,12 @@ class Method:
     tuning: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", self.name or ""):
+            raise InvalidInputError(f"method name {self.name!r}: expected letters, digits, '-', '_' or '.'")
+        unknown = sorted(set(self.weights) - set(self.terms))
+        if unknown:
+            raise InvalidInputError(f"method {self.name}: weights: '{unknown[0]}' is not one of its terms "
+                                    f"({', '.join(self.terms) or 'none'})")
         if self.production not in PRODUCTIONS:
             raise InvalidInputError(f"method {self.name}: production: expected one of {PRODUCTIONS}")
         if not set(self.modes) <= set(MODES) or not self.modes:
@@ -115,6 +122,15 @@ class Method:
         """``weights`` with this method's :attr:`tuning` for their set applied."""
         changes = self.tuning.get(weights.preset, {})
         return replace(weights, **changes) if changes else weights
+
+    def applies_to(self, task: Any) -> bool:
+        """Whether the method can plan ``task`` (its mode; a given method needs what it gives)."""
+        if task.mode not in self.modes:
+            return False
+        return self.production != "given" or getattr(task, "teaching", None) is not None
+
+    def __hash__(self) -> int:
+        return hash(self.name)
 
     def cost_terms(self, weights: CostWeights) -> tuple[CostTerm, ...]:
         """The method's terms with their parameters from ``weights``."""

@@ -30,6 +30,7 @@ import casadi as ca
 import numpy as np
 from scipy import sparse
 
+from forte import progress
 from forte.exceptions import InvalidInputError, SolverError
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.planning.assembly import block_diagonal_pattern, dm, gather, hessian_pattern, scatter_matrix
@@ -52,6 +53,8 @@ class SolverResult:
     build_time: float
     solve_time: float
     codegen: str  # "compiled", "cached", "virtual-machine"
+    lam_x: FloatArray | None = None  # bound multipliers (with ``keep_multipliers``)
+    lam_g: FloatArray | None = None  # constraint multipliers
 
 
 class TrajectoryOptimizer:
@@ -66,12 +69,15 @@ class TrajectoryOptimizer:
             first configuration is free and ``q_init`` only seeds the solver.
         options: Solver and build options.
         limits: Joint velocity and acceleration limits.
+        keep_multipliers: Return the bound and constraint multipliers of every solve, so the
+            next solve can start from the last primal-dual point (:meth:`solve`'s ``warm``).
     """
 
     def __init__(
         self, robot: MobileManipulator, n: int, method: str | Method = "forte",
         weights: CostWeights = CostWeights(), fix_initial: bool = True,
         options: SolverOptions = SolverOptions(), limits: KinematicLimits = KinematicLimits(),
+        keep_multipliers: bool = False,
     ) -> None:
         resolved = get_method(method) if isinstance(method, Method) or method in method_names() else None
         if resolved is None or not resolved.optimized:
@@ -83,7 +89,8 @@ class TrajectoryOptimizer:
         self.method = resolved.name
         weights = resolved.resolve_weights(weights)
         self.weights, self.fix_initial, self.options = weights, fix_initial, options
-        self.limits = limits
+        self.limits, self.keep_multipliers = limits, keep_multipliers
+        self._warm_solver: Any = None
         self._vel, self._acc = limits.resolve(robot)
         terms = resolved.cost_terms(weights)
         self._stage = tuple(t for t in terms if t.kind == "stage")
@@ -168,10 +175,14 @@ class TrajectoryOptimizer:
         opts["grad_f"] = ca.Function("nlp_grad_f", [x, P], [cost, grad])
         opts["jac_g"] = ca.Function("nlp_jac_g", [x, P], [g, jac])
         opts["hess_lag"] = ca.Function("nlp_hess_l", [x, P, lam_f, lam_g], [hess])
-        try:
-            self.solver = ca.nlpsol("forte", "ipopt", {"x": x, "p": P, "f": cost, "g": g}, opts)
-        except RuntimeError as exc:  # e.g. an option IPOPT rejects
-            raise SolverError(f"IPOPT could not be set up: {str(exc).splitlines()[-1]}", status="setup") from exc
+        self._progress = None
+        if progress.active() is not None:  # IPOPT's iterations on the progress line (off in the library)
+            from forte.planning.ipopt_progress import IpoptProgress
+
+            opts["iteration_callback"] = self._progress = IpoptProgress(x.numel(), g.numel(), P.numel())
+        self._nlp = {"x": x, "p": P, "f": cost, "g": g}
+        self._nlp_options = opts
+        self.solver = self._nlpsol(opts)
         self._g = ca.Function("g", [x, P], [g])
         stage_values = ca.sum2(kern.terms.map(n)(*stage_args[:-1])) if self._stage else ca.MX(0, 1)
         quadratic = [0.5 * ca.dot(x, ca.mtimes(ca.DM(M), x)) for M in self._quadratic_matrices()]
@@ -184,12 +195,30 @@ class TrajectoryOptimizer:
 
     def _posed_waypoints(self, first: int) -> FloatArray:
         """Waypoints with a pose equality: from ``first``; with the end at rest, not N-1 and N-2,
-        whose configurations equal the last one (their poses differ from it only by the path's
-        own final motion)."""
+        whose configurations equal the last one, so their poses are implied (the task holds its
+        final pose over them, :func:`forte.planning.tasks.ending_at_rest`)."""
         steps = np.arange(first, self.n)
         if self.rests_at_end:
             steps = steps[(steps < self.n - 3) | (steps == self.n - 1)]
         return steps
+
+    def _nlpsol(self, opts: dict[str, Any]) -> Any:
+        try:
+            return ca.nlpsol("forte", "ipopt", self._nlp, opts)
+        except RuntimeError as exc:  # e.g. an option IPOPT rejects
+            raise SolverError(f"IPOPT could not be set up: {str(exc).splitlines()[-1]}", status="setup") from exc
+
+    def warm_solver(self) -> Any:
+        """The same NLP with IPOPT set to start from a given primal-dual point (built once)."""
+        if self._warm_solver is None:
+            opts = dict(self._nlp_options) | {
+                "ipopt.warm_start_init_point": "yes", "ipopt.warm_start_bound_push": 1e-9,
+                "ipopt.warm_start_bound_frac": 1e-9, "ipopt.warm_start_slack_bound_push": 1e-9,
+                "ipopt.warm_start_slack_bound_frac": 1e-9, "ipopt.warm_start_mult_bound_push": 1e-9,
+                "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-5, "calc_lam_x": True,
+            }
+            self._warm_solver = self._nlpsol(opts)
+        return self._warm_solver
 
     def _constraint_jacobian(self, x: ca.MX, X: ca.MX, pd: ca.MX, Rd: ca.MX, g_kin: ca.MX, first: int) -> ca.MX:
         """6 x nq pose blocks (one per posed waypoint), then the linear rows."""
@@ -257,7 +286,7 @@ class TrajectoryOptimizer:
         opts = {
             "ipopt.max_iter": o.max_iter, "ipopt.tol": o.tol, "ipopt.print_level": o.print_level,
             "ipopt.sb": "yes", "print_time": False, "ipopt.constr_viol_tol": o.constraint_tol,
-            "ipopt.mu_strategy": "adaptive", "calc_lam_p": False, "calc_lam_x": False,
+            "ipopt.mu_strategy": "adaptive", "calc_lam_p": False, "calc_lam_x": self.keep_multipliers,
             # QAMD ordering: ~25 % faster factorizations than MUMPS' default on this KKT (benchmarks/)
             "ipopt.mumps_pivot_order": 6,
         }
@@ -285,11 +314,14 @@ class TrajectoryOptimizer:
         return np.concatenate([values[name] for name in self._layout])
 
     def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,
-              nominal: FloatArray | None = None) -> SolverResult:
+              nominal: FloatArray | None = None, warm: tuple[FloatArray, FloatArray] | None = None
+              ) -> SolverResult:
         """Solve for the whole-body trajectory (N x nq) from the initial guess ``q_guess``.
 
         ``nominal`` (N x nq) is the nominal trajectory of the nominal and base joint-limit terms
-        (default: ``q_guess``).
+        (default: ``q_guess``). ``warm = (lam_x, lam_g)``, the multipliers of an earlier solve of
+        this problem (see ``keep_multipliers``), starts IPOPT from that primal-dual point with a
+        small barrier parameter instead of from scratch.
         """
         n, nq = self.n, self.robot.nq
         targets = np.asarray(targets, dtype=float)
@@ -305,12 +337,18 @@ class TrajectoryOptimizer:
         n_pose = 6 * self._pose_steps.size
         lbg = np.concatenate([np.zeros(n_pose), klb])
         ubg = np.concatenate([np.zeros(n_pose), kub])
+        solver, extra = self.solver, {}
+        if warm is not None:
+            solver, extra = self.warm_solver(), {"lam_x0": warm[0], "lam_g0": warm[1]}
+        if self._progress is not None:
+            self._progress.start(lbg, ubg)
         try:
-            result = self.solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+            with progress.step(f"solving with IPOPT ({self.method}, N = {n})"):
+                result = solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **extra)
         except RuntimeError as exc:  # IPOPT refused the problem (bad option values, inconsistent bounds)
             raise SolverError(f"IPOPT refused the problem: {str(exc).splitlines()[-1]}", status="error") from exc
         solve_time = time.perf_counter() - start
-        stats = self.solver.stats()
+        stats = solver.stats()
         x = np.array(result["x"]).ravel()
         g = np.array(self._g(x, p)).ravel()
         bounds = np.maximum(np.maximum(lbx - x, x - ubx), 0)
@@ -322,6 +360,8 @@ class TrajectoryOptimizer:
             status=str(stats.get("return_status", "unknown")), iterations=int(stats.get("iter_count", -1)),
             objective=float(result["f"]), constraint_violation=violation, build_time=self.build_time,
             solve_time=solve_time, codegen=self.codegen,
+            lam_x=np.array(result["lam_x"]).ravel() if self.keep_multipliers or warm else None,
+            lam_g=np.array(result["lam_g"]).ravel(),
         )
 
     def cost_terms(self, q: FloatArray, t: Any, targets: Any, f: Any, r: Any,

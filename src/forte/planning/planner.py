@@ -68,8 +68,7 @@ PlanResult = Plan
 
 def methods_for(task: Task) -> tuple[str, ...]:
     """Registered methods that apply to the task (``given`` ones only with what they need)."""
-    return tuple(name for name in method_names(task.mode)
-                 if METHODS[name].production != "given" or task.teaching is not None)
+    return tuple(name for name in method_names(task.mode) if METHODS[name].applies_to(task))
 
 
 def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: TaskForce,
@@ -178,7 +177,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         ((1, 10), True)
     """
     spec = get_method(method)
-    if task.mode not in spec.modes or spec.name not in methods_for(task):
+    if not spec.applies_to(task):
         if spec.production == "given" and task.mode in spec.modes:
             spec.produce(task)  # raises the precise error (e.g. no teaching configuration)
         raise InvalidInputError(f"method: '{spec.name}' does not apply to mode '{task.mode}'; "

@@ -9,10 +9,9 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from forte.capability.metrics import smooth_penalty_expr
 from forte.model.robot import N_BASE
 from forte.model.twin import CasadiTwin
-from forte.planning.costs import Stage, dct_penalty_matrix
+from forte.planning.costs import Capability, Stage, dct_penalty_matrix
 from forte.settings import CapabilityParameters, CostWeights
 from forte.validation import FloatArray
 
@@ -36,10 +35,9 @@ def smoothness_cost(q: FloatArray, weights: CostWeights) -> float:
     return 0.5 * float(np.sum((np.diff(q, axis=0) * W) ** 2))
 
 
-def capability_stage(twin: CasadiTwin, tau_max: FloatArray, params: CapabilityParameters) -> ca.Function:
-    """``c_k(q_{k-2}, q_{k-1}, q_k, dt_{k-1}, dt_k, f_k, r_k)``: the smooth capability penalty alone."""
+def capability_stage(twin: CasadiTwin, params: CapabilityParameters) -> ca.Function:
+    """``c_k(q_{k-2}, q_{k-1}, q_k, dt_{k-1}, dt_k, f_k, r_k)``: the capability term alone, as a function."""
     nq = twin.robot.nq
     s = Stage(twin, ca.SX.sym("q_prev2", nq), ca.SX.sym("q_prev", nq), ca.SX.sym("q", nq),
               ca.SX.sym("dt_prev"), ca.SX.sym("dt"), ca.SX.sym("f", 3), ca.SX.sym("r"))
-    c = smooth_penalty_expr(s.J, s.tau, ca.DM(tau_max), s.f, s.r, params)
-    return ca.Function("capability", [s.q2, s.q1, s.q0, s.dt1, s.dt0, s.f, s.r], [c])
+    return ca.Function("capability", [s.q2, s.q1, s.q0, s.dt1, s.dt0, s.f, s.r], [Capability(params).stage(s)])

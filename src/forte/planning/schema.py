@@ -14,7 +14,7 @@ import pinocchio as pin
 from forte.exceptions import ForteError, TaskFileError
 from forte.model.robot import ROBOT_PRESETS, MobileManipulator, ToolLoad, default_robot
 from forte.settings import CapabilityParameters
-from forte.validation import FloatArray
+from forte.validation import MAX_MASS_KG, FloatArray, _short
 
 
 class Reader:
@@ -43,37 +43,66 @@ class Reader:
         return Reader(self.data[name], self.path, f"{self.key(name)}.")
 
     def number(self, name: str, default: float | None = None, positive: bool = False,
-               nonnegative: bool = False) -> float:
+               nonnegative: bool = False, maximum: float | None = None, unit: str = "") -> float:
         value = self.data.get(name, default)
         if value is None:
             raise self.error(name, "required field is missing")
-        if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value):
-            raise self.error(name, f"expected a finite number, got {value!r}")
-        if positive and value <= 0:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise self.error(name, f"expected a finite number, got {_short(value)}")
+        try:
+            x = float(value)
+        except OverflowError:  # an integer too large for a float
+            x = float("inf")
+        if not np.isfinite(x):
+            raise self.error(name, f"expected a finite number, got {_short(value)}")
+        if positive and x <= 0:
             raise self.error(name, f"expected a number > 0, got {value!r}")
-        if nonnegative and value < 0:
+        if nonnegative and x < 0:
             raise self.error(name, f"expected a number >= 0, got {value!r}")
-        return float(value)
+        if maximum is not None and x > maximum:
+            raise self.error(name, f"expected a number <= {maximum:g}{unit} (forte's documented bound), "
+                             f"got {x:g}")
+        return x
 
     def vector(self, name: str, size: int | None = None, default: Any = None) -> FloatArray:
         value = self.data.get(name, default)
         if value is None:
             raise self.error(name, "required field is missing")
+        expected = f"a list of {size} numbers" if size else "a list of numbers"
+        if not isinstance(value, list | tuple) or any(isinstance(v, bool) for v in value):
+            raise self.error(name, f"expected {expected}, got {_short(value)}")
         try:
             arr = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            raise self.error(name, f"expected a list of numbers, got {value!r}") from None
+        except (TypeError, ValueError, OverflowError):
+            raise self.error(name, f"expected {expected}, got {_short(value)}") from None
         if arr.ndim != 1 or (size is not None and arr.size != size):
-            expected = f"a list of {size} numbers" if size else "a list of numbers"
-            raise self.error(name, f"expected {expected}, got {value!r}")
+            raise self.error(name, f"expected {expected}, got {_short(value)}")
         if not np.all(np.isfinite(arr)):
-            raise self.error(name, f"expected finite numbers, got {value!r}")
+            raise self.error(name, f"expected finite numbers, got {_short(value)}")
         return arr
 
-    def integer(self, name: str, default: int | None = None, minimum: int = 1) -> int:
+    def matrix(self, name: str, rows: int, cols: int, default: Any = None) -> FloatArray:
+        """A ``rows`` x ``cols`` list of lists of finite numbers."""
+        value = self.data.get(name, default)
+        what = f"a {rows}x{cols} matrix (a list of {rows} lists of {cols} numbers)"
+        if (not isinstance(value, list | tuple) or len(value) != rows
+                or not all(isinstance(r, list | tuple) and len(r) == cols for r in value)
+                or any(isinstance(v, bool) or not isinstance(v, int | float) for r in value for v in r)):
+            raise self.error(name, f"expected {what}, got {_short(value)}")
+        try:
+            arr = np.asarray(value, dtype=float)
+        except OverflowError:
+            arr = np.full((rows, cols), np.inf)
+        if not np.all(np.isfinite(arr)):
+            raise self.error(name, f"expected finite numbers, got {_short(value)}")
+        return arr
+
+    def integer(self, name: str, default: int | None = None, minimum: int = 1, maximum: int | None = None) -> int:
         value = self.data.get(name, default)
         if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-            raise self.error(name, f"expected an integer >= {minimum}, got {value!r}")
+            raise self.error(name, f"expected an integer >= {minimum}, got {_short(value)}")
+        if maximum is not None and value > maximum:
+            raise self.error(name, f"expected an integer <= {maximum} (forte's documented bound), got {value}")
         return value
 
     def unknown(self, allowed: set[str]) -> None:
@@ -109,7 +138,7 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
         return default_robot(**overrides)
     r = reader.sub("robot")
     r.unknown({"preset", "urdf", "ee_frame", "arm_joints", "mount", "tool", "torque_limits", "gravity", "name",
-               "tool_force_mass"})
+               "tool_force_mass", "home_arm", "acceleration_limits"})
     kwargs: dict[str, Any] = {}
     preset = str(r.get("preset", "authors"))
     if preset not in ROBOT_PRESETS:
@@ -144,26 +173,51 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
         else:
             tl = r.sub("tool")
             tl.unknown({"mass", "com", "inertia"})
-            inertia = tl.get("inertia", [[0, 0, 0]] * 3)
-            if np.shape(inertia) == (3,):
-                inertia = np.diag(inertia)
-            kwargs["tool"] = ToolLoad(mass=tl.number("mass", positive=True), com=tuple(tl.vector("com", 3, [0, 0, 0])),
-                                      inertia=tuple(map(tuple, np.asarray(inertia, dtype=float))))
+            inertia_value = tl.get("inertia", [[0, 0, 0]] * 3)
+            if isinstance(inertia_value, list | tuple) and len(inertia_value) == 3 and all(
+                    not isinstance(v, list | tuple) for v in inertia_value):
+                inertia = np.diag(tl.vector("inertia", 3))  # the diagonal
+            else:
+                inertia = tl.matrix("inertia", 3, 3, [[0, 0, 0]] * 3)
+            mass = tl.number("mass", positive=True, maximum=MAX_MASS_KG, unit=" kg")
+            com = tl.vector("com", 3, [0, 0, 0])
+            try:
+                kwargs["tool"] = ToolLoad(mass=mass, com=tuple(com), inertia=tuple(map(tuple, inertia)))
+            except ForteError as exc:
+                raise tl.error("", str(exc)) from exc
     limits_key = "torque_limits" if r.has("torque_limits") else None
     if limits_key:
         kwargs["torque_limits"] = r.vector("torque_limits")
     elif reader.has("torque_limits"):
         kwargs["torque_limits"] = reader.vector("torque_limits", None if "urdf" in kwargs else 7)
     if r.has("gravity"):
-        kwargs["gravity"] = r.number("gravity", positive=True)
+        kwargs["gravity"] = r.number("gravity", positive=True, maximum=1000.0, unit=" m/s^2")
     if r.has("name"):
         kwargs["name"] = str(r.get("name"))
+    for key in ("home_arm", "acceleration_limits"):  # what a URDF does not carry
+        if r.has(key):
+            kwargs[key] = tuple(r.vector(key))
     try:
         if "urdf" in kwargs:
             return MobileManipulator(**kwargs)
         return default_robot(variant=preset, **kwargs)
     except ForteError as exc:
         raise r.error("", str(exc)) from exc
+
+
+#: Fields of a ``controller:`` block (their values are checked against the robot by
+#: :func:`forte.execution.gains.gains_from_mapping` when the plan is simulated).
+CONTROLLER_FIELDS = frozenset({"bandwidth_hz", "damping_ratio", "K_a", "D_a", "M_b", "B_b", "K_b", "D_b",
+                               "base_feedforward", "force_feedforward"})
+
+
+def controller_section(reader: Reader) -> dict[str, Any]:
+    """The task's ``controller:`` mapping (empty when absent); unknown fields are errors."""
+    if "controller" not in reader.data or reader.get("controller") is None:
+        return {}
+    r = reader.sub("controller")
+    r.unknown(set(CONTROLLER_FIELDS))
+    return dict(r.data)
 
 
 def dataclass_from(reader: Reader, name: str, cls: type, base: Any) -> Any:
@@ -192,11 +246,11 @@ def dataclass_from(reader: Reader, name: str, cls: type, base: Any) -> Any:
                     raise r.error(key, f"expected true or false, got {value!r}")
                 values[key] = value
             elif kind == "int":
-                values[key] = r.integer(key, minimum=0)
+                values[key] = r.integer(key, minimum=0, maximum=10**9)
             elif kind == "float":
-                values[key] = r.number(key, nonnegative=True)
+                values[key] = r.number(key, nonnegative=True, maximum=1e12)
             elif kind == "float | None":
-                values[key] = None if value is None else r.number(key, nonnegative=True)
+                values[key] = None if value is None else r.number(key, nonnegative=True, maximum=1e12)
             elif kind.startswith("str"):
                 if not isinstance(value, str):
                     raise r.error(key, f"expected a string, got {value!r}")

@@ -23,9 +23,16 @@ from forte.force.payload import Payload
 from forte.force.taskforce import DEFAULT_RADIUS, TaskForce, given_force, payload_force
 from forte.model.robot import MobileManipulator
 from forte.model.trajectory import quintic_blend, quintic_path
-from forte.planning.schema import Reader, check_joint_limits, dataclass_from, robot_section, rotation
+from forte.planning.schema import (
+    Reader,
+    check_joint_limits,
+    controller_section,
+    dataclass_from,
+    robot_section,
+    rotation,
+)
 from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights, KinematicLimits, SolverOptions
-from forte.validation import FloatArray
+from forte.validation import MAX_DURATION_S, MAX_FILE_BYTES, MAX_MASS_KG, MAX_WAYPOINTS, FloatArray
 
 MODES = ("trajectory", "hold")
 
@@ -47,6 +54,8 @@ class Task:
         raw: the task's definition as read (recorded in plan.json).
         knots: ``(times, configurations)`` of a path given by taught whole-body configurations
             (``path.kind: taught``), else ``None``.
+        controller: the task's ``controller:`` mapping for ``forte simulate`` (empty: the defaults
+            of :mod:`forte.execution.gains`).
     """
 
     name: str
@@ -64,9 +73,13 @@ class Task:
     teaching: FloatArray | None = None
     limits: KinematicLimits = field(default_factory=KinematicLimits)
     raw: dict[str, Any] = field(default_factory=dict)
+    controller: dict[str, Any] = field(default_factory=dict)
     targets_at: TargetsAt | None = field(default=None, repr=False)
     force_at: ForceAt | None = field(default=None, repr=False)
     knots: tuple[FloatArray, FloatArray] | None = field(default=None, repr=False)
+
+    #: The plan fails (exit 1) when the force ball leaves the RFP at some waypoint (d < 0).
+    require_capacity: bool = False
 
     @property
     def n(self) -> int:
@@ -92,8 +105,8 @@ class Task:
         """The same task on ``n`` equally spaced samples of its time span (trajectory mode)."""
         if self.mode != "trajectory" or self.targets_at is None:
             raise TaskFileError(f"{self._where('path')}: only a trajectory task can be resampled")
-        if n < 2:
-            raise TaskFileError(f"waypoints: expected at least 2 for a trajectory, got {n}")
+        if n < 2 or n > MAX_WAYPOINTS:
+            raise TaskFileError(f"waypoints: expected 2 to {MAX_WAYPOINTS} for a trajectory, got {n}")
         t = np.linspace(self.t[0], self.t[-1], n)
         profile = self.force_at(t) if self.force_at is not None else None
         return replace(self, t=t, targets=self.targets_at(t), force_profile=profile)
@@ -140,9 +153,14 @@ def _samples(r: Reader, t0: float, t1: float, waypoints: int | None) -> FloatArr
     if waypoints is not None:
         n = waypoints
     elif r.has("samples"):
-        n = r.integer("samples", minimum=2)
+        n = r.integer("samples", minimum=2, maximum=MAX_WAYPOINTS)
     elif r.has("rate"):
-        n = int(round((t1 - t0) * r.number("rate", positive=True))) + 1
+        rate = r.number("rate", positive=True)
+        samples = (t1 - t0) * rate + 1  # durations are bounded: finite
+        if samples > MAX_WAYPOINTS + 0.5:
+            raise r.error("rate", f"gives {samples:.0f} waypoints over {t1 - t0:g} s; expected at most "
+                          f"{MAX_WAYPOINTS} (forte's documented bound)")
+        n = int(round(samples))
         if n < 2:
             raise r.error("rate", f"gives {n} waypoint over {t1 - t0} s; expected at least 2")
     else:
@@ -212,6 +230,9 @@ def _path(reader: Reader, T0: FloatArray, waypoints: int | None,
             w = Reader(item, r.path, f"{r.key('waypoints')}[{i}].")
             w.unknown({"t", "position"})
             times.append(w.number("t"))
+            if abs(times[-1]) > MAX_DURATION_S:
+                raise w.error("t", f"expected a time within +-{MAX_DURATION_S:g} s (forte's documented bound), "
+                              f"got {times[-1]:g}")
             p = w.vector("position", 3)
             positions.append(T0[:3, 3] + p if relative else p)
         times_arr = np.asarray(times)
@@ -225,7 +246,7 @@ def _path(reader: Reader, T0: FloatArray, waypoints: int | None,
         def position_at(ts: FloatArray) -> FloatArray:
             return quintic_path(times_arr, knots, ts)
     elif kind == "windowed-sine":
-        duration = r.number("duration", positive=True)
+        duration = r.number("duration", positive=True, maximum=MAX_DURATION_S, unit=" s")
         t = _samples(r, 0.0, duration, waypoints)
         sine = _sine_parameters(r)
 
@@ -250,7 +271,11 @@ def _force_profile(reader: Reader, t: FloatArray, radius: float) -> ForceAt | No
     r.unknown({"kind", "offset", "amplitude", "frequency", "phase", "duration", "vector"})
     kind = r.get("kind", "constant")
     if kind == "windowed-sine":
-        duration = r.number("duration", default=float(t[-1] - t[0]) or 1.0, positive=True)
+        span = float(t[-1] - t[0])
+        duration = r.number("duration", default=span or 1.0, positive=True, maximum=MAX_DURATION_S, unit=" s")
+        if duration < span - 1e-9:  # the window is zero after its end: the rest of the path would get no force
+            raise r.error("duration", f"the force profile lasts {duration:g} s but the path lasts {span:g} s; "
+                          "expected a profile at least as long as the path")
         sine = _sine_parameters(r)
         t0 = float(t[0])
         return lambda ts: given_force(ts, _windowed_sine(ts - t0, duration, *sine), radius)
@@ -267,14 +292,19 @@ def _payload(reader: Reader, base: Path, mass: float | None) -> Payload | None:
         pr = reader.sub("payload")
         pr.unknown({"mass", "description", "image"})
         image = Path(str(pr.get("image"))) if pr.has("image") else None
-        found = Payload(mass=pr.number("mass", positive=True) if pr.has("mass") else None,
+        if image is not None:
+            located = image if image.is_absolute() else base / image
+            if not located.is_file():
+                raise pr.error("image", f"{located}: file does not exist (expected a PNG, JPEG, WebP or GIF image)")
+        found = Payload(mass=pr.number("mass", positive=True, maximum=MAX_MASS_KG, unit=" kg")
+                        if pr.has("mass") else None,
                         description=str(pr.get("description")) if pr.has("description") else None,
                         image=None if image is None else str(image if image.is_absolute() else base / image))
         if found.mass is None and found.description is None and found.image is None:
             found = None
     if mass is not None:
-        if isinstance(mass, bool) or not np.isfinite(mass) or mass <= 0:
-            raise TaskFileError(f"--mass: expected a finite number > 0 kg, got {mass}")
+        if isinstance(mass, bool) or not np.isfinite(mass) or mass <= 0 or mass > MAX_MASS_KG:
+            raise TaskFileError(f"--mass: expected a finite number > 0 and <= {MAX_MASS_KG:g} kg, got {mass}")
         found = (found or Payload()).with_mass(mass, source="cli")
     return found
 
@@ -296,13 +326,38 @@ def load_task(
         (20, 2.7, 30)
     """
     path = Path(path)
-    if not path.is_file():
-        raise TaskFileError(f"{path}: task file does not exist")
+    return task_from_dict(read_yaml(path, "task file"), path, mass=mass, waypoints=waypoints)
+
+
+def read_yaml(path: Path, what: str = "file") -> Any:
+    """Parse a YAML file (UTF-8, at most :data:`MAX_FILE_BYTES`); every failure is one line."""
     try:
-        data = yaml.safe_load(path.read_text())
+        if not path.is_file():
+            raise TaskFileError(f"{path}: {what} does not exist")
+        if path.stat().st_size > MAX_FILE_BYTES:
+            raise TaskFileError(f"{path}: {path.stat().st_size} bytes; expected a {what} of at most "
+                                f"{MAX_FILE_BYTES} bytes")
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise TaskFileError(f"{path}: cannot read the {what} ({exc.strerror or exc})") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise TaskFileError(f"{path}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); "
+                            "save the file as UTF-8") from None
+    if "\0" in text:
+        raise TaskFileError(f"{path}: contains a NUL character at offset {text.index(chr(0))}; expected YAML text")
+    try:
+        return yaml.safe_load(text)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
+        problem = " ".join(str(x) for x in (exc.context, exc.problem) if x) or "syntax error"
+        raise TaskFileError(f"{path}: {where}not valid YAML: {problem}") from None
     except yaml.YAMLError as exc:
-        raise TaskFileError(f"{path}: not valid YAML: {exc}") from exc
-    return task_from_dict(data, path, mass=mass, waypoints=waypoints)
+        raise TaskFileError(f"{path}: not valid YAML: {exc}") from None
+    except RecursionError:
+        raise TaskFileError(f"{path}: nested too deeply to be a {what}") from None
 
 
 def task_from_dict(data: Any, path: Path | None = None, mass: float | None = None,
@@ -310,7 +365,8 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     """Validate an already-parsed task (see :func:`load_task`)."""
     reader = Reader(data, path)
     reader.unknown({"name", "robot", "mode", "initial_configuration", "path", "pose", "payload", "force",
-                    "uncertainty_radius", "weights", "torque_limits", "solver", "teaching_configuration", "limits"})
+                    "uncertainty_radius", "weights", "torque_limits", "solver", "teaching_configuration", "limits",
+                    "controller", "require_capacity"})
     base = path.parent if path else Path.cwd()
     robot = robot_section(reader, base)
     mode = reader.get("mode", "trajectory")
@@ -328,15 +384,16 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
         if knots is not None and not np.allclose(q_init, knots[1][0], atol=1e-9):
             raise reader.error("initial_configuration", "differs from the first taught configuration "
                                "(path.configurations[0].q); leave it out")
-    radius = reader.number("uncertainty_radius", DEFAULT_RADIUS, nonnegative=True)
+    radius = reader.number("uncertainty_radius", DEFAULT_RADIUS, nonnegative=True, maximum=1e6, unit=" N")
     teaching = None
     if reader.has("teaching_configuration"):
         teaching = reader.vector("teaching_configuration", robot.nq)
         check_joint_limits(reader, "teaching_configuration", robot, teaching)
     T0 = robot.ee_pose(q_init)
     if mode == "trajectory":
-        if waypoints is not None and waypoints < 2:
-            raise TaskFileError(f"waypoints: expected at least 2 for a trajectory, got {waypoints}")
+        if waypoints is not None and not 2 <= waypoints <= MAX_WAYPOINTS:
+            raise TaskFileError(f"--waypoints: expected 2 to {MAX_WAYPOINTS} (forte's documented bound), "
+                                f"got {waypoints}")
         t, targets_at = _path(reader, T0, waypoints, robot)
         targets = targets_at(t)
         if not np.allclose(targets[0], T0, atol=1e-6):
@@ -361,12 +418,36 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
         limits.resolve(robot)
     except ForteError as exc:
         raise reader.error("limits", str(exc)) from exc
+    if targets_at is not None and limits.end_at_rest:
+        targets_at = ending_at_rest(targets_at)
+        targets = targets_at(t)
+    require_capacity = reader.get("require_capacity", False)
+    if not isinstance(require_capacity, bool):
+        raise reader.error("require_capacity", f"expected true or false, got {require_capacity!r}")
     name = str(reader.get("name", path.stem if path else "task"))
     return Task(name=name, source=path, robot=robot, mode=mode, t=t, targets=targets, q_init=q_init,
                 radius=radius, payload=payload or Payload(source="none"),
                 force_profile=None if force_at is None else force_at(t), weights=weights, solver=solver,
-                teaching=teaching, limits=limits, raw=data, targets_at=targets_at, force_at=force_at,
-                knots=knots)
+                teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
+                targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots)
+
+
+def ending_at_rest(targets_at: TargetsAt) -> TargetsAt:
+    """The path with its last two samples holding the final pose.
+
+    A plan that ends at rest on the paper's backward differences has ``q_N = q_{N-1} = q_{N-2}``
+    (``v_N = 0`` and ``a_N = 0``), so the three last targets must be one pose. A path that
+    blends into its last pose (the quintic blends of the taught and waypoint paths) is still
+    moving there by a small amount; this holds the final pose over the last two samples instead
+    (on the authors' lift, N = 41: 3 mm and 0.4 mm at the two samples), which keeps every pose
+    equality of the optimizer exact.
+    """
+    def at(ts: FloatArray) -> FloatArray:
+        targets = targets_at(ts)
+        if len(targets) >= 3:
+            targets[-3:-1] = targets[-1]
+        return targets
+    return at
 
 
 def _weight_preset(reader: Reader, mode: str) -> CostWeights:
