@@ -12,7 +12,7 @@ from forte.exceptions import InvalidInputError
 from forte.execution.closed_loop import ReplanOptions
 from forte.execution.run import simulate_plan
 
-LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
+LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift-path.yaml"  # moca-like robot
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,7 @@ import pytest
 from forte.cli.main import main
 from forte.io.export import BASE_JOINTS, MCAP_TOPIC, whole_body_urdf
 from forte.io.plandir import METRIC_COLUMNS, read_plan_dir, write_plan, write_plan_dir
-from forte.model.robot import MobileManipulator
+from forte.model.robot import MOCA_TOOL, MobileManipulator, default_robot
 from forte.planning.planner import plan
 from forte.planning.tasks import load_task
 
@@ -22,7 +22,8 @@ LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 
 @pytest.fixture(scope="module")
 def plan_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A lift plan at 12 waypoints, 6 s (quintic: fast, with force and metrics)."""
+    """The authors' lift (built-in robot: ``ee_offset``, hand mass) at 12 waypoints (quintic: fast,
+    with force and metrics)."""
     return write_plan(plan(load_task(LIFT, waypoints=12), "quintic"), tmp_path_factory.mktemp("p") / "lift",
                       figures=False)
 
@@ -47,7 +48,7 @@ def test_npz_round_trip(plan_dir: Path, tmp_path: Path) -> None:
         v, a = _differences(d["q"], d["t"])
         np.testing.assert_allclose(d["qd"], v, atol=1e-9, rtol=0)
         np.testing.assert_allclose(d["qdd"], a, atol=1e-9, rtol=0)
-        assert d["t"][-1] == pytest.approx(6.0)
+        assert d["t"][-1] == pytest.approx(load_task(LIFT).t[-1])  # the task's duration (10 s)
         np.testing.assert_allclose(d["force_f"], ref.force.f)
         assert {f"metric_{c}" for c in METRIC_COLUMNS} <= set(d.files)
         assert d["metric_d"].shape == d["t"].shape
@@ -111,7 +112,8 @@ def _check_urdf(robot: MobileManipulator, path: Path, q: np.ndarray) -> None:
     model.gravity = pin.Motion(np.array([0, 0, -robot.gravity, 0, 0, 0]))
     data = model.createData()
     pin.framesForwardKinematics(model, data, q)
-    np.testing.assert_allclose(data.oMf[model.getFrameId(robot.ee_frame)].homogeneous, robot.ee_pose(q), atol=1e-12)
+    ee_name = robot.model.frames[robot.ee_frame_id].name  # ee_frame, or forte_ee with an ee_offset
+    np.testing.assert_allclose(data.oMf[model.getFrameId(ee_name)].homogeneous, robot.ee_pose(q), atol=1e-12)
     # the tool load and the locked joints: the arm's gravity torques are the planner's
     tau = pin.rnea(model, data, q, np.zeros(model.nv), np.zeros(model.nv))
     n = robot.n_arm
@@ -126,6 +128,11 @@ def test_robot_urdf_is_the_planner_model(plan_dir: Path, tmp_path: Path) -> None
     ref = read_plan_dir(plan_dir)
     for q in ref.q[[0, 6, 11]] + np.array([0.3, -0.2, 2.5] + [0.0] * 7):
         _check_urdf(ref.robot, out, q)
+    # a tool load in the arm dynamics: the moca-like preset, and on the ee_offset end effector
+    for robot in (default_robot(variant="moca-like"), default_robot(tool=MOCA_TOOL)):
+        out.write_text(whole_body_urdf(robot))
+        for q in ref.q[[0, 11]]:
+            _check_urdf(robot, out, q)
 
 
 def test_robot_urdf_of_a_ur5(ur5: MobileManipulator, tmp_path: Path) -> None:

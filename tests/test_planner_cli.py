@@ -12,7 +12,7 @@ import yaml
 
 from forte.cli.main import main
 from forte.exceptions import InfeasibleTaskError
-from forte.planning.planner import plan
+from forte.planning.planner import methods_for, plan
 from forte.planning.tasks import load_task
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
@@ -20,7 +20,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 
 def test_plan_writes_every_output(tmp_path):
     out = tmp_path / "lift"
-    assert main(["plan", str(EXAMPLES / "lift.yaml"), "--waypoints", "14", "--out", str(out), "--quiet"]) == 0
+    assert main(["plan", str(EXAMPLES / "lift-path.yaml"), "--waypoints", "14", "--out", str(out), "--quiet"]) == 0
     names = {p.name for p in out.iterdir()}
     assert {"trajectory.csv", "metrics.csv", "plan.json", "capacity.png", "manipulability.png",
             "rfp_worst.png", "ellipsoid.png"} <= names
@@ -34,15 +34,16 @@ def test_plan_writes_every_output(tmp_path):
     assert doc["status"] == "success" and doc["method"] == "forte"
     assert doc["robot"]["torque_limits"] == [60, 60, 60, 60, 12, 12, 12]
     # alpha has one place in plan.json: the capability parameters
-    assert doc["weights"]["capability_params"]["alpha"] == 0.8 and doc["robot"]["tool"]["mass"] > 0
+    assert doc["weights"]["capability_params"]["alpha"] == 0.9 and doc["robot"]["tool"]["mass"] > 0  # authors' set
     assert "alpha" not in doc["robot"] and doc["generator"] == "forte" and doc["format_version"] == 2
     assert doc["solver"]["iterations"] > 0 and doc["solver"]["constraint_violation"] < 1e-6
-    assert doc["weights"]["capability"] == 5.0 and "casadi" in doc["versions"]
+    assert doc["weights"]["preset"] == "authors-trajectory" and doc["weights"]["capability"] == 1.0
+    assert "casadi" in doc["versions"]
     # the metrics in the CSV are the exact ones, recomputed from the trajectory
-    task = load_task(EXAMPLES / "lift.yaml", waypoints=14)
+    task = load_task(EXAMPLES / "lift-path.yaml", waypoints=14)
     q = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)[:, 1:]
     from forte.planning.planner import evaluate
-    m = evaluate(task.robot, q, task.t, task.force(), 0.8)
+    m = evaluate(task.robot, q, task.t, task.force(), task.weights.capability_params)
     np.testing.assert_allclose(np.loadtxt(out / "metrics.csv", delimiter=",", skiprows=1)[:, header.index("d")],
                                m["d"], rtol=1e-9)
 
@@ -72,7 +73,7 @@ def test_failed_optimization_never_replaces_a_good_plan(tmp_path, capsys):
 
 
 def test_unreachable_waypoint_is_named(tmp_path, capsys):
-    data = yaml.safe_load((EXAMPLES / "lift.yaml").read_text())
+    data = yaml.safe_load((EXAMPLES / "lift-path.yaml").read_text())
     data["path"]["waypoints"][1]["position"] = [0.0, 0.0, 3.0]
     path = tmp_path / "far.yaml"
     path.write_text(yaml.safe_dump(data))
@@ -89,7 +90,9 @@ def test_compare_hold_runs_every_method(tmp_path):
     out = tmp_path / "cmp"
     assert main(["compare", str(EXAMPLES / "hold.yaml"), "--out", str(out), "--quiet"]) == 0
     rows = list(csv.DictReader((out / "summary.csv").open()))
-    assert [r["method"] for r in rows] == ["forte", "manipulability", "rfp-radius", "rfp-cone", "teaching"]
+    methods = [r["method"] for r in rows]
+    assert methods == list(methods_for(load_task(EXAMPLES / "hold.yaml")))  # every method that applies
+    assert {"forte", "manipulability", "rfp-radius", "rfp-cone", "teaching"} <= set(methods)
     assert (out / "comparison.png").stat().st_size > 1000
     assert "| forte | success |" in (out / "summary.md").read_text()
     for r in rows:
@@ -109,7 +112,7 @@ def test_demo_command(capsys):
 
 
 def test_payload_description_goes_through_the_estimator(tmp_path):
-    data = yaml.safe_load((EXAMPLES / "lift.yaml").read_text())
+    data = yaml.safe_load((EXAMPLES / "lift-path.yaml").read_text())
     data["payload"] = {"description": "two 1.5 L bottles of water in the basket"}
     path = tmp_path / "est.yaml"
     path.write_text(yaml.safe_dump(data))
@@ -140,10 +143,11 @@ def test_payload_without_quantity_is_refused(tmp_path, capsys):
 
 def test_another_urdf_arm_plans(tmp_path):
     """The planner is not tied to the Panda: a UR5 on the same holonomic base lifts a payload."""
-    data = yaml.safe_load((EXAMPLES / "lift.yaml").read_text())
+    data = yaml.safe_load((EXAMPLES / "lift-path.yaml").read_text())
     data["robot"] = {"urdf": "erd:ur_description/urdf/ur5_robot.urdf", "ee_frame": "tool0",
                      "mount": {"xyz": [0.2, 0.0, 0.45]}, "tool": None}
     data["initial_configuration"] = [0, 0, 0, 0.0, -1.2, 1.5, -1.87, -1.57, 0.0]
+    data["weights"] = {"preset": "paper-demo"}  # the authors' sets carry Panda-specific DoF weights
     data["path"]["waypoints"] = [{"t": 0.0, "position": [0, 0, 0]}, {"t": 3.0, "position": [0.1, 0.0, -0.2]}]
     path = tmp_path / "ur5.yaml"
     path.write_text(yaml.safe_dump(data))
@@ -181,7 +185,9 @@ def test_compare_hold_without_teaching_runs_the_optimized_methods(tmp_path):
     out = tmp_path / "cmp"
     assert main(["compare", str(path), "--out", str(out), "--quiet", "--no-figures"]) == 0
     rows = list(csv.DictReader((out / "summary.csv").open()))
-    assert [r["method"] for r in rows] == ["forte", "manipulability", "rfp-radius", "rfp-cone"]
+    methods = [r["method"] for r in rows]
+    assert "teaching" not in methods and methods == list(methods_for(load_task(path)))
+    assert {"forte", "manipulability", "rfp-radius", "rfp-cone"} <= set(methods)
     assert main(["plan", str(path), "--method", "teaching", "--out", str(tmp_path / "t")]) == 2
 
 

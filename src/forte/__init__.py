@@ -19,8 +19,8 @@ quick. A short session (run from the repository root):
 >>> task = forte.load_task("examples/tasks/hold.yaml", mass=0.35)
 >>> task.mode, task.n
 ('hold', 1)
->>> sorted(forte.METHODS)[:3]
-['forte', 'manipulability', 'quintic']
+>>> [name for name in forte.METHODS if forte.METHODS[name].in_paper]
+['forte', 'manipulability', 'rfp-radius', 'rfp-cone', 'quintic', 'teaching']
 """
 
 from __future__ import annotations

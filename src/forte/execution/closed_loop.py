@@ -75,8 +75,11 @@ class ReplanLoop:
     estimates: list[tuple[float, float, float]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
+        # the identifier sees everything carried at the end effector: the payload and the robot's
+        # own end-effector load that the required force includes (``tool_force_mass``)
+        self.tool_mass = float(self.sim.robot.tool_force_mass)
         self.identifier = PayloadIdentifier(self.sim.robot, armature=self.sim.armature,
-                                            prior_mass=self.replanner.task.payload.mass or 0.0)
+                                            prior_mass=(self.replanner.task.payload.mass or 0.0) + self.tool_mass)
         self.torque_model = WholeBodyTorqueModel(self.sim)
         self.plan_t = self.replanner.task.t.copy()
         self.plan_q = self.replanner.last.q.copy()
@@ -94,6 +97,7 @@ class ReplanLoop:
         qvel[sim.dof_idx] = dq
         arm = sim.dof_idx[N_BASE:]
         m = self.identifier.add(*self.torque_model(qpos, qvel, sim.data.qacc, sim.data.qfrc_actuator[arm]))
+        m -= self.tool_mass  # the payload
         if k % 100 == 0:
             self.estimates.append((t, m, self.identifier.sigma))
         self._maybe_add_mass(t)

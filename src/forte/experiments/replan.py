@@ -1,6 +1,8 @@
 """Online re-planning (the paper's future work: online force estimation for real-time re-planning).
 
-Two scenarios on the lift task, each simulated without and with closed-loop re-planning
+Two scenarios on forte's waypoint lift (``examples/tasks/lift-path.yaml``, the moca-like robot;
+on the authors' lift even a plan made for the true 2.7 kg fails in simulation, so re-planning
+could not show anything there), each simulated without and with closed-loop re-planning
 (:mod:`forte.execution.closed_loop`: payload identification from the joint torques, a warm
 re-plan of the remaining horizon at 10 Hz):
 
@@ -90,7 +92,8 @@ def _verdict(run: dict[str, Any]) -> str:
 
 def _summary_lines(runs: dict[str, dict[str, Any]], waypoints: int) -> list[str]:
     lines = ["# Online re-planning: misjudged and growing payloads", "",
-             f"Lift task (`examples/tasks/lift.yaml`, {waypoints} waypoints), forte planned for {PLANNED_MASS} kg. "
+             f"Waypoint lift (`examples/tasks/lift-path.yaml`, moca-like robot, {waypoints} waypoints), forte "
+             f"planned for {PLANNED_MASS} kg. "
              "With re-planning the payload is identified from the joint torques every 1 ms and the remaining "
              "horizon re-planned at 10 Hz when the estimate departs from the plan's mass. Latency is the solver's "
              "wall-clock time on this machine (simulated time stands still while it solves).", "",
@@ -113,7 +116,7 @@ def run_replan(out: str | Path, waypoints: int | None = 41, log: Log = quiet, fm
                hold: float = 1.0, **_: Any) -> dict[str, Any]:
     """Plan the lift for 0.35 kg, run both scenarios without and with re-planning, write the results."""
     out, fmt = Path(out), check_format(fmt)
-    task = load_task(task_path("lift"), mass=PLANNED_MASS, waypoints=waypoints)
+    task = load_task(task_path("lift-path"), mass=PLANNED_MASS, waypoints=waypoints)
     log(f"replan: planning the lift for {PLANNED_MASS} kg ({task.n} waypoints)")
     light = plan(task, "forte")
 

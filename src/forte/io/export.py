@@ -37,7 +37,7 @@ import pinocchio as pin
 
 from forte.exceptions import InvalidInputError, OutputError, RobotModelError
 from forte.io.plandir import read_metrics, read_plan_dir
-from forte.model.robot import MobileManipulator, example_robot_data_dir
+from forte.model.robot import EE_FRAME_NAME, MobileManipulator, example_robot_data_dir
 from forte.model.trajectory import backward_differences
 from forte.validation import FloatArray
 
@@ -249,14 +249,42 @@ def _lock(joint: ET.Element) -> None:
             joint.remove(child)
 
 
+def _set_link_mass(root: ET.Element, link: str, mass: float) -> bool:
+    """Give ``link``'s inertial the mass ``mass``, its inertia scaled alike (as the planner's model)."""
+    for node in root.findall("link"):
+        inertial = node.find("inertial") if node.get("name") == link else None
+        if inertial is None or inertial.find("mass") is None or inertial.find("inertia") is None:
+            continue
+        mass_node, inertia = inertial.find("mass"), inertial.find("inertia")
+        scale = mass / float(mass_node.get("value"))
+        mass_node.set("value", repr(float(mass)))
+        for key, value in list(inertia.attrib.items()):
+            inertia.set(key, repr(float(value) * scale))
+        return True
+    return False
+
+
+def _fixed_link(name: str, parent: str, T: FloatArray | None = None) -> tuple[ET.Element, ET.Element]:
+    """A link ``name`` (no inertial) and the fixed joint ``<name>_joint`` from ``parent`` at ``T``."""
+    link = ET.Element("link", name=name)
+    joint = ET.Element("joint", name=f"{name}_joint", type="fixed")
+    ET.SubElement(joint, "parent", link=parent)
+    ET.SubElement(joint, "child", link=name)
+    if T is not None:
+        _origin(joint, T)
+    return link, joint
+
+
 def whole_body_urdf(robot: MobileManipulator, mesh_uris: str = "file") -> str:
     """The robot as one URDF: the base joints and the arm mounted on them.
 
     ``mobile_world -[base_x, prismatic]-> mobile_base_x -[base_y, prismatic]-> mobile_base_y
     -[base_yaw, revolute]-> mobile_base -[arm_mount, fixed: the mount]-> the arm's root link``;
     the base joints are bounded at +-:data:`BASE_RANGE` (m, rad). Arm joints that the planner
-    locks become fixed joints at their locked value; the tool load is a link ``forte_tool``
-    fixed to the end-effector link. ``mesh_uris="file"`` rewrites example-robot-data's
+    locks become fixed joints at their locked value; ``robot.hand_mass`` replaces the mass of
+    ``robot.hand_link`` (inertia scaled alike); with ``robot.ee_offset`` the end effector is a
+    link ``forte_ee`` fixed to ``robot.ee_frame`` at that offset; the tool load is a link
+    ``forte_tool`` fixed to the end-effector link. ``mesh_uris="file"`` rewrites example-robot-data's
     ``package://`` mesh URIs to ``file://`` paths of the installed meshes; ``"package"`` keeps them.
 
     Raises:
@@ -304,6 +332,14 @@ def whole_body_urdf(robot: MobileManipulator, mesh_uris: str = "file") -> str:
     ET.SubElement(mount, "child", link=roots[0])
     _origin(mount, robot.mount)
     added.append(mount)
+    if robot.hand_mass is not None and not _set_link_mass(root, robot.hand_link, robot.hand_mass):
+        raise RobotModelError(f"urdf: hand_mass: no link {robot.hand_link!r} with an inertial")
+    ee_link = robot.ee_frame
+    if robot.ee_offset is not None:
+        if robot.ee_frame not in links or EE_FRAME_NAME in links:
+            raise RobotModelError(f"urdf: ee_offset needs a link named {robot.ee_frame!r} and no {EE_FRAME_NAME!r}")
+        ee_link = EE_FRAME_NAME
+        added += _fixed_link(EE_FRAME_NAME, robot.ee_frame, robot.ee_offset)
     if robot.tool is not None:
         if robot.ee_frame not in links or "forte_tool" in links:
             raise RobotModelError(f"urdf: the tool load needs a link named {robot.ee_frame!r}")
@@ -316,7 +352,7 @@ def whole_body_urdf(robot: MobileManipulator, mesh_uris: str = "file") -> str:
                       izz=repr(float(inertia[2, 2])), ixy=repr(float(inertia[0, 1])), ixz=repr(float(inertia[0, 2])),
                       iyz=repr(float(inertia[1, 2])))
         joint = ET.Element("joint", name="forte_tool_joint", type="fixed")
-        ET.SubElement(joint, "parent", link=robot.ee_frame)
+        ET.SubElement(joint, "parent", link=ee_link)  # the tool's centre of mass is in end-effector axes
         ET.SubElement(joint, "child", link="forte_tool")
         added += [tool, joint]
     for i, el in enumerate(added):

@@ -417,14 +417,15 @@ def write_plan_dir(plan_dir: str | Path, robot: MobileManipulator, t: Any, q: An
                    extra: dict[str, Any] | None = None) -> Path:
     """Write a plan directory for waypoints ``q`` (N x nq) at times ``t`` given by hand.
 
-    ``force`` (N x 3, world frame) defaults to ``m (a - g)`` of the end-effector waypoints when
-    ``mass`` is given (:func:`forte.force.taskforce.payload_force`), else to zero.
+    ``force`` (N x 3, world frame) defaults to ``(m + m_tool) (a - g)`` of the end-effector
+    waypoints (``m_tool``: the robot's ``tool_force_mass``) when ``mass`` is given (:func:`forte.force.taskforce.payload_force`), else to zero.
     """
     times = check_times(t, "t")
     Q = as_array(q, "q", (times.size, robot.nq))
     if force is None and mass:
         positions = np.array([robot.ee_position(qk) for qk in Q])
-        tf = payload_force(times, positions, mass, radius=radius, gravity=robot.gravity)
+        # the required force carries the robot's own end-effector load too, as a planned task's does
+        tf = payload_force(times, positions, mass + robot.tool_force_mass, radius=radius, gravity=robot.gravity)
     else:
         f = np.zeros((times.size, 3)) if force is None else as_array(force, "force", (times.size, 3))
         tf = TaskForce(times, f, np.array(np.broadcast_to(np.asarray(radius, dtype=float), (times.size,))))

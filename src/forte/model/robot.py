@@ -324,11 +324,16 @@ class MobileManipulator:
             if frame.parentJoint == 0:
                 frame.placement = mount * frame.placement
         if self.tool is not None:
+            # The tool sits at the end effector: ``ee_frame`` composed with ``ee_offset`` when given
+            # (the frame ``forte_ee`` is added after the reduction), as in the MuJoCo model.
             frame = model.frames[model.getFrameId(self.ee_frame)]
             inertia = pin.Inertia(
                 float(self.tool.mass), np.zeros(3), np.array(self.tool.inertia, dtype=float)
             )
-            placement = frame.placement * pin.SE3(np.eye(3), np.array(self.tool.com, dtype=float))
+            ee = frame.placement
+            if self.ee_offset is not None:
+                ee = ee * pin.SE3(self.ee_offset[:3, :3].copy(), self.ee_offset[:3, 3].copy())
+            placement = ee * pin.SE3(np.eye(3), np.array(self.tool.com, dtype=float))
             model.appendBodyToJoint(frame.parentJoint, inertia, placement)
         return model
 

@@ -75,7 +75,9 @@ def check_force_capacity(task: Any) -> None:
     if magnitude[live][worst] > FACTOR * max(capacity[worst], 0.0):
         k = int(live[worst])
         mass = task.payload.mass if task.force_profile is None else None
-        what = f"payload.mass = {mass:g} kg gives" if mass is not None else "the force profile gives"
+        tool = float(getattr(robot, "tool_force_mass", 0.0))  # in the required force with the payload
+        load = f" (+ {tool:g} kg end-effector load)" if tool > 0 else ""
+        what = f"payload.mass = {mass:g} kg{load} gives" if mass is not None else "the force profile gives"
         raise InfeasibleTaskError(
             f"{task.source or 'task'}: infeasible task: {what} |f| = {magnitude[k]:.1f} N at waypoint {k} "
             f"(t = {tf.t[k]:g} s), but no sampled configuration of robot {robot.name} exerts more than "

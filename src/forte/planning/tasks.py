@@ -178,6 +178,9 @@ def taught_knots(r: Reader, robot: MobileManipulator) -> tuple[FloatArray, Float
         w = Reader(item, r.path, f"{r.key('configurations')}[{i}].")
         w.unknown({"t", "q"})
         times.append(w.number("t"))
+        if abs(times[-1]) > MAX_DURATION_S:
+            raise w.error("t", f"expected a time within +-{MAX_DURATION_S:g} s (forte's documented bound), "
+                          f"got {times[-1]:g}")
         q = w.vector("q", robot.nq)
         check_joint_limits(w, "q", robot, q)
         qs.append(q)
