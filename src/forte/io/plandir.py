@@ -418,7 +418,8 @@ def write_plan_dir(plan_dir: str | Path, robot: MobileManipulator, t: Any, q: An
     """Write a plan directory for waypoints ``q`` (N x nq) at times ``t`` given by hand.
 
     ``force`` (N x 3, world frame) defaults to ``(m + m_tool) (a - g)`` of the end-effector
-    waypoints (``m_tool``: the robot's ``tool_force_mass``) when ``mass`` is given (:func:`forte.force.taskforce.payload_force`), else to zero.
+    waypoints (``m_tool``: the robot's ``tool_force_mass``) when ``mass`` is given
+    (:func:`forte.force.taskforce.payload_force`), else to zero.
     """
     times = check_times(t, "t")
     Q = as_array(q, "q", (times.size, robot.nq))
