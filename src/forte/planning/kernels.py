@@ -217,7 +217,7 @@ def _compile(functions: dict[str, ca.Function], lib: Path, compiler: str) -> Non
         finally:
             os.chdir(cwd)
         src, out = Path(tmp) / "kernels.c", Path(tmp) / "kernels.so"
-        cmd = [compiler, "-O1", "-fPIC", "-shared", str(src), "-o", str(out), "-lm"]
+        cmd = [compiler, _optimization(src), "-fPIC", "-shared", str(src), "-o", str(out), "-lm"]
         proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
         if proc.returncode != 0:
             raise SolverError(f"compiling the NLP kernels failed: {proc.stderr[-2000:]}", status="codegen")
@@ -228,6 +228,16 @@ def _compile(functions: dict[str, ca.Function], lib: Path, compiler: str) -> Non
         # never loaded, so a concurrent run or a kill in between costs a rebuild at worst
         os.replace(rec_tmp, _record_path(lib))
         os.replace(out, lib)
+
+
+#: Generated sources above this size are compiled without optimization (measured on the 24 MB
+#: rfp-cone kernels: gcc -O1 ran over 5 minutes and 5 GB of memory, -O0 takes 44 s).
+LARGE_SOURCE_BYTES = 2_000_000
+
+
+def _optimization(src: Path) -> str:
+    """``-O1`` for the usual kernels, ``-O0`` for very large generated files (same results)."""
+    return "-O0" if src.stat().st_size > LARGE_SOURCE_BYTES else "-O1"
 
 
 def _class_digest(cls: type) -> str:
