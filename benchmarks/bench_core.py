@@ -19,7 +19,8 @@ from forte.capability.polytope import trajectory_rfp
 from forte.model.robot import default_robot
 from forte.model.twin import CasadiTwin
 from forte.planning.costs import CostWeights
-from forte.planning.kernels import load_kernels
+from forte.planning.kernels import load_kernels, stage_terms
+from forte.planning.methods import get_method
 from forte.planning.reference import capability_stage
 from forte.settings import SolverOptions
 
@@ -85,10 +86,11 @@ def main() -> None:
         kern = load_kernels(robot, "forte", CostWeights(), SolverOptions(cache_dir=cache))
         print(f"compiling the forte kernels (first use only): {time.perf_counter() - start:.1f} s")
         z = np.vstack([np.hstack([qN[:, :1], qN[:, :1], qN[:, : N - 2]]), np.hstack([qN[:, :1], qN[:, : N - 1]]), qN])
-        w = np.tile([[1.0], [0.0], [0.0]], (1, N))
+        names = [term.name for term in stage_terms(get_method("forte"), CostWeights())]
+        w = np.tile(np.array([[1.0 if name == "capability" else 0.0] for name in names]), (1, N))  # J1 alone
         grad_map = kern.grad.map(N)
         cost_map = kern.cost.map(N)
-        args = (z, np.ones((1, N)) * dt, np.ones((1, N)) * dt, fN, rN, w)
+        args = (z, np.ones((1, N)) * dt, np.ones((1, N)) * dt, fN, rN, qN, w)  # qN: the nominal trajectory
         value = best_of(lambda: cost_map(*args))
         both = best_of(lambda: (cost_map(*args), grad_map(*args)))
         print(f"compiled J1 value, N = {N}: {value * 1e3:.3f} ms; value + stage gradients: {both * 1e3:.3f} ms")

@@ -27,7 +27,7 @@ LIFT = ROOT / "examples" / "tasks" / "lift.yaml"
 def cold_run(extra: list[str], env: dict[str, str] | None = None) -> float:
     with tempfile.TemporaryDirectory() as out:
         start = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "forte.cli.main", "plan", str(LIFT), "--waypoints", "100", "--out",
+        subprocess.run([sys.executable, "-m", "forte.cli", "plan", str(LIFT), "--waypoints", "100", "--out",
                         str(Path(out) / "plan"), "--quiet", *extra], check=True, env=env)
         return time.perf_counter() - start
 

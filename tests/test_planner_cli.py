@@ -158,6 +158,12 @@ def test_another_urdf_arm_plans(tmp_path):
     for qk, Tk in zip(res.q, task.targets, strict=True):
         assert np.linalg.norm(task.robot.ee_pose(qk)[:3, 3] - Tk[:3, 3]) < 1e-6
     assert np.all(res.metrics["d"] > -1.0)  # the 2.7 kg ball fits (up to the surrogate's slack)
+    # and it executes: the same task file (no controller block) planned and simulated end to end
+    out = tmp_path / "ur5-plan"
+    assert main(["plan", str(path), "--waypoints", "12", "--out", str(out), "--quiet", "--no-figures"]) == 0
+    assert main(["simulate", str(out), "--quiet"]) == 0
+    sim = json.loads((out / "sim.json").read_text())
+    assert sim["verdict"] == "success" and len(sim["gains"]["K_a"]) == 6
 
 
 def test_tutorial_example_runs():
