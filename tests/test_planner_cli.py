@@ -78,7 +78,9 @@ def test_unreachable_waypoint_is_named(tmp_path, capsys):
     path = tmp_path / "far.yaml"
     path.write_text(yaml.safe_dump(data))
     task = load_task(path, waypoints=12)
-    with pytest.raises(InfeasibleTaskError, match=r"waypoint \d+: end-effector pose unreachable, position error"):
+    # named as the user wrote the path: the sample's time and the task file's waypoints around it
+    with pytest.raises(InfeasibleTaskError, match=r"waypoint \d+ \(t = [0-9.]+ s, between path\.waypoints\[0\] "
+                       r"and path\.waypoints\[1\]\): end-effector pose unreachable, position error"):
         plan(task, "forte")
     assert main(["plan", str(path), "--waypoints", "12", "--out", str(tmp_path / "o"), "--quiet"]) == 2
     err = capsys.readouterr().err

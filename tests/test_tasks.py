@@ -103,7 +103,7 @@ def load_error(tmp_path, mutate):
         (lambda d: d.update(initial_configuration=[0, 0, 0]), "initial_configuration: expected a list of 10"),
         (lambda d: d["path"]["waypoints"][2].update(t=1.0), "path.waypoints[2].t: times must increase"),
         (lambda d: d["path"]["waypoints"][1].update(position=[0, 0]), "path.waypoints[1].position: expected a list"),
-        (lambda d: d["path"].update(relative=False), "the path must start at the end-effector pose"),
+        (lambda d: d["path"].update(relative=False), "m from the end-effector position of initial_configuration"),
         (lambda d: d.pop("payload"), "payload: give a payload"),
         (lambda d: d.update(uncertainty_radius=-1), "uncertainty_radius: expected a number >= 0"),
         (lambda d: d.update(weights={"capability": -1}), "weights.capability: expected a number >= 0"),
@@ -178,3 +178,34 @@ def test_string_options_are_accepted(tmp_path):
 def test_waypoints_do_not_apply_to_hold():
     with pytest.raises(TaskFileError, match="--waypoints: applies to mode 'trajectory'"):
         load_task(EXAMPLES / "hold.yaml", waypoints=10)
+
+
+def _absolute_lift(tmp_path, shift, rpy=None):
+    """lift-path.yaml with absolute positions starting ``shift`` (m) from the initial pose."""
+    data = yaml.safe_load((EXAMPLES / "lift-path.yaml").read_text())
+    task = load_task(EXAMPLES / "lift-path.yaml")
+    p0 = task.targets[0][:3, 3]
+    data["path"]["relative"] = False
+    for item in data["path"]["waypoints"]:
+        item["position"] = (p0 + np.asarray(item["position"], dtype=float)).tolist()
+    data["path"]["waypoints"][0]["position"] = (p0 + np.asarray(shift)).tolist()
+    if rpy is not None:
+        data["path"]["orientation"] = {"rpy": rpy}
+    return write(tmp_path, data, "absolute.yaml")
+
+
+def test_absolute_start_within_a_millimetre_is_snapped_with_a_note(tmp_path):
+    path = _absolute_lift(tmp_path, [0.0005, 0.0, 0.0])
+    with pytest.warns(UserWarning, match=r"path: starts 0\.5 mm and .* mrad from .* snapped"):
+        task = load_task(path)
+    np.testing.assert_allclose(task.targets[0], task.robot.ee_pose(task.q_init), atol=1e-12)
+    np.testing.assert_allclose(task.resampled(20).targets[0], task.targets[0], atol=1e-12)
+
+
+def test_start_errors_say_what_differs_at_full_precision(tmp_path):
+    with pytest.raises(TaskFileError, match=r"path: starts 0\.01229999\d* m from the end-effector position"):
+        load_task(_absolute_lift(tmp_path, [0.0123, 0.0, 0.0]))
+    # an orientation in degrees: the error talks about orientation and units, not 'relative: true'
+    with pytest.raises(TaskFileError, match=r"path\.orientation: differs by .* rad .* look like degrees") as exc:
+        load_task(_absolute_lift(tmp_path, [0.0, 0.0, 0.0], rpy=[180.0, 0.0, 90.0]))
+    assert "relative" not in str(exc.value)

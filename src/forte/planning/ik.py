@@ -11,6 +11,7 @@ pose error ``e = [p_d - p; log(R_d R^T)]``, then a clamp to the arm joint limits
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -59,6 +60,7 @@ def solve_pose(
 
 def follow_path(
     robot: MobileManipulator, targets: FloatArray, q_init: FloatArray, options: IKOptions = IKOptions(),
+    name: Callable[[int], str] | None = None,
 ) -> FloatArray:
     """Whole-body configurations (N x nq) tracking the poses ``targets`` (N x 4 x 4).
 
@@ -78,10 +80,11 @@ def follow_path(
             err = pose_error(robot, q, target)
         pos, ang = np.linalg.norm(err[:3]), np.linalg.norm(err[3:])
         if pos > options.position_tolerance or ang > options.orientation_tolerance:
-            where = "the initial configuration does not reach waypoint 0" if k == 0 else f"waypoint {k}"
+            label = name(k) if name is not None else f"waypoint {k}"
+            where = f"the initial configuration does not reach {label}" if k == 0 else label
             raise InfeasibleTaskError(
-                f"{where}: end-effector pose unreachable, position error {pos:.4f} m, "
-                f"orientation error {ang:.4f} rad (target position {np.round(target[:3, 3], 4).tolist()})"
+                f"{where}: end-effector pose unreachable, position error {pos!r} m, "
+                f"orientation error {ang!r} rad (target position {target[:3, 3].tolist()!r})"
             )
         out[k] = q
     return out
@@ -98,4 +101,20 @@ def initial_guess(task: Any) -> FloatArray:
             raise InfeasibleTaskError(f"hold pose unreachable from initial_configuration: position error "
                                       f"{np.linalg.norm(err[:3]):.4f} m")
         return q[None]
-    return follow_path(task.robot, task.targets, task.q_init)
+    return follow_path(task.robot, task.targets, task.q_init, name=lambda k: sample_name(task, k))
+
+
+def sample_name(task: Any, k: int) -> str:
+    """``waypoint k`` named as the user wrote the path: its time and the task file's items around it."""
+    t = float(task.t[k])
+    path = task.raw.get("path") if isinstance(getattr(task, "raw", None), dict) else None
+    items = path.get("waypoints") or path.get("configurations") if isinstance(path, dict) else None
+    label = f"waypoint {k} (t = {t!r} s"
+    if isinstance(items, list) and items and all(isinstance(i, dict) and isinstance(i.get("t"), int | float)
+                                                 for i in items):
+        key = "waypoints" if path.get("waypoints") else "configurations"
+        times = [float(i["t"]) for i in items]
+        j = int(np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 1))
+        label += f", path.{key}[{j}]" if t == times[j] or j == len(times) - 1 else \
+            f", between path.{key}[{j}] and path.{key}[{j + 1}]"
+    return label + ")"

@@ -9,6 +9,7 @@ and solver options. Every error names the file, the field and what was expected.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -398,10 +399,8 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
             raise TaskFileError(f"--waypoints: expected 2 to {MAX_WAYPOINTS} (forte's documented bound), "
                                 f"got {waypoints}")
         t, targets_at = _path(reader, T0, waypoints, robot)
+        targets_at = _starting_at(reader, targets_at(t)[0], T0, targets_at)
         targets = targets_at(t)
-        if not np.allclose(targets[0], T0, atol=1e-6):
-            raise reader.error("path", "the path must start at the end-effector pose of initial_configuration "
-                               f"(at {np.round(T0[:3, 3], 4).tolist()}); use 'relative: true'")
     else:
         if waypoints is not None:
             raise TaskFileError(f"--waypoints: applies to mode 'trajectory', {path} is a 'hold' task")
@@ -433,6 +432,39 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                 force_profile=None if force_at is None else force_at(t), weights=weights, solver=solver,
                 teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
                 targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots)
+
+
+#: A path may start this close to the initial end-effector pose (m, rad); it is snapped to it.
+START_TOLERANCE = (1e-3, 1e-3)
+
+
+def _starting_at(reader: Reader, first: FloatArray, T0: FloatArray, targets_at: TargetsAt) -> TargetsAt:
+    """The path, checked to start at the initial end-effector pose ``T0`` (snapped within 1 mm and
+    1 mrad, with a note); otherwise one error that says what differs, at full precision."""
+    gap = float(np.linalg.norm(first[:3, 3] - T0[:3, 3]))
+    turn = float(np.linalg.norm(pin.log3(T0[:3, :3].T @ first[:3, :3])))
+    if gap <= 1e-9 and turn <= 1e-9:
+        return targets_at
+    if gap <= START_TOLERANCE[0] and turn <= START_TOLERANCE[1]:
+        warnings.warn(f"{reader.path or '<task>'}: path: starts {gap * 1e3:.3g} mm and {turn * 1e3:.3g} mrad from "
+                      "the end-effector pose of initial_configuration; snapped to it", stacklevel=2)
+
+        def snapped(ts: FloatArray) -> FloatArray:
+            out = targets_at(ts)
+            out[0] = T0
+            return out
+        return snapped
+    if gap > START_TOLERANCE[0]:
+        raise reader.error("path", f"starts {gap!r} m from the end-effector position of initial_configuration, "
+                           f"{T0[:3, 3].tolist()!r}; start there, or give positions relative to it "
+                           "('relative: true')")
+    orientation = reader.get("path", {}).get("orientation") if isinstance(reader.get("path"), dict) else None
+    rpy = orientation.get("rpy") if isinstance(orientation, dict) else None
+    hint = ""
+    if isinstance(rpy, list) and any(isinstance(v, int | float) and abs(v) > 2 * np.pi for v in rpy):
+        hint = "; orientation.rpy is in radians and these values look like degrees"
+    raise reader.error("path.orientation", f"differs by {turn!r} rad from the end-effector orientation of "
+                       f"initial_configuration (rpy {pin.rpy.matrixToRpy(T0[:3, :3]).tolist()!r} rad){hint}")
 
 
 def ending_at_rest(targets_at: TargetsAt) -> TargetsAt:
