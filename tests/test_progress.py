@@ -20,7 +20,7 @@ ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 
 def _reporter() -> tuple[progress.Reporter, io.StringIO]:
     buf = io.StringIO()
-    return progress.Reporter(buf, force_terminal=True), buf
+    return progress.Reporter(buf, force_terminal=True, width=160), buf
 
 
 def test_plan_reports_ipopt_iterations() -> None:
@@ -34,6 +34,9 @@ def test_plan_reports_ipopt_iterations() -> None:
     first = re.search(r"IPOPT iteration 0: objective ([-0-9.e+]+), constraint violation ([0-9.e+-]+)", out)
     assert first is not None, out
     assert float(first.group(2)) >= 0.0
+    # the current iterate's exact capability margin, which ends at the plan's own min d
+    margins = [float(v) for v in re.findall(r"min d (-?[0-9.]+) N", out)]
+    assert margins and abs(margins[-1] - float(res.metrics["d"].min())) < 0.01
 
 
 def test_step_shows_expected_time_and_leaves_one_line() -> None:

@@ -32,11 +32,12 @@ REFRESH_S = 0.1
 class Reporter:
     """Draws steps, their detail line and notes with ``rich`` on ``file`` (standard error)."""
 
-    def __init__(self, file: IO[str] | None = None, force_terminal: bool | None = None) -> None:
+    def __init__(self, file: IO[str] | None = None, force_terminal: bool | None = None,
+                 width: int | None = None) -> None:
         from rich.console import Console
 
         self.console = Console(file=file or sys.stderr, force_terminal=force_terminal, highlight=False,
-                               soft_wrap=True)
+                               soft_wrap=True, width=width)
         self._live: Any = None
         self._title = ""
         self._detail = ""

@@ -3,11 +3,13 @@
 The callback is installed only while a progress reporter is active (:mod:`forte.progress`), so
 the library API pays nothing by default. Per iteration it reads the objective and the constraint
 values CasADi passes and reports ``iteration k: objective f, constraint violation v``, where
-``v = max(lbg - g, g - ubg, 0)`` over the NLP's constraints (pose residuals and kinematic rows).
+``v = max(lbg - g, g - ubg, 0)`` over the NLP's constraints (pose residuals and kinematic rows),
+and the exact capability margin ``min_k d_k`` of the current iterate (about 1 ms at N = 41).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import casadi as ca
@@ -24,6 +26,7 @@ class IpoptProgress(ca.Callback):
         self.nx, self.ng, self.npar = nx, ng, npar
         self.iteration = 0
         self.bounds: tuple[np.ndarray, np.ndarray] | None = None  # (lbg, ubg), set by each solve
+        self.margin: Callable[[np.ndarray], float] | None = None  # x -> min_k d_k, set by each solve
         self.construct("forte_ipopt_progress", {})
 
     def get_n_in(self) -> int:
@@ -44,9 +47,9 @@ class IpoptProgress(ca.Callback):
                 "lam_p": self.npar}.get(n, 0)
         return ca.Sparsity.dense(size, 1)
 
-    def start(self, lbg: np.ndarray, ubg: np.ndarray) -> None:
-        """Before a solve: the constraint bounds and the iteration count."""
-        self.bounds, self.iteration = (lbg, ubg), 0
+    def start(self, lbg: np.ndarray, ubg: np.ndarray, margin: Callable[[np.ndarray], float] | None = None) -> None:
+        """Before a solve: the constraint bounds, the margin function and the iteration count."""
+        self.bounds, self.margin, self.iteration = (lbg, ubg), margin, 0
 
     def eval(self, arg: list[Any]) -> list[int]:
         names = [ca.nlpsol_out(i) for i in range(ca.nlpsol_n_out())]
@@ -58,6 +61,8 @@ class IpoptProgress(ca.Callback):
             lbg, ubg = self.bounds
             violation = float(np.max(np.maximum(np.maximum(lbg - g, g - ubg), 0.0)))
             text += f", constraint violation {violation:.2e}"
+        if self.margin is not None:
+            text += f", min d {self.margin(np.asarray(values['x']).ravel()):.2f} N"
         progress.update(text)
         self.iteration += 1
         return [0]

@@ -341,7 +341,7 @@ class TrajectoryOptimizer:
         if warm is not None:
             solver, extra = self.warm_solver(), {"lam_x0": warm[0], "lam_g0": warm[1]}
         if self._progress is not None:
-            self._progress.start(lbg, ubg)
+            self._progress.start(lbg, ubg, self._margin_of(np.asarray(t, dtype=float), f, r))
         try:
             with progress.step(f"solving with IPOPT ({self.method}, N = {n})"):
                 result = solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **extra)
@@ -363,6 +363,20 @@ class TrajectoryOptimizer:
             lam_x=np.array(result["lam_x"]).ravel() if self.keep_multipliers or warm else None,
             lam_g=np.array(result["lam_g"]).ravel(),
         )
+
+    def _margin_of(self, t: FloatArray, f: Any, r: Any) -> Any:
+        """``x -> min_k d_k``, the exact capability margin of an iterate (for the progress line)."""
+        from forte.capability.metrics import capability_margin
+        from forte.capability.polytope import trajectory_rfp
+
+        f, r = np.asarray(f, dtype=float), np.asarray(r, dtype=float)
+        alpha = self.weights.capability_params.alpha
+        times = t if self.n > 1 else np.zeros(1)
+
+        def margin(x: FloatArray) -> float:
+            rfp = trajectory_rfp(self.robot, x.reshape(self.n, self.robot.nq), times, alpha=alpha)
+            return float(np.min(capability_margin(rfp.A, rfp.b, f, r)))
+        return margin
 
     def cost_terms(self, q: FloatArray, t: Any, targets: Any, f: Any, r: Any,
                    nominal: FloatArray | None = None) -> dict[str, float]:
