@@ -10,8 +10,9 @@ import pytest
 from forte.capability.polytope import cone_directions
 from forte.model.robot import default_robot, example_robot_data_dir
 from forte.model.twin import CasadiTwin
-from forte.planning.costs import BASE_BOX, COST_TERMS, Stage
+from forte.planning.costs import COST_TERMS, Stage
 from forte.planning.methods import METHODS
+from forte.planning.motion_terms import BASE_BOX
 from forte.settings import WEIGHT_SETS, CostWeights
 
 

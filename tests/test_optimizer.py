@@ -10,10 +10,11 @@ from scipy.fft import dct
 from forte.exceptions import InvalidInputError
 from forte.force.taskforce import payload_force
 from forte.model.trajectory import quintic_path
-from forte.planning.costs import CostWeights, dct_matrix, dct_penalty_matrix, high_frequencies
 from forte.planning.ik import follow_path
+from forte.planning.motion_terms import dct_matrix, dct_penalty_matrix, high_frequencies
 from forte.planning.optimizer import SolverOptions, TrajectoryOptimizer
 from forte.planning.reference import base_spectral_cost, smoothness_cost
+from forte.settings import CostWeights
 
 
 def lift_problem(robot, n, duration=3.0, drop=0.2):

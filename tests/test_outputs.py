@@ -10,17 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import forte.io.plandir as plandir
+import forte.io.outputs as outputs
 from forte.cli.main import main
 from forte.exceptions import OutputError
-from forte.io.plandir import (
-    PARTIAL_MARKER,
-    output_lock,
-    read_plan_dir,
-    recover_output,
-    replace_directory,
-    write_plan_dir,
-)
+from forte.io.outputs import PARTIAL_MARKER, output_lock, recover_output, replace_directory
+from forte.io.plandir import read_plan_dir, write_plan_dir
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 HOLD = ["plan", str(EXAMPLES / "hold.yaml"), "--method", "teaching", "--mass", "1", "--quiet", "--no-figures"]
@@ -56,7 +50,7 @@ def test_replacement_leaves_nothing_beside_out(tmp_path, robot):
 @pytest.mark.parametrize("exchange", [True, False])
 def test_leftovers_of_killed_runs_are_cleaned_but_never_a_users_folder(tmp_path, robot, monkeypatch, exchange):
     if not exchange:  # the documented two-rename fallback
-        monkeypatch.setattr(plandir, "_rename_exchange", lambda a, b: False)
+        monkeypatch.setattr(outputs, "_rename_exchange", lambda a, b: False)
     out = _plan(robot, tmp_path / "good", 1.0)
     half = tmp_path / ".good.forte-tmp-abc123"  # a writer killed while building
     half.mkdir()

@@ -60,7 +60,7 @@ def test_continuous_example_follows_the_papers_formula():
     np.testing.assert_allclose(task.force().f[:, 2], fz, atol=1e-5)
     dy = w * 0.10 * np.sin(2 * np.pi * 0.2 * t)
     # the paper's formula everywhere but the two samples before the last, which hold the final pose so the
-    # plan can end at rest (forte.planning.tasks.ending_at_rest; departure < 0.2 mm here)
+    # plan can end at rest (forte.planning.paths.ending_at_rest; departure < 0.2 mm here)
     np.testing.assert_allclose(task.targets[:-3, 1, 3] - task.targets[0, 1, 3], dy[:-3], atol=1e-9)
     np.testing.assert_array_equal(task.targets[-3:-1], task.targets[[-1, -1]])
     assert np.abs(task.targets[-3:-1, 1, 3] - task.targets[0, 1, 3] - dy[-3:-1]).max() < 2e-4

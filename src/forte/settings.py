@@ -166,7 +166,7 @@ _HOLD_DOF = tuple(v / 9.0 for v in (0, 1, 1, 9, 0, 1, 1, 1, 0, 0))
 #: Named weight sets (``weights: {preset: NAME}`` in a task file):
 #:
 #: - ``authors-trajectory`` (the default for trajectories): the authors' lift/continuous set
-#:   (``AUTHORS_SETUP.md``, "Metric and costs": capability 1, manipulability 1, joint limit 8,
+#:   (the authors' public code: capability 1, manipulability 1, joint limit 8,
 #:   arm smoothness 8, velocity 10, nominal 0.05, base smoothness 8, base velocity 0.5,
 #:   spectral 8 with cutoff 0.1 and the ramped gamma of power 2, collision 1, alpha 0.9);
 #: - ``authors-hold`` (the default for holding): capability 2, manipulability 1, joint limit 1

@@ -151,7 +151,7 @@ def run_estimate_mass(args: argparse.Namespace) -> int:
 
 
 def run_bench_mass(args: argparse.Namespace) -> int:
-    from forte.io.plandir import check_output, output_lock, replace_directory
+    from forte.io.outputs import check_output, output_lock, replace_directory
 
     _check_numbers(args)
     out = Path(args.out)

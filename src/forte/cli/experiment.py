@@ -44,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run_experiment(args: argparse.Namespace) -> int:
     """Run the chosen experiment; print its summary.md unless ``--quiet``."""
     import forte.experiments as experiments  # the runners load the planner and MuJoCo
-    from forte.io.plandir import check_output, output_lock
+    from forte.io.outputs import check_output, output_lock
     from forte.validation import MAX_WAYPOINTS
 
     if not 0 <= args.trials <= MAX_TRIALS:

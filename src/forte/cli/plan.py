@@ -10,7 +10,8 @@ from pathlib import Path
 from typing import Any
 
 from forte.io.figures import figure_format
-from forte.io.plandir import check_output, output_lock, plan_summary, replace_directory, write_plan
+from forte.io.outputs import check_output, output_lock, replace_directory
+from forte.io.plandir import plan_summary, write_plan
 from forte.io.reports import write_comparison
 from forte.planning.methods import method_names
 from forte.planning.planner import Plan, methods_for, plan, resolve_payload

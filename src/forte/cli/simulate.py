@@ -100,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
 
     from forte.execution.judge import Thresholds
     from forte.execution.run import simulate_plan
-    from forte.io.plandir import output_lock
+    from forte.io.outputs import output_lock
 
     if args.video is not None and args.video.suffix.lower() != ".mp4":
         raise InvalidInputError(f"--video: expected a .mp4 file name, got {args.video}")
@@ -146,7 +146,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _check_arguments(args: argparse.Namespace) -> None:
     """Numbers in range and output paths forte may write, before the (long) simulation."""
-    from forte.io.plandir import check_output, read_plan_dir
+    from forte.io.outputs import check_output
+    from forte.io.plandir import read_plan_dir
     from forte.validation import MAX_HOLD_S, MAX_MASS_KG
 
     for flag, value, low, high in (("--hold", args.hold, 0.0, MAX_HOLD_S), ("--mass", args.mass, 0.0, MAX_MASS_KG),
@@ -176,7 +177,7 @@ def _check_arguments(args: argparse.Namespace) -> None:
 
 def _simulation_folder(folder: Path) -> bool:
     """An empty folder, a plan directory, or one holding only forte's simulation results."""
-    from forte.io.plandir import is_forte_output
+    from forte.io.outputs import is_forte_output
 
     names = {p.name for p in folder.iterdir()}
     return not names or is_forte_output(folder) or names <= {"sim.csv", "sim.json"}

@@ -37,7 +37,8 @@ from forte.execution.gains import default_gains, describe_gains, gains_from_mapp
 from forte.execution.judge import Judge, SimResult, Thresholds
 from forte.execution.model import SimModel, build_sim_model
 from forte.execution.render import FrameRecorder, FrameSink, LiveViewer
-from forte.io.plandir import atomic_write, read_plan_dir
+from forte.io.outputs import atomic_write
+from forte.io.plandir import read_plan_dir
 from forte.model.robot import N_BASE, MobileManipulator, robot_from_description
 from forte.model.trajectory import trajectory_header
 from forte.planning.planner import Plan

@@ -18,7 +18,8 @@ from forte import progress
 from forte.execution.run import simulate_plan
 from forte.experiments.claims import Claim, claims_section, fmt_num
 from forte.io.figures import pyplot
-from forte.io.plandir import FORMAT_VERSION, GENERATOR, TRAJECTORY_FILE, plan_summary, write_plan
+from forte.io.outputs import GENERATOR
+from forte.io.plandir import FORMAT_VERSION, TRAJECTORY_FILE, plan_summary, write_plan
 from forte.io.reports import jsonable, package_versions
 from forte.planning.methods import METHODS, method_names
 from forte.planning.planner import Plan, plan

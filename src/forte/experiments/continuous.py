@@ -34,7 +34,8 @@ from forte.experiments.common import (
     write_summary,
 )
 from forte.io.figures import pyplot
-from forte.io.plandir import replace_directory, write_plan
+from forte.io.outputs import replace_directory
+from forte.io.plandir import write_plan
 from forte.planning.planner import Plan
 from forte.planning.tasks import load_task
 

@@ -39,7 +39,7 @@ from forte.experiments.common import (
     write_summary,
 )
 from forte.io.figures import pyplot
-from forte.io.plandir import replace_directory
+from forte.io.outputs import replace_directory
 from forte.planning.planner import Plan
 
 HOLD_SECONDS = 3.0

@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from forte.io.plandir import COMPARISON_FILE, FORMAT_VERSION, GENERATOR, atomic_write, plan_summary
+from forte.io.outputs import GENERATOR, atomic_write
+from forte.io.plandir import COMPARISON_FILE, FORMAT_VERSION, plan_summary
 from forte.planning.planner import Plan
 
 PACKAGES = ("forte", "numpy", "scipy", "casadi", "pin", "example-robot-data", "matplotlib", "mujoco", "openai")

@@ -258,9 +258,10 @@ def _source_digest() -> str:
     """Hash of the modules that define the kernels, so editing them invalidates the cache."""
     from forte.capability import metrics
     from forte.model import robot, twin
-    from forte.planning import costs
+    from forte.planning import capability_terms, costs, motion_terms
 
     digest = hashlib.sha256()
-    for path in (__file__, costs.__file__, metrics.__file__, twin.__file__, robot.__file__):
+    for path in (__file__, costs.__file__, capability_terms.__file__, motion_terms.__file__, metrics.__file__,
+                 twin.__file__, robot.__file__):
         digest.update(Path(path).read_bytes())
     return digest.hexdigest()[:12]

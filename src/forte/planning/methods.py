@@ -5,8 +5,8 @@ which cost terms (:mod:`forte.planning.costs`) make up its objective. Everything
 methods (the CLI's choices, ``forte compare``, the experiments, plot colours, kernel cache keys)
 is derived from :data:`METHODS`; adding a method is one :func:`register_method` call.
 
-Built-in methods (definitions and weights as the authors run them, ``AUTHORS_SETUP.md``,
-"Baselines": each keeps the weight set's weights except as listed in its ``tuning``):
+Built-in methods (definitions and weights as the authors run them in their public code: each
+keeps the weight set's weights except as listed in its ``tuning``):
 
 - ``forte``: the paper's J1..J5 plus the authors' velocity, nominal, base-velocity and collision
   terms (:data:`FORTE_TERMS`);
@@ -195,28 +195,28 @@ _MANIP_DOF = tuple(v / 10 for v in (0, 2, 1, 10, 5, 1, 2, 1, 0, 0))
 for _method, _paper in (
     (Method("forte", "the paper's task-sufficient capability objective (J1..J5 + the authors' regularization)",
             terms=FORTE_TERMS, style=MethodStyle("tab:red", "forte (ours)"),
-            source="paper, Section 4.3; AUTHORS_SETUP.md (TPY weights)"), True),
+            source="paper, Section 4.3; the authors' public code (their lift weights)"), True),
     (Method("manipulability", "manipulability and joint limits only (no J1, no regularization)",
             terms=("manipulability", "joint_limits"), style=MethodStyle("tab:green", "manipulability", "s"),
-            tuning={_TRAJ: {"joint_dof_weights": _MANIP_DOF}}, source="paper, Section 5; AUTHORS_SETUP.md"), True),
+            tuning={_TRAJ: {"joint_dof_weights": _MANIP_DOF}}, source="paper, Section 5; the authors' code"), True),
     (Method("rfp-radius", "J1 replaced by 1/max(|R|, 1e-6), R the alpha-scaled centred inscribed radius, clamped at 0",
             terms=("rfp_radius", "joint_limits", *REGULARIZATION),
             style=MethodStyle("tab:blue", "RFP inscribed radius", "^"),
             tuning={_TRAJ: {"capability": 60.0, "base_velocity": 0.54}},
-            source="Ferrolho et al. 2021; AUTHORS_SETUP.md (residual_force_polytope)"), True),
+            source="Ferrolho et al. 2021; the authors' code (residual_force_polytope)"), True),
     (Method("rfp-cone", "J1 replaced by 1/max(|V|, 1e-6), V the RFP's volume in a 0.1 rad cone around f",
             terms=("rfp_cone", "joint_limits", *(t for t in REGULARIZATION if t != "base_spectral")),
             style=MethodStyle("tab:purple", "RFP cone", "v"),
             tuning={_TRAJ: {"capability": 60.0, "joint_limits": 2.0, "velocity": 7.0, "collision": 0.1}},
-            source="Ferrolho et al. 2021; AUTHORS_SETUP.md (cone_intersection_volume)"), True),
+            source="Ferrolho et al. 2021; the authors' code (cone_intersection_volume)"), True),
     (Method("static-polytope", "J1 replaced by 1/max(|R|, 1e-6), R the inscribed radius with a gravity-only residual",
             terms=("static_radius", "joint_limits", *REGULARIZATION),
             style=MethodStyle("tab:olive", "static force polytope", "x"), tuning={_TRAJ: {"capability": 2.0}},
-            source="AUTHORS_SETUP.md (the authors' fourth baseline)"), False),
+            source="the authors' code (their fourth baseline)"), False),
     (Method("quintic", "the task's nominal trajectory: joint-space quintics through its taught configurations "
             "(IK path for a path of poses), not optimized", production="interpolated", modes=("trajectory",),
             produce=_nominal, status="not optimized (quintic interpolation)",
-            style=MethodStyle("tab:gray", "quintic", "D", "--"), source="paper, Section 5.3; AUTHORS_SETUP.md"), True),
+            style=MethodStyle("tab:gray", "quintic", "D", "--"), source="paper, Section 5.3; the authors' code"), True),
     (Method("ik-path", "the interpolated end-effector path followed by damped least-squares IK (not optimized)",
             production="interpolated", modes=("trajectory",), produce=initial_guess,
             status="not optimized (path + IK)", style=MethodStyle("tab:cyan", "IK path", "d", ":"),

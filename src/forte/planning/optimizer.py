@@ -196,7 +196,7 @@ class TrajectoryOptimizer:
     def _posed_waypoints(self, first: int) -> FloatArray:
         """Waypoints with a pose equality: from ``first``; with the end at rest, not N-1 and N-2,
         whose configurations equal the last one, so their poses are implied (the task holds its
-        final pose over them, :func:`forte.planning.tasks.ending_at_rest`)."""
+        final pose over them, :func:`forte.planning.paths.ending_at_rest`)."""
         steps = np.arange(first, self.n)
         if self.rests_at_end:
             steps = steps[(steps < self.n - 3) | (steps == self.n - 1)]

@@ -11,7 +11,9 @@ import numpy as np
 
 from forte.model.robot import N_BASE
 from forte.model.twin import CasadiTwin
-from forte.planning.costs import Capability, Stage, dct_penalty_matrix
+from forte.planning.capability_terms import Capability
+from forte.planning.costs import Stage
+from forte.planning.motion_terms import dct_penalty_matrix
 from forte.settings import CapabilityParameters, CostWeights
 from forte.validation import FloatArray
 

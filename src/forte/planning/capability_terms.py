@@ -1,0 +1,234 @@
+"""Built-in stage terms: the capability term J1 and the baselines' capability terms, J2, J3.
+
+Each is a frozen dataclass registered in :data:`forte.planning.costs.COST_TERMS`; see that module
+for the interface.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import casadi as ca
+import numpy as np
+
+from forte.capability.metrics import inverse_capacity_expr, manipulability_expr, smooth_penalty_expr
+from forte.capability.polytope import cone_directions
+from forte.exceptions import InvalidInputError
+from forte.model.robot import N_BASE
+from forte.planning.costs import CostTerm, Stage, _smooth_min, _softplus, register_term
+from forte.settings import CapabilityParameters, CostWeights
+from forte.validation import FloatArray
+
+
+@register_term
+@dataclass(frozen=True)
+class Capability(CostTerm):
+    """J1 (paper, Section 4.2): ``c_k`` of the force ball against the dynamic RFP (smooth surrogate)."""
+
+    name: ClassVar[str] = "capability"
+    params: CapabilityParameters = field(default_factory=CapabilityParameters)
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> Capability:
+        return cls(weights.capability_params)
+
+    def stage(self, s: Stage) -> ca.SX:
+        return smooth_penalty_expr(s.J, s.tau, ca.DM(s.robot.torque_limits), s.f, s.r, self.params)
+
+
+@register_term
+@dataclass(frozen=True)
+class InscribedRadius(CostTerm):
+    """RFP-radius baseline (Ferrolho et al. 2021, as the authors run it): ``1 / max(|R_k|, 1e-6)``.
+
+    ``R_k = max(0, min_i min(alpha (tau_max,i - tau_nom,i), alpha (tau_max,i + tau_nom,i)) / ||n_i||)``,
+    ``n_i`` the columns of the 3 x n world translational Jacobian: the radius of the largest
+    ball centred at the origin inside the alpha-scaled dynamic RFP, clamped at 0; the task force
+    is unused (the authors' public code, ``residual_force_polytope``). The minimum is
+    smoothed (a lower bound within ``s log(2n) / beta``, ``s = max(|f| + r, eps)``);
+    :func:`forte.planning.reference.inscribed_radius_exact` is the exact value.
+    """
+
+    name: ClassVar[str] = "rfp_radius"
+    weight_field: ClassVar[str | None] = "capability"
+    params: CapabilityParameters = field(default_factory=CapabilityParameters)
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> InscribedRadius:
+        return cls(weights.capability_params)
+
+    def residual(self, s: Stage) -> ca.SX:
+        """The nominal torque the margins are taken from (dynamic: the paper's ``tau_nom``)."""
+        return s.tau
+
+    def radius(self, s: Stage) -> ca.SX:
+        p = self.params
+        norms = ca.sqrt(ca.sum1(s.J**2).T + p.eps_normal**2)
+        tm, tau = ca.DM(s.robot.torque_limits), self.residual(s)
+        dist = p.alpha * ca.vertcat((tm - tau) / norms, (tm + tau) / norms)
+        scale = ca.fmax(ca.norm_2(s.f) + s.r, p.eps)
+        return ca.fmax(_smooth_min(dist, scale, p.beta), 0)
+
+    def stage(self, s: Stage) -> ca.SX:
+        return inverse_capacity_expr(self.radius(s))
+
+
+@register_term
+@dataclass(frozen=True)
+class StaticRadius(InscribedRadius):
+    """Static force polytope baseline: :class:`InscribedRadius` with the gravity-only residual
+    ``tau = g(q_k)`` (no velocity or acceleration terms; the authors' fourth baseline, an
+    inscribed radius with a gravity-only residual in their public code)."""
+
+    name: ClassVar[str] = "static_radius"
+
+    def residual(self, s: Stage) -> ca.SX:
+        return s.tau_static
+
+
+@register_term
+@dataclass(frozen=True)
+class ConeVolume(CostTerm):
+    """RFP-cone baseline (Ferrolho et al. 2021, as the authors run it): ``1 / max(|V_k|, 1e-6)``,
+    ``V_k = Omega/(3M) sum_j rho_j^3`` (``cone_intersection_volume`` in the authors' public code).
+
+    The authors' rays: the axis along ``f`` (+z where ``f = 0``) plus 4 rings x 12 azimuths at
+    ``theta_j = 0.1 j / 4`` (M = 49), each ray's capacity clamped at 0, no alpha.
+
+    ``rho_j``, the capacity along ray ``d_j`` of the cone of half-angle ``half_angle`` around the
+    desired force (``rings x azimuths`` rays plus the axis, an NLP parameter per waypoint), is the
+    smoothed minimum of ``b_i / (a_i . d_j)`` over rows with ``a_i . d_j > 0``; the row selection
+    uses a softplus of ``a_i . d_j`` so rows pointing away give huge ratios that the soft minimum
+    ignores; ``Omega = 2 pi (1 - cos half_angle)``.
+    """
+
+    name: ClassVar[str] = "rfp_cone"
+    weight_field: ClassVar[str | None] = "capability"
+    params: CapabilityParameters = field(default_factory=CapabilityParameters)
+    half_angle: float = 0.1
+    rings: int = 4
+    azimuths: int = 12
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> ConeVolume:
+        return cls(weights.capability_params)
+
+    @property
+    def rays(self) -> int:
+        return 1 + self.rings * self.azimuths
+
+    @property
+    def parameters(self) -> tuple[tuple[str, int], ...]:  # type: ignore[override]
+        return (("rays", 3 * self.rays),)
+
+    def stage(self, s: Stage) -> ca.SX:
+        rays = ca.reshape(s.parameters["rays"], self.rays, 3)
+        A = ca.vertcat(s.J.T, -s.J.T)
+        tm = ca.DM(s.robot.torque_limits)
+        b = ca.vertcat(tm - s.tau, tm + s.tau)
+        scale = ca.fmax(ca.norm_2(s.f) + s.r, self.params.eps)
+        total = 0
+        sharp = 1e-3  # softplus width of a_i . d (m)
+        for j in range(self.rays):
+            pos = sharp * _softplus(A @ rays[j, :].T / sharp)
+            rho = _smooth_min(b / (pos + 1e-9), scale, self.params.beta)
+            total += ca.fmax(rho, 0) ** 3
+        omega = 2 * np.pi * (1 - np.cos(self.half_angle))
+        return inverse_capacity_expr(omega / (3 * self.rays) * total)
+
+    def parameter_values(self, name: str, f: FloatArray, r: FloatArray) -> FloatArray:
+        """The rays around each desired force (straight up where it vanishes), column-major M x 3."""
+        out = []
+        for fk in np.asarray(f, dtype=float):
+            u = fk if np.linalg.norm(fk) > 1e-9 else np.array([0.0, 0.0, 1.0])
+            out.append(cone_directions(u, self.half_angle, self.rings, self.azimuths).ravel(order="F"))
+        return np.concatenate(out)
+
+
+@register_term
+@dataclass(frozen=True)
+class Manipulability(CostTerm):
+    """J2: ``1 / max(mu_k, eps_m)``, ``mu_k = sqrt(det(J J^T + lambda I_3))``.
+
+    ``J`` is the 3 x n world translational arm Jacobian (the paper's text, default) or, with
+    ``with_yaw``, the 3 x (1 + n) Jacobian with the base-yaw column
+    ``d p / d yaw = (-(p_y - y), p_x - x, 0)`` first (the authors' code).
+    """
+
+    name: ClassVar[str] = "manipulability"
+    lam: float = 1e-6
+    eps: float = 1e-8
+    with_yaw: bool = False
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> Manipulability:
+        return cls(weights.manipulability_lambda, weights.manipulability_eps, weights.manipulability_yaw)
+
+    def stage(self, s: Stage) -> ca.SX:
+        J = s.J
+        if self.with_yaw:
+            _, p = s.twin.ee_pose(s.q0)
+            J = ca.horzcat(ca.vertcat(-(p[1] - s.q0[1]), p[0] - s.q0[0], 0), J)
+        return 1 / ca.fmax(manipulability_expr(J, self.lam), self.eps)
+
+
+@register_term
+@dataclass(frozen=True)
+class JointLimits(CostTerm):
+    """J3: ``sum_i w_i (e_i^2 + v_i^4)`` over the arm, ``+ sum_b w_b (q_b - q_nom,b)^2`` over the base.
+
+    ``e_i = (q_i - mid_i)/h_i``, ``v_i = max(0, (|q_i - mid_i| - h_i)/delta_i)``,
+    ``h_i = max(eps_h, range_i/2 - delta_i)``; ``delta_i = margin_fraction * range_i`` (the
+    authors: 5 %) or ``margin`` for every joint; ``w`` the per-DoF weights over
+    (x, y, yaw, q1..q7) (the authors': [0,2,1,10,0,1,2,1,0,0]/10), default 1 per arm joint and
+    0 for the base. The base has no limits: its entries pull it toward the nominal trajectory.
+    """
+
+    name: ClassVar[str] = "joint_limits"
+    margin: float = 0.1
+    eps: float = 1e-3
+    margin_fraction: float | None = None
+    dof_weights: tuple[float, ...] | None = None
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> JointLimits:
+        dof = None if weights.joint_dof_weights is None else tuple(float(w) for w in weights.joint_dof_weights)
+        return cls(weights.joint_margin, weights.joint_eps, weights.joint_margin_fraction, dof)
+
+    def weights_for(self, n_arm: int) -> FloatArray:
+        """Per-DoF weights (base 3, then arm)."""
+        if self.dof_weights is None:
+            return np.r_[np.zeros(N_BASE), np.ones(n_arm)]
+        w = np.asarray(self.dof_weights, dtype=float)
+        if w.shape != (N_BASE + n_arm,):
+            raise InvalidInputError(f"joint_dof_weights: expected {N_BASE + n_arm} values, got {w.size}")
+        return w
+
+    def stage(self, s: Stage) -> ca.SX:
+        robot = s.robot
+        delta = self.margins(robot.lower, robot.upper)
+        mid, half = joint_limit_geometry(robot.lower, robot.upper, delta, self.eps)
+        w = self.weights_for(robot.n_arm)
+        dev = s.q0[N_BASE:] - ca.DM(mid)
+        e = dev / ca.DM(half)
+        v = ca.fmax(0, (ca.fabs(dev) - ca.DM(half)) / ca.DM(delta))
+        cost = ca.dot(ca.DM(w[N_BASE:]), e**2 + v**4)
+        if np.any(w[:N_BASE]) and s.nominal is not None:
+            cost += ca.dot(ca.DM(w[:N_BASE]), (s.q0[:N_BASE] - s.nominal[:N_BASE]) ** 2)
+        return cost
+
+    def margins(self, lower: FloatArray, upper: FloatArray) -> FloatArray:
+        """``delta_i`` per arm joint."""
+        span = np.asarray(upper, dtype=float) - np.asarray(lower, dtype=float)
+        return span * self.margin_fraction if self.margin_fraction is not None else np.full(span.shape, self.margin)
+
+
+def joint_limit_geometry(lower: FloatArray, upper: FloatArray, margin: Any,
+                         eps: float) -> tuple[FloatArray, FloatArray]:
+    """Joint centres and safe half-widths ``h_i = max(eps_h, (max - min)/2 - delta)``."""
+    mid = (np.asarray(upper) + np.asarray(lower)) / 2
+    half = np.maximum(eps, (np.asarray(upper) - np.asarray(lower)) / 2 - margin)
+    return mid, half
+
+
