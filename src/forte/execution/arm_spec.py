@@ -20,6 +20,7 @@ import mujoco
 import numpy as np
 
 from forte.exceptions import SimulationError
+from forte.model.description import set_urdf_link_mass
 from forte.model.robot import MobileManipulator, example_robot_data_dir
 from forte.validation import FloatArray
 
@@ -46,15 +47,7 @@ def _with_link_mass(text: str, link: str, mass: float) -> str:
     import xml.etree.ElementTree as ET
 
     root = ET.fromstring(text)
-    for node in root.iter("link"):
-        inertial = node.find("inertial") if node.get("name") == link else None
-        if inertial is None:
-            continue
-        mass_node, inertia = inertial.find("mass"), inertial.find("inertia")
-        scale = mass / float(mass_node.get("value"))
-        mass_node.set("value", repr(float(mass)))
-        for key, value in list(inertia.attrib.items()):
-            inertia.set(key, repr(float(value) * scale))
+    set_urdf_link_mass(root, link, mass)
     return ET.tostring(root, encoding="unicode")
 
 

@@ -37,6 +37,7 @@ import pinocchio as pin
 
 from forte.exceptions import InvalidInputError, OutputError, RobotModelError
 from forte.io.plandir import read_metrics, read_plan_dir
+from forte.model.description import set_urdf_link_mass
 from forte.model.robot import EE_FRAME_NAME, MobileManipulator, example_robot_data_dir
 from forte.model.trajectory import backward_differences
 from forte.validation import FloatArray
@@ -249,21 +250,6 @@ def _lock(joint: ET.Element) -> None:
             joint.remove(child)
 
 
-def _set_link_mass(root: ET.Element, link: str, mass: float) -> bool:
-    """Give ``link``'s inertial the mass ``mass``, its inertia scaled alike (as the planner's model)."""
-    for node in root.findall("link"):
-        inertial = node.find("inertial") if node.get("name") == link else None
-        if inertial is None or inertial.find("mass") is None or inertial.find("inertia") is None:
-            continue
-        mass_node, inertia = inertial.find("mass"), inertial.find("inertia")
-        scale = mass / float(mass_node.get("value"))
-        mass_node.set("value", repr(float(mass)))
-        for key, value in list(inertia.attrib.items()):
-            inertia.set(key, repr(float(value) * scale))
-        return True
-    return False
-
-
 def _fixed_link(name: str, parent: str, T: FloatArray | None = None) -> tuple[ET.Element, ET.Element]:
     """A link ``name`` (no inertial) and the fixed joint ``<name>_joint`` from ``parent`` at ``T``."""
     link = ET.Element("link", name=name)
@@ -332,7 +318,7 @@ def whole_body_urdf(robot: MobileManipulator, mesh_uris: str = "file") -> str:
     ET.SubElement(mount, "child", link=roots[0])
     _origin(mount, robot.mount)
     added.append(mount)
-    if robot.hand_mass is not None and not _set_link_mass(root, robot.hand_link, robot.hand_mass):
+    if robot.hand_mass is not None and not set_urdf_link_mass(root, robot.hand_link, robot.hand_mass):
         raise RobotModelError(f"urdf: hand_mass: no link {robot.hand_link!r} with an inertial")
     ee_link = robot.ee_frame
     if robot.ee_offset is not None:

@@ -132,3 +132,19 @@ def _link_inertial(urdf: Path, link: str) -> tuple[float, FloatArray, FloatArray
         R = pin.rpy.rpyToMatrix(*rpy)
         return mass, com, R @ inertia @ R.T
     return None
+
+
+def set_urdf_link_mass(root: Any, link: str, mass: float) -> bool:
+    """Give ``link``'s inertial in a parsed URDF (``xml.etree`` root) the mass ``mass``, its
+    inertia scaled alike (as the planner's model does); False when the link has no inertial."""
+    for node in root.iter("link"):
+        inertial = node.find("inertial") if node.get("name") == link else None
+        if inertial is None or inertial.find("mass") is None or inertial.find("inertia") is None:
+            continue
+        mass_node, inertia = inertial.find("mass"), inertial.find("inertia")
+        scale = mass / float(mass_node.get("value"))
+        mass_node.set("value", repr(float(mass)))
+        for key, value in list(inertia.attrib.items()):
+            inertia.set(key, repr(float(value) * scale))
+        return True
+    return False
