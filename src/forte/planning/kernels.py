@@ -165,8 +165,28 @@ def _digest(path: Path) -> str:
     return h.hexdigest()
 
 
+#: Libraries verified in this process, by (path, size, mtime): hashing a large one on every load of
+#: the same kernels (each plan of an experiment) is work done again.
+_VERIFIED: set[tuple[str, int, int]] = set()
+
+
 def verify_library(lib: Path) -> str | None:
     """None when ``lib`` matches its compile-time record, else why not (it must not be loaded)."""
+    try:
+        st = lib.stat()
+        stamp = (str(lib), st.st_size, st.st_mtime_ns)
+    except OSError:
+        stamp = None
+    if stamp is not None and stamp in _VERIFIED:
+        return None
+    problem = _check_record(lib)
+    if problem is None and stamp is not None:
+        _VERIFIED.add(stamp)
+    return problem
+
+
+def _check_record(lib: Path) -> str | None:
+    """``verify_library`` without the in-process memo."""
     try:
         record = json.loads(_record_path(lib).read_text(encoding="utf-8"))
         size, digest = int(record["size"]), str(record["sha256"])

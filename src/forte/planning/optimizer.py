@@ -387,6 +387,31 @@ class TrajectoryOptimizer:
         values = np.array(self._terms(np.asarray(q, dtype=float).ravel(), p)).ravel()
         return dict(zip(self.term_names, map(float, values), strict=True))
 
+    def shifted_multipliers(self, lam_x: FloatArray, lam_g: FloatArray, steps: int) -> tuple[FloatArray, FloatArray]:
+        """The multipliers of a solve moved ``steps`` waypoints forward (a receding-horizon warm
+        start): bounds per waypoint, pose rows (6 per posed waypoint) and kinematic rows (one block
+        per time step) hold their last block; the end-at-rest rows stay."""
+        n, nq = self.n, self.robot.nq
+        posed = list(self._pose_steps)
+        pose = lam_g[: 6 * len(posed)].reshape(len(posed), 6)
+        row = {k: i for i, k in enumerate(posed)}
+        out = [np.array([pose[row.get(min(k + steps, posed[-1]), row[posed[-1]])] for k in posed]).ravel()]
+        rest, offset = lam_g[6 * len(posed):], 0
+        for rows in (len(self._vel_rows), len(self._acc_rows)):
+            size = rows * (n - 1)
+            if size:
+                out.append(shift_rows(rest[offset:offset + size].reshape(n - 1, rows), steps).ravel())
+            offset += size
+        out.append(rest[offset:])
+        return shift_rows(lam_x.reshape(n, nq), steps).ravel(), np.concatenate(out)
+
     def term_weights(self) -> dict[str, float]:
         """The weight ``w_i`` this problem gives each term."""
         return {t.name: self.method_spec.term_weight(t, self.weights) for t in (*self._stage, *self._quadratic)}
+
+
+def shift_rows(a: FloatArray, steps: int) -> FloatArray:
+    """``a[steps:]`` followed by ``steps`` copies of its last row (same shape as ``a``)."""
+    a = np.asarray(a, dtype=float)
+    steps = min(steps, a.shape[0])
+    return np.concatenate([a[steps:], np.repeat(a[-1:], steps, axis=0)])

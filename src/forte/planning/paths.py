@@ -57,6 +57,14 @@ def _samples(r: Reader, t0: float, t1: float, waypoints: int | None) -> FloatArr
     return np.linspace(t0, t1, n)
 
 
+def _time(w: Reader) -> float:
+    """An item's ``t`` within forte's documented bound on durations."""
+    t = w.number("t")
+    if abs(t) > MAX_DURATION_S:
+        raise w.error("t", f"expected a time within +-{MAX_DURATION_S:g} s (forte's documented bound), got {t:g}")
+    return t
+
+
 def taught_knots(r: Reader, robot: MobileManipulator) -> tuple[FloatArray, FloatArray]:
     """``(times, configurations)`` of ``path.configurations`` (``[{t, q}, ...]``, times increasing)."""
     items = r.get("configurations")
@@ -66,10 +74,7 @@ def taught_knots(r: Reader, robot: MobileManipulator) -> tuple[FloatArray, Float
     for i, item in enumerate(items):
         w = Reader(item, r.path, f"{r.key('configurations')}[{i}].")
         w.unknown({"t", "q"})
-        times.append(w.number("t"))
-        if abs(times[-1]) > MAX_DURATION_S:
-            raise w.error("t", f"expected a time within +-{MAX_DURATION_S:g} s (forte's documented bound), "
-                          f"got {times[-1]:g}")
+        times.append(_time(w))
         q = w.vector("q", robot.nq)
         check_joint_limits(w, "q", robot, q)
         qs.append(q)
@@ -121,10 +126,7 @@ def build_path(reader: Reader, T0: FloatArray, waypoints: int | None,
         for i, item in enumerate(pts):
             w = Reader(item, r.path, f"{r.key('waypoints')}[{i}].")
             w.unknown({"t", "position"})
-            times.append(w.number("t"))
-            if abs(times[-1]) > MAX_DURATION_S:
-                raise w.error("t", f"expected a time within +-{MAX_DURATION_S:g} s (forte's documented bound), "
-                              f"got {times[-1]:g}")
+            times.append(_time(w))
             p = w.vector("position", 3)
             positions.append(T0[:3, 3] + p if relative else p)
         times_arr = np.asarray(times)

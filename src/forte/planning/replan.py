@@ -27,7 +27,7 @@ from forte.exceptions import InvalidInputError
 from forte.force.taskforce import TaskForce
 from forte.planning.ik import initial_guess
 from forte.planning.methods import get_method
-from forte.planning.optimizer import SolverResult, TrajectoryOptimizer
+from forte.planning.optimizer import SolverResult, TrajectoryOptimizer, shift_rows
 from forte.planning.planner import Plan, evaluate, resolve_payload
 from forte.planning.tasks import Task
 from forte.validation import FloatArray
@@ -89,20 +89,19 @@ class Replanner:
         planned one at the new start); ``mass``, when given, is the payload's new mass. The new
         first waypoint starts at rest, as every plan does (the backward differences need it).
         """
-        n, nq = self.task.n, self.task.robot.nq
+        n = self.task.n
         if not 0 < steps < n:
             raise InvalidInputError(f"steps: expected 0 < steps < {n}, got {steps}")
-        targets = _shift_rows(self.task.targets, steps)
-        guess = _shift_rows(self.last.q, steps)
+        targets = shift_rows(self.task.targets, steps)
+        guess = shift_rows(self.last.q, steps)
         guess[0] = guess[0] if q_now is None else self.task.robot.check_configuration(q_now, "q_now")
         task = replace(self.task, targets=targets, q_init=guess[0].copy())
         if mass is not None:
             task = task.with_payload(task.payload.with_mass(mass, source="replan"))
         force = self.force if self.task.force_profile is not None else task.force()
         if self.task.force_profile is not None:
-            force = TaskForce(self.force.t, _shift_rows(self.force.f, steps), _shift_rows(self.force.r, steps))
-        lam_x = _shift_rows(self.last.lam_x.reshape(n, nq), steps).ravel()
-        lam_g = self._shift_constraint_multipliers(self.last.lam_g, steps)
+            force = TaskForce(self.force.t, shift_rows(self.force.f, steps), shift_rows(self.force.r, steps))
+        lam_x, lam_g = self.optimizer.shifted_multipliers(self.last.lam_x, self.last.lam_g, steps)
         return self._commit(task, force, guess, (lam_x, lam_g))
 
     # -- solving ------------------------------------------------------------------------
@@ -129,26 +128,4 @@ class Replanner:
         force = force or self.force
         return self.optimizer.solve(task.t, task.targets, force.f, force.r, task.q_init, guess, warm=warm)
 
-    def _shift_constraint_multipliers(self, lam_g: FloatArray, steps: int) -> FloatArray:
-        """Shift the multipliers by whole waypoints: the pose rows (6 per posed waypoint) and the
-        kinematic rows (one block per time step) hold their last block; the end-at-rest rows stay."""
-        opt, n = self.optimizer, self.task.n
-        posed = list(opt._pose_steps)
-        pose = lam_g[: 6 * len(posed)].reshape(len(posed), 6)
-        row = {k: i for i, k in enumerate(posed)}
-        shifted = np.array([pose[row.get(min(k + steps, posed[-1]), row[posed[-1]])] for k in posed])
-        rest, out, offset = lam_g[6 * len(posed):], [shifted.ravel()], 0
-        for rows in (len(getattr(opt, "_vel_rows", ())), len(getattr(opt, "_acc_rows", ()))):
-            size = rows * (n - 1)
-            if size:
-                out.append(_shift_rows(rest[offset:offset + size].reshape(n - 1, rows), steps).ravel())
-            offset += size
-        out.append(rest[offset:])
-        return np.concatenate(out)
 
-
-def _shift_rows(a: FloatArray, steps: int) -> FloatArray:
-    """``a[steps:]`` followed by ``steps`` copies of its last row (same shape as ``a``)."""
-    a = np.asarray(a, dtype=float)
-    steps = min(steps, a.shape[0])
-    return np.concatenate([a[steps:], np.repeat(a[-1:], steps, axis=0)])
