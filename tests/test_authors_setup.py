@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import casadi as ca
 import numpy as np
 import pinocchio as pin
@@ -86,6 +88,19 @@ def test_weight_sets_are_the_authors():
     np.testing.assert_allclose(h.joint_dof_weights, np.array([0, 1, 1, 9, 0, 1, 1, 1, 0, 0]) / 9)
     d = WEIGHT_SETS["paper-demo"]
     assert (d.capability, d.manipulability, d.joint_limits, d.smoothness, d.base_spectral) == (5, 2, 3, 10, 1)
+    # forte's default trajectory set departs from the authors' in the capability weight only
+    ours = WEIGHT_SETS["forte-trajectory"]
+    assert replace(ours, preset="authors-trajectory", capability=1.0) == w and ours.capability == 5
+
+
+def test_baselines_keep_their_weights_on_forte_s_default_set():
+    for name in ("rfp-radius", "rfp-cone", "manipulability", "static-polytope"):
+        method = METHODS[name]
+        ours = method.resolve_weights(WEIGHT_SETS["forte-trajectory"])
+        theirs = method.resolve_weights(WEIGHT_SETS["authors-trajectory"])
+        assert replace(ours, preset=theirs.preset, capability=theirs.capability) == theirs
+        if name != "manipulability":  # its capability weight multiplies no term
+            assert ours.capability == theirs.capability
 
 
 def test_baselines_are_defined_as_the_authors_run_them():
@@ -201,3 +216,17 @@ def test_collision_term_against_a_hand_computation(authors):
     expected = np.sum(np.maximum(0, 1 - d_box / 0.08) ** 2 + np.maximum(0, 1 - centres[:, 2] / 0.08) ** 2)
     assert expected > 0.3
     assert stage_value(authors, "collision", q) == pytest.approx(expected, rel=1e-9)
+
+
+@pytest.mark.parametrize("preset", ["forte-trajectory", "authors-trajectory", "authors-hold", "paper-demo"])
+def test_every_term_takes_its_weight_from_the_weight_set(preset: str) -> None:
+    # Regression: velocity, nominal, base velocity, base smoothness and collision used to weigh 1
+    # whatever the set said (10, 0.05, 0.5, 8 and 1 in the authors' trajectory set, 0 in holding).
+    weights = WEIGHT_SETS[preset]
+    method = METHODS["forte"]
+    for name in method.terms:
+        term = COST_TERMS[name].from_weights(weights)
+        assert method.term_weight(term, weights) == getattr(weights, term.weight_field or name), name
+    if preset == "authors-hold":
+        zero = {"velocity", "nominal", "base_velocity", "base_smoothness", "collision", "smoothness", "base_spectral"}
+        assert all(method.term_weight(COST_TERMS[n].from_weights(weights), weights) == 0 for n in zero)

@@ -37,7 +37,7 @@ def test_plan_writes_every_output(tmp_path):
     assert doc["weights"]["capability_params"]["alpha"] == 0.9 and doc["robot"]["tool"]["mass"] > 0  # authors' set
     assert "alpha" not in doc["robot"] and doc["generator"] == "forte" and doc["format_version"] == 2
     assert doc["solver"]["iterations"] > 0 and doc["solver"]["constraint_violation"] < 1e-6
-    assert doc["weights"]["preset"] == "authors-trajectory" and doc["weights"]["capability"] == 1.0
+    assert doc["weights"]["preset"] == "forte-trajectory" and doc["weights"]["capability"] == 5.0
     assert "casadi" in doc["versions"]
     # the metrics in the CSV are the exact ones, recomputed from the trajectory
     task = load_task(EXAMPLES / "lift-path.yaml", waypoints=14)

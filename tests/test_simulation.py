@@ -210,10 +210,12 @@ def test_quintic_lift_tracks_with_and_without_payload(tmp_path: Path) -> None:
     assert loaded.summary["max_arm_joint_error_rad"] < 0.01
     assert max(loaded.summary["max_torque_ratio"]) < 0.9
     assert loaded.summary["force_feedforward"]
-    # mass 0 = no payload: no payload body and no force feedforward, so it tracks as well.
+    # mass 0 = no payload: no payload body and (this robot's force includes no tool) no force
+    # feedforward, so it tracks as well.
+    assert res.task.robot.tool_force_mass == 0.0
     empty = simulate_plan(plan_dir, 0.0, hold=0.5, write=False)
     assert empty.success, empty.detail
-    assert not empty.summary["force_feedforward"]
+    assert not empty.summary["force_feedforward"] and empty.summary["force_feedforward_share"] == 0.0
     assert empty.summary["max_ee_error_m"] < 0.01
     # The feedforward of the planned 26 N without anything to carry lifts the arm ~2 cm.
     pushed = simulate_plan(plan_dir, 0.0, force_feedforward=True, hold=0.5, write=False)
@@ -336,3 +338,21 @@ def test_viewer_is_synced_in_real_time(robot: MobileManipulator, tmp_path: Path,
     assert res.success and res.summary["steps"] == 301
     assert handle.syncs == 5
     assert res.summary["wall_time_s"] > 4 * 0.017  # paced: 4 frame periods of 17 ms before the 5th
+
+
+def test_unloaded_run_keeps_the_tool_s_share_of_the_force(tmp_path: Path) -> None:
+    # The authors' robot adds its 1.146 kg end-effector load to the required force. Without the
+    # beverage the tool is still carried, so the feedforward keeps m_tool / (m_payload + m_tool)
+    # of the planned force: the hold tracks as well as with the payload and its full force.
+    hold = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "hold.yaml"
+    res = plan(load_task(hold, mass=2.7), "forte")
+    plan_dir = write_plan(res, tmp_path / "hold", figures=False)
+    tool = res.task.robot.tool_force_mass
+    assert tool > 1.0
+    empty = simulate_plan(plan_dir, 0.0, hold=1.0, write=False)
+    assert empty.success, empty.detail
+    assert empty.summary["force_feedforward_share"] == pytest.approx(tool / (2.7 + tool))
+    assert empty.summary["max_ee_error_m"] < 0.01
+    # without that share the tool's weight is not compensated: the end effector sags more
+    bare = simulate_plan(plan_dir, 0.0, force_feedforward=False, hold=1.0, write=False)
+    assert bare.summary["max_ee_error_m"] > 2 * empty.summary["max_ee_error_m"]

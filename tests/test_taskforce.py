@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from forte.exceptions import InvalidInputError
-from forte.force.taskforce import given_force, payload_force
+from forte.force.taskforce import given_force, mass_range_radius, payload_force
 from forte.model.trajectory import backward_differences, quintic_path
 
 
@@ -72,3 +72,33 @@ def test_given_force_profile():
     np.testing.assert_allclose(task.direction[1], [0, 0, 1])
     with pytest.raises(InvalidInputError, match=r"radius\[1\]"):
         given_force([0, 1], [[1, 2, 3], [0, 0, 0]], radius=[1, -2])
+
+
+def test_mass_range_radius_hand_example() -> None:
+    # Holding still: f = M g upward with M = 2.7 + 1.146 kg; the range [1.0, 4.5] kg is 1.8 kg
+    # wide on the heavy side, so the ball needs 1.8 g = 17.66 N; [2.0, 3.5] needs 0.8 g = 7.85 N,
+    # less than the 10 N floor.
+    t, pos = np.array([0.0, 1.0]), np.zeros((2, 3))
+    total = 2.7 + 1.146
+    force = payload_force(t, pos, total, 10.0)
+    wide = mass_range_radius(force, total, 2.7, (1.0, 4.5), 10.0)
+    np.testing.assert_allclose(wide.r, 1.8 * 9.81, rtol=1e-3)
+    np.testing.assert_allclose(mass_range_radius(force, total, 2.7, (2.0, 3.5), 10.0).r, 10.0)
+    np.testing.assert_array_equal(wide.f, force.f)
+    with pytest.raises(InvalidInputError, match="low <= mass <= high"):
+        mass_range_radius(force, total, 2.7, (3.0, 4.0), 10.0)
+
+
+def test_mass_range_ball_contains_every_mass_of_the_range() -> None:
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 2.0, 21)
+    pos = np.cumsum(rng.normal(0, 0.01, (21, 3)), axis=0)
+    mass, low, high, tool = 1.5, 0.9, 2.4, 1.146
+    force = payload_force(t, pos, mass + tool, 0.0)
+    ball = mass_range_radius(force, mass + tool, mass, (low, high), 0.0)
+    for m in np.linspace(low, high, 13):
+        other = payload_force(t, pos, m + tool, 0.0)
+        assert np.all(np.linalg.norm(other.f - ball.f, axis=1) <= ball.r + 1e-9)
+    # the extreme mass touches the ball's surface somewhere (the radius is not loose)
+    extreme = payload_force(t, pos, high + tool, 0.0)
+    np.testing.assert_allclose(np.linalg.norm(extreme.f - ball.f, axis=1), ball.r, rtol=1e-12)

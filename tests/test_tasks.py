@@ -17,7 +17,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 def test_lift_example_is_the_authors_taught_lift():
     task = load_task(EXAMPLES / "lift.yaml")
     assert task.mode == "trajectory" and task.n == 41 and task.t[-1] == 10.0
-    assert task.payload.mass == 2.7 and task.weights.preset == "authors-trajectory"
+    assert task.payload.mass == 2.7 and task.weights.preset == "forte-trajectory"
     times, knots = task.knots
     np.testing.assert_allclose(times, [0, 5, 10])
     np.testing.assert_allclose(task.q_init, knots[0])
@@ -106,6 +106,7 @@ def load_error(tmp_path, mutate):
         (lambda d: d["path"].update(relative=False), "m from the end-effector position of initial_configuration"),
         (lambda d: d.pop("payload"), "payload: give a payload"),
         (lambda d: d.update(uncertainty_radius=-1), "uncertainty_radius: expected a number >= 0"),
+        (lambda d: d.update(uncertainty_rule="guess"), "uncertainty_rule: expected one of fixed, mass-range"),
         (lambda d: d.update(weights={"capability": -1}), "weights.capability: expected a number >= 0"),
         (lambda d: d.update(weights={"capabilty": 1}), "weights.capabilty: unknown field"),
         (lambda d: d.update(robot={"urdf": "missing.urdf", "ee_frame": "x"}), "does not exist"),
@@ -209,3 +210,23 @@ def test_start_errors_say_what_differs_at_full_precision(tmp_path):
     with pytest.raises(TaskFileError, match=r"path\.orientation: differs by .* rad .* look like degrees") as exc:
         load_task(_absolute_lift(tmp_path, [0.0, 0.0, 0.0], rpy=[180.0, 0.0, 90.0]))
     assert "relative" not in str(exc.value)
+
+
+def test_mass_range_rule_covers_the_estimate_s_range(tmp_path):
+    from dataclasses import replace
+
+    data = yaml.safe_load((EXAMPLES / "hold.yaml").read_text())
+    data["uncertainty_rule"] = "mass-range"
+    path = tmp_path / "hold.yaml"
+    path.write_text(yaml.safe_dump(data))
+    task = load_task(path)
+    assert task.radius_rule == "mass-range"
+    # a given mass has no range: the fixed radius
+    np.testing.assert_allclose(task.force().r, 10.0)
+    ranged = task.with_payload(replace(task.payload, mass=2.7, mass_range=(1.0, 4.5)))
+    np.testing.assert_allclose(ranged.force().r, 1.8 * task.robot.gravity)
+    # an explicit mass (e.g. the identified one while re-planning) is exact: the fixed radius again
+    np.testing.assert_allclose(ranged.force(mass=3.0).r, 10.0)
+    # the authors' default keeps r = 10 N whatever the range
+    default = load_task(EXAMPLES / "hold.yaml")
+    np.testing.assert_allclose(default.with_payload(ranged.payload).force().r, 10.0)

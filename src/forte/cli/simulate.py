@@ -39,7 +39,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mass", "--true-mass", dest="mass", type=float, default=None,
                    help="true payload mass in kg (default: the plan's payload mass). A different "
                    "mass > 0 models an estimation error (the force feedforward keeps the plan's "
-                   "force); 0 means no payload: no payload and no force feedforward")
+                   "force); 0 means no payload: the feedforward keeps only the tool's share of the force")
     p.add_argument("--no-force", action="store_true",
                    help="switch the task-force feedforward tau_F = J^T f off (any mass)")
     p.add_argument("--out", type=Path, default=None, help="result folder (default: PLAN_DIR)")

@@ -246,13 +246,16 @@ def simulate_plan(
         mass: True payload mass in the simulation (kg); default: the plan's ``payload.mass``
             (none when null). A mass > 0 different from the plan's models a mass-estimation
             error: the controller's force feedforward still uses the plan's force. ``mass=0``
-            on a plan that carries a payload means *no payload*: no payload body and, unless
-            ``force_feedforward=True``, no force feedforward either (nothing to carry). On a
+            on a plan that carries a payload means *no payload*: no payload body, and the
+            force feedforward keeps only the share of the robot's own end-effector load (the
+            tool that the plan's force includes: ``m_tool / (m_payload + m_tool)`` of it, none
+            without a tool) unless ``force_feedforward`` says otherwise. On a
             plan without payload (``payload.mass`` null) the force is an interaction with the
             environment and stays on.
-        force_feedforward: ``tau_F = J^T f_d`` on (True) or off (False); default (None): on,
-            except for ``mass=0`` on a payload plan (see ``mass``). Off, with a plan's
-            interaction force, the environment still pushes but the arm does not push back.
+        force_feedforward: ``tau_F = J^T f_d`` on (True, the plan's whole force) or off
+            (False); default (None): on (the tool's share for ``mass=0`` on a payload plan,
+            see ``mass``). Off, with a plan's interaction force, the environment still pushes
+            but the arm does not push back.
         out_dir: Where to write the results (default ``plan_dir``).
         gains: Controller gains, or a ``controller:`` mapping for
             :func:`forte.execution.gains.gains_from_mapping` (rule inertia at the plan's start);
@@ -287,8 +290,14 @@ def simulate_plan(
     plan = read_plan_dir(plan_dir)
     robot = plan.robot if torque_limits is None else _with_torque_limits(plan.robot, torque_limits)
     true_mass = plan.payload.mass if mass is None else check_mass(mass)
-    if force_feedforward is None:  # off only when a payload plan is run without its payload
-        force_feedforward = not (mass is not None and true_mass == 0.0 and plan.payload.mass is not None)
+    force_share = 1.0
+    if force_feedforward is None and mass is not None and true_mass == 0.0 and plan.payload.mass is not None:
+        # no payload: the tool the plan's force includes is still carried, so the feedforward
+        # keeps the tool's share of that force, m_tool / (m_payload + m_tool) (none without a tool)
+        force_share = robot.tool_force_mass / (plan.payload.mass + robot.tool_force_mass)
+        force_feedforward = force_share > 0.0
+    elif force_feedforward is None:
+        force_feedforward = True
     hold = as_positive(hold, "hold", allow_zero=True)
     offscreen = frames_dir is not None or video is not None
     # the robot's end-effector load that the plan's force includes (tool_force_mass) is carried
@@ -296,7 +305,7 @@ def simulate_plan(
     carried = (true_mass or 0.0) + (robot.tool_force_mass if plan.payload.mass is not None else 0.0)
     sim = build_sim_model(robot, carried, meshes=offscreen or viewer, timestep=timestep)
     gains = _resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
-    reference = _plan_reference(plan, sim.timestep, hold)
+    reference = _plan_reference(plan, sim.timestep, hold, force_share)
     recorder = FrameRecorder(sim, _optional_path(frames_dir), _optional_path(video), fps) if offscreen else None
     live = LiveViewer(sim) if viewer else None
     loop = None
@@ -311,6 +320,7 @@ def simulate_plan(
         sinks=[s for s in (recorder, live) if s is not None], after_step=loop,
     )
     result.summary.update(_run_facts(plan, Path(plan_dir), sim, gains))
+    result.summary["force_feedforward_share"] = force_share if gains.force_feedforward else 0.0
     if loop is not None:
         result.summary["replanning"] = loop.summary()
     if recorder is not None:
@@ -356,11 +366,12 @@ def _with_torque_limits(robot: MobileManipulator, torque_limits: Any) -> MobileM
     return robot_from_description({**robot.describe(), "torque_limits": list(limits)})
 
 
-def _plan_reference(plan: Plan, dt: float, hold: float) -> Reference:
-    """The plan's reference at every control step ``t_0 + k dt`` up to ``hold`` s after its end."""
+def _plan_reference(plan: Plan, dt: float, hold: float, force_share: float = 1.0) -> Reference:
+    """The plan's reference at every control step ``t_0 + k dt`` up to ``hold`` s after its end
+    (the force times ``force_share``)."""
     steps = int(round((plan.t[-1] - plan.t[0] + hold) / dt)) + 1
     times = plan.t[0] + dt * np.arange(steps)
-    force_t, force = (None, None) if plan.force is None else (plan.force.t, plan.force.f)
+    force_t, force = (None, None) if plan.force is None else (plan.force.t, force_share * np.asarray(plan.force.f))
     return interpolate_plan(plan.t, plan.q, times, force_t, force)
 
 

@@ -81,3 +81,26 @@ def given_force(t: Any, forces: Any, radius: Any = DEFAULT_RADIUS) -> TaskForce:
     times = check_times(t)
     f = as_array(forces, "force", (times.size, 3))
     return TaskForce(times, f, _radii(radius, times.size))
+
+
+#: How the uncertainty radius ``r_k`` is set: ``fixed`` (the authors' 10 N at every waypoint) or
+#: ``mass-range`` (from the mass estimate's range, :func:`mass_range_radius`).
+RADIUS_RULES: tuple[str, ...] = ("fixed", "mass-range")
+
+
+def mass_range_radius(force: TaskForce, total_mass: float, mass: float, mass_range: Any,
+                      floor: float) -> TaskForce:
+    """The force ball that covers every payload mass of the estimate's range.
+
+    With ``f_k = M (p''_k - g)`` (``M = total_mass``, the payload ``mass`` plus the known tool
+    load) a payload of ``mass + dm`` needs ``f_k + dm (p''_k - g)``, so the ball of radius
+    ``r_k = max(floor, dm_max |f_k| / M)``, ``dm_max = max(high - mass, mass - low)``, contains
+    the force of every mass in ``[low, high]`` (with ``floor``, never less than the fixed
+    margin). Returns ``force`` with those radii.
+    """
+    low, high = (float(v) for v in mass_range)
+    if not (0.0 <= low <= mass <= high):
+        raise InvalidInputError(f"mass range: expected low <= mass <= high, got [{low:g}, {high:g}] for {mass:g} kg")
+    spread = max(high - mass, mass - low)
+    r = np.maximum(float(floor), spread * force.magnitude / as_positive(total_mass, "mass"))
+    return TaskForce(force.t, force.f, r)

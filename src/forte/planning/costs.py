@@ -46,7 +46,7 @@ from scipy import sparse
 from forte.exceptions import InvalidInputError
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.twin import CasadiTwin
-from forte.settings import CostWeights
+from forte.settings import WEIGHT_FIELDS, CostWeights
 from forte.validation import FloatArray
 
 
@@ -140,8 +140,6 @@ class CostTerm:
         raise NotImplementedError(f"{type(self).__name__} declares no parameter '{name}'")
 
 
-#: The weight fields of :class:`~forte.settings.CostWeights` a term may draw its weight from.
-WEIGHT_FIELDS = ("capability", "manipulability", "joint_limits", "smoothness", "base_spectral")
 #: The registry: term name -> term class.
 COST_TERMS: dict[str, type[CostTerm]] = {}
 

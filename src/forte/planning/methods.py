@@ -9,7 +9,8 @@ Built-in methods (definitions and weights as the authors run them in their publi
 keeps the weight set's weights except as listed in its ``tuning``):
 
 - ``forte``: the paper's J1..J5 plus the authors' velocity, nominal, base-velocity and collision
-  terms (:data:`FORTE_TERMS`);
+  terms (:data:`FORTE_TERMS`), with the weight set's weights (trajectories: ``forte-trajectory``,
+  the authors' set with capability weight 5; ``authors-trajectory`` is their exact set);
 - ``manipulability``: J2 and J3 only (no J1, no regularization terms); in the trajectory set the
   joint-limit DoF weights [0,2,1,10,5,1,2,1,0,0]/10 (arm joint 2 penalized);
 - ``rfp-radius``: J1 replaced by ``1/max(|R|, 1e-6)``, R the alpha-scaled origin-centred
@@ -40,7 +41,7 @@ from forte.exceptions import InvalidInputError, TaskFileError
 from forte.planning.costs import COST_TERMS, CostTerm, make_terms
 from forte.planning.ik import initial_guess
 from forte.planning.tasks import MODES
-from forte.settings import CostWeights
+from forte.settings import AUTHORS_TRAJECTORY_SETS, CostWeights
 from forte.validation import FloatArray
 
 PRODUCTIONS: tuple[str, ...] = ("optimized", "interpolated", "given")
@@ -190,7 +191,13 @@ REGULARIZATION = ("smoothness", "velocity", "nominal", "base_smoothness", "base_
                   "collision")
 #: forte's objective as the authors run it.
 FORTE_TERMS = ("capability", "manipulability", "joint_limits", *REGULARIZATION)
-_TRAJ = "authors-trajectory"
+
+
+def _on_trajectory_sets(changes: Mapping[str, Any]) -> dict[str, Mapping[str, Any]]:
+    """A baseline's changes to the authors' trajectory set, for every set built on it."""
+    return {name: changes for name in AUTHORS_TRAJECTORY_SETS}
+
+
 _MANIP_DOF = tuple(v / 10 for v in (0, 2, 1, 10, 5, 1, 2, 1, 0, 0))
 for _method, _paper in (
     (Method("forte", "the paper's task-sufficient capability objective (J1..J5 + the authors' regularization)",
@@ -198,20 +205,22 @@ for _method, _paper in (
             source="paper, Section 4.3; the authors' public code (their lift weights)"), True),
     (Method("manipulability", "manipulability and joint limits only (no J1, no regularization)",
             terms=("manipulability", "joint_limits"), style=MethodStyle("tab:green", "manipulability", "s"),
-            tuning={_TRAJ: {"joint_dof_weights": _MANIP_DOF}}, source="paper, Section 5; the authors' code"), True),
+            tuning=_on_trajectory_sets({"joint_dof_weights": _MANIP_DOF}),
+            source="paper, Section 5; the authors' code"), True),
     (Method("rfp-radius", "J1 replaced by 1/max(|R|, 1e-6), R the alpha-scaled centred inscribed radius, clamped at 0",
             terms=("rfp_radius", "joint_limits", *REGULARIZATION),
             style=MethodStyle("tab:blue", "RFP inscribed radius", "^"),
-            tuning={_TRAJ: {"capability": 60.0, "base_velocity": 0.54}},
+            tuning=_on_trajectory_sets({"capability": 60.0, "base_velocity": 0.54}),
             source="Ferrolho et al. 2021; the authors' code (residual_force_polytope)"), True),
     (Method("rfp-cone", "J1 replaced by 1/max(|V|, 1e-6), V the RFP's volume in a 0.1 rad cone around f",
             terms=("rfp_cone", "joint_limits", *(t for t in REGULARIZATION if t != "base_spectral")),
             style=MethodStyle("tab:purple", "RFP cone", "v"),
-            tuning={_TRAJ: {"capability": 60.0, "joint_limits": 2.0, "velocity": 7.0, "collision": 0.1}},
+            tuning=_on_trajectory_sets({"capability": 60.0, "joint_limits": 2.0, "velocity": 7.0, "collision": 0.1}),
             source="Ferrolho et al. 2021; the authors' code (cone_intersection_volume)"), True),
     (Method("static-polytope", "J1 replaced by 1/max(|R|, 1e-6), R the inscribed radius with a gravity-only residual",
             terms=("static_radius", "joint_limits", *REGULARIZATION),
-            style=MethodStyle("tab:olive", "static force polytope", "x"), tuning={_TRAJ: {"capability": 2.0}},
+            style=MethodStyle("tab:olive", "static force polytope", "x"),
+            tuning=_on_trajectory_sets({"capability": 2.0}),
             source="the authors' code (their fourth baseline)"), False),
     (Method("quintic", "the task's nominal trajectory: joint-space quintics through its taught configurations "
             "(IK path for a path of poses), not optimized", production="interpolated", modes=("trajectory",),

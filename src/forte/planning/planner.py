@@ -18,7 +18,7 @@ from forte.capability.polytope import directional_capacity, inscribed_radius, tr
 from forte.exceptions import InvalidInputError, TaskFileError
 from forte.force.payload import Payload
 from forte.force.taskforce import TaskForce
-from forte.model.robot import MobileManipulator
+from forte.model.robot import N_BASE, MobileManipulator
 from forte.planning.ik import initial_guess
 from forte.planning.methods import METHODS, Method, get_method, method_names
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer
@@ -155,6 +155,8 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
     opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
                               options=options, limits=task.limits)
     sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess, nominal)
+    if task.mode == "hold" and guess is None and options.hold_starts > 1:
+        sol, info["starts"] = _best_of_starts(opt, task, force, sol, nominal)
     info |= {
         "status": sol.status, "success": sol.success, "iterations": sol.iterations,
         "objective": sol.objective, "constraint_violation": sol.constraint_violation,
@@ -163,6 +165,33 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         "term_weights": opt.term_weights(),
     }
     return sol, info
+
+
+def hold_starts(task: Task) -> FloatArray:
+    """The starting configurations of a hold problem (``task.solver.hold_starts`` rows): the
+    task's initial configuration, then seeded ones around it (base within 0.3 m and 0.6 rad,
+    each arm joint within 0.6 rad, clipped to the joint limits)."""
+    rng = np.random.default_rng(task.solver.hold_seed)
+    q0 = np.asarray(task.q_init, dtype=float)
+    spread = np.r_[0.3, 0.3, 0.6, np.full(q0.size - N_BASE, 0.6)]
+    starts = q0 + rng.uniform(-1.0, 1.0, (task.solver.hold_starts - 1, q0.size)) * spread
+    starts[:, N_BASE:] = np.clip(starts[:, N_BASE:], task.robot.lower, task.robot.upper)
+    return np.vstack([q0, starts])
+
+
+def _best_of_starts(opt: TrajectoryOptimizer, task: Task, force: TaskForce, first: SolverResult,
+                    nominal: FloatArray) -> tuple[SolverResult, dict[str, Any]]:
+    """Solve the hold problem from every start of :func:`hold_starts`; the converged result with
+    the lowest objective (``first`` is the solve from the first start)."""
+    results = [first]
+    for q in hold_starts(task)[1:]:
+        results.append(opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q[None, :], nominal))
+    converged = [i for i, r in enumerate(results) if r.success]
+    best = min(converged, key=lambda i: results[i].objective) if converged else 0
+    facts = {"count": len(results), "converged": len(converged), "chosen": best,
+             "objectives": [float(r.objective) for r in results],
+             "solve_time_s": float(sum(r.solve_time for r in results))}
+    return results[best], facts
 
 
 def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,

@@ -19,7 +19,14 @@ import yaml
 
 from forte.exceptions import ForteError, TaskFileError
 from forte.force.payload import Payload
-from forte.force.taskforce import DEFAULT_RADIUS, TaskForce, given_force, payload_force
+from forte.force.taskforce import (
+    DEFAULT_RADIUS,
+    RADIUS_RULES,
+    TaskForce,
+    given_force,
+    mass_range_radius,
+    payload_force,
+)
 from forte.model.robot import MobileManipulator
 from forte.model.trajectory import quintic_path
 from forte.planning.paths import (
@@ -87,6 +94,10 @@ class Task:
 
     #: The plan fails (exit 1) when the force ball leaves the RFP at some waypoint (d < 0).
     require_capacity: bool = False
+    #: ``fixed``: ``r_k = radius``; ``mass-range``: the ball covers the mass estimate's range
+    #: (:func:`forte.force.taskforce.mass_range_radius`, never below ``radius``; a mass given
+    #: without a range keeps ``radius``).
+    radius_rule: str = "fixed"
 
     @property
     def n(self) -> int:
@@ -137,7 +148,10 @@ class Task:
                 "or a payload description/image for the estimator"
             )
         total = m + self.robot.tool_force_mass
-        return payload_force(self.t, self.targets[:, :3, 3], total, self.radius, self.robot.gravity)
+        force = payload_force(self.t, self.targets[:, :3, 3], total, self.radius, self.robot.gravity)
+        if self.radius_rule == "mass-range" and mass is None and self.payload.mass_range is not None:
+            force = mass_range_radius(force, total, m, self.payload.mass_range, self.radius)
+        return force
 
     def _where(self, key: str) -> str:
         return f"{self.source}: {key}" if self.source else key
@@ -245,8 +259,8 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     """Validate an already-parsed task (see :func:`load_task`)."""
     reader = Reader(data, path)
     reader.unknown({"name", "robot", "mode", "initial_configuration", "path", "pose", "payload", "force",
-                    "uncertainty_radius", "weights", "torque_limits", "solver", "teaching_configuration", "limits",
-                    "controller", "require_capacity"})
+                    "uncertainty_radius", "uncertainty_rule", "weights", "torque_limits", "solver",
+                    "teaching_configuration", "limits", "controller", "require_capacity"})
     base = path.parent if path else Path.cwd()
     robot = robot_section(reader, base)
     mode = reader.get("mode", "trajectory")
@@ -265,6 +279,9 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
             raise reader.error("initial_configuration", "differs from the first taught configuration "
                                "(path.configurations[0].q); leave it out")
     radius = reader.number("uncertainty_radius", DEFAULT_RADIUS, nonnegative=True, maximum=1e6, unit=" N")
+    radius_rule = reader.get("uncertainty_rule", "fixed")
+    if radius_rule not in RADIUS_RULES:
+        raise reader.error("uncertainty_rule", f"expected one of {', '.join(RADIUS_RULES)}, got {radius_rule!r}")
     teaching = None
     if reader.has("teaching_configuration"):
         teaching = reader.vector("teaching_configuration", robot.nq)
@@ -307,7 +324,8 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                 radius=radius, payload=payload or Payload(source="none"),
                 force_profile=None if force_at is None else force_at(t), weights=weights, solver=solver,
                 teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
-                targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots)
+                targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots,
+                radius_rule=radius_rule)
 
 
 def _weight_preset(reader: Reader, mode: str) -> CostWeights:
