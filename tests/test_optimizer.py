@@ -175,3 +175,38 @@ def test_kinematic_limits_bound_the_backward_differences(robot):
     free = TrajectoryOptimizer(robot, n, "forte", limits=KinematicLimits(enabled=False, end_at_rest=False))
     assert free.solver.size_out("g")[0] == 6 * (n - 1)  # the paper's NLP: pose constraints only
     assert np.array_equal(KinematicLimits().resolve(robot)[0][3:], robot.model.velocityLimit)
+
+
+def test_hold_starts_are_seeded_within_the_limits_and_begin_at_the_taught_point():
+    from dataclasses import replace
+    from pathlib import Path
+
+    from forte.planning.planner import hold_starts
+    from forte.planning.tasks import load_task
+
+    task = load_task(Path(__file__).resolve().parents[1] / "examples" / "tasks" / "hold.yaml")
+    starts = hold_starts(task)
+    assert starts.shape == (task.solver.hold_starts, task.robot.nq)
+    np.testing.assert_array_equal(starts[0], task.q_init)
+    assert np.all(starts[:, 3:] >= task.robot.lower) and np.all(starts[:, 3:] <= task.robot.upper)
+    np.testing.assert_array_equal(starts, hold_starts(task))  # deterministic
+    other = replace(task, solver=replace(task.solver, hold_seed=1))
+    assert not np.allclose(starts[1:], hold_starts(other)[1:])
+
+
+@pytest.mark.slow
+def test_more_hold_starts_never_give_a_worse_objective():
+    from dataclasses import replace
+    from pathlib import Path
+
+    from forte.planning.planner import plan
+    from forte.planning.tasks import load_task
+
+    task = load_task(Path(__file__).resolve().parents[1] / "examples" / "tasks" / "hold.yaml", mass=0.35)
+    single = plan(replace(task, solver=replace(task.solver, hold_starts=1)), "rfp-radius")
+    multi = plan(task, "rfp-radius")
+    assert single.success and multi.success and "starts" not in single.solver
+    assert multi.solver["starts"]["count"] == task.solver.hold_starts
+    assert multi.solver["objective"] <= single.solver["objective"] + 1e-9
+    chosen = multi.solver["starts"]["chosen"]
+    assert multi.solver["objective"] == multi.solver["starts"]["objectives"][chosen]
