@@ -86,10 +86,7 @@ def test_hold_function_is_deterministic_in_its_seeded_trials(tmp_path):
     assert all(2.7 * 0.9 <= x <= 2.7 * 1.1 for row in masses for x in row)
 
 
-@pytest.mark.xfail(strict=True, reason="measured (N=50, nominal mass): both plans lift 2.7 L in simulation "
-                   "(forte: success; quintic: success). The quintic IK path stays near the Panda's strong home "
-                   "posture (planning: min d = 10.8 N, capacity - (|f| + r) >= 34.4 N), so it does not lack force; "
-                   "forte keeps min d = 0.4 N. See docs/experiments/README.md")
+@pytest.mark.slow
 def test_issue_claim_quintic_fails_and_forte_succeeds_with_2p7_litres(tmp_path):
     task = load_task(LIFT, mass=2.7)
     verdicts = {}

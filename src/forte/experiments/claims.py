@@ -63,6 +63,9 @@ class Claim:
     measure: str
     ours: str
     checks: list[Check] = field(default_factory=list)
+    #: Our analysis of why the claim does not hold on our model (numbers from the same run),
+    #: printed after the failing checks when it is not reproduced.
+    why: str = ""
 
     @property
     def reproduced(self) -> bool:
@@ -76,7 +79,8 @@ class Claim:
             return None
         if not self.checks:
             return "nothing was measured"
-        return "; ".join(f"expected {c.what}, got {c.evidence}" for c in self.checks if not c.ok)
+        failing = "; ".join(f"expected {c.what}, got {c.evidence}" for c in self.checks if not c.ok)
+        return f"{failing}. Why: {self.why}" if self.why else failing
 
     def to_json(self) -> dict[str, Any]:
         return {"section": self.section, "claim": self.claim, "measure": self.measure, "ours": self.ours,

@@ -110,6 +110,7 @@ def metrics(res: Plan) -> dict[str, Any]:
         "min_capacity_minus_force": float(np.min(cap - mag)),  # < 0: the nominal force lies outside the RFP
         "mean_capacity": float(np.mean(cap)),
         "min_capacity": float(np.min(cap)),
+        "min_inscribed_radius": float(np.min(res.metrics.get("inscribed_radius", np.nan))),
         "first_time_below_force": first_time(res.t, cap < mag),
         "first_time_below_band": first_time(res.t, cap < mag + r),
     }
