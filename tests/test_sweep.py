@@ -195,27 +195,50 @@ def _alive(pid: int) -> bool:
     return state != "Z"
 
 
+def _start_and_stop(sweep: Path, out: Path, sig: int, workers: int) -> tuple[int, set[int]]:
+    """Run ``forte sweep`` in a subprocess, send ``sig`` once its first cell is stored; returns its
+    exit status and the pids of its children (the pool's workers)."""
+    env = {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    proc = subprocess.Popen([sys.executable, "-m", "forte.cli", "sweep", str(sweep), "--out", str(out),
+                             "--workers", str(workers), "--no-figures", "--quiet"], env=env, stderr=subprocess.PIPE)
+    cells, deadline, workers_seen = out / "cells", time.monotonic() + 120, set()
+    while time.monotonic() < deadline and not (cells.is_dir() and any(p.suffix == ".json" for p in cells.iterdir())):
+        workers_seen |= _children(proc.pid)
+        assert proc.poll() is None, proc.stderr.read().decode()
+        time.sleep(0.02)
+    workers_seen |= _children(proc.pid)
+    os.kill(proc.pid, sig)
+    code = proc.wait()
+    proc.stderr.close()
+    deadline = time.monotonic() + 10  # orphaned workers notice that the driver is gone and exit
+    while time.monotonic() < deadline and any(_alive(p) for p in workers_seen):
+        time.sleep(0.1)
+    assert workers_seen and not any(_alive(p) for p in workers_seen)
+    return code, workers_seen
+
+
+@pytest.mark.slow
+def test_sigterm_stops_with_a_partial_table(pool_run, tmp_path):
+    sweep, _, _ = pool_run
+    out = tmp_path / "stopped"
+    assert _start_and_stop(sweep, out, signal.SIGTERM, workers=2)[0] == 130
+    doc = json.loads((out / "sweep.json").read_text())
+    finished = len(list((out / "cells").glob("*.json")))
+    assert doc["status"] == "partial" and doc["finished"] == finished and 0 < finished < 24
+    assert len(read_csv(out / CSV_FILE)) == finished
+    assert SweepDir(out).events()[-1] | {"time": 0} == {"time": 0, "event": "end", "run": 1, "status": "interrupted",
+                                                        "computed": finished}
+
+
+@pytest.mark.slow
 def test_resume_after_sigkill_skips_finished_cells(pool_run, tmp_path):
     sweep, reference, _ = pool_run
     out = tmp_path / "killed"
-    env = {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    proc = subprocess.Popen([sys.executable, "-m", "forte.cli", "sweep", str(sweep), "--out", str(out),
-                             "--workers", "1", "--no-figures", "--quiet"], env=env, stderr=subprocess.PIPE)
-    cells, deadline, workers = out / "cells", time.monotonic() + 120, set()
-    while time.monotonic() < deadline and not (cells.is_dir() and any(p.suffix == ".json" for p in cells.iterdir())):
-        workers |= _children(proc.pid)
-        assert proc.poll() is None, proc.stderr.read().decode()
-        time.sleep(0.02)
-    workers |= _children(proc.pid)
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
-    proc.stderr.close()
+    _start_and_stop(sweep, out, signal.SIGKILL, workers=1)
+    cells = out / "cells"
     first = {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in cells.glob("*.json")}
     assert 0 < len(first) < 24, "the sweep must be killed part-way"
-    deadline = time.monotonic() + 10  # the orphaned pool workers notice and exit
-    while time.monotonic() < deadline and any(_alive(p) for p in workers):
-        time.sleep(0.1)
-    assert not any(_alive(p) for p in workers)
+    assert json.loads((out / "sweep.json").read_text())["status"] == "running"  # killed: never marked done
 
     result = run_sweep(sweep, out, workers=2)
     assert (result.status, result.skipped, result.computed) == ("complete", len(first), 24 - len(first))

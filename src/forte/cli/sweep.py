@@ -4,12 +4,13 @@ Exit codes: 0 when every cell of the grid has a result (failed plans and simulat
 results: they are rows of the table); 2 for a bad sweep or task file, an output directory forte
 may not use (or one another forte process is writing), ``--ray`` without Ray installed or with
 an address it cannot reach; 130 when interrupted (the finished cells are kept: run the same
-command again to resume).
+command again to resume; SIGTERM counts as an interruption).
 """
 
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from pathlib import Path
 
@@ -35,7 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "the local Ray instance")
     p.add_argument("--ray", nargs="?", const="local", default=None, metavar="ADDRESS",
                    help="run on Ray: a local instance (no ADDRESS), or the cluster at ADDRESS (auto, HOST:PORT or "
-                   "ray://HOST:PORT; its nodes need forte installed). Needs Ray: pip install 'forte[ray]'")
+                   "ray://HOST:PORT; its nodes need forte installed; write --ray=ADDRESS, or --ray after SWEEP.yaml). "
+                   "Needs Ray: pip install 'forte[ray]'")
     p.add_argument("--no-figures", action="store_true", help="write the table only")
     p.add_argument("--dry-run", action="store_true", help="check the sweep file and print the grid's size and "
                    "how many cells are finished, without computing anything")
@@ -70,10 +72,17 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(text, file=sys.stderr, flush=True)
 
-    result = run_sweep(spec, out, workers=args.workers, ray=args.ray, figures=not args.no_figures, log=log)
+    previous = signal.signal(signal.SIGTERM, _interrupt)  # a batch scheduler's stop: keep the table current
+    try:
+        result = run_sweep(spec, out, workers=args.workers, ray=args.ray, figures=not args.no_figures, log=log)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     if not args.quiet:
         errors = f"; {result.errors} with an error (see the table's error column)" if result.errors else ""
         print(f"{result.status}: {result.finished}/{result.cells} cells ({result.computed} computed now, "
-              f"{result.skipped} from earlier runs){errors}; wrote {result.out}/"
-              + f", {result.out}/".join(result.files[:2]) + (" and figures" if len(result.files) > 2 else ""))
+              f"{result.skipped} from earlier runs){errors}; wrote {result.out} ({', '.join(result.files)})")
     return 0
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from forte.experiments.common import DPI, MANIP_LABEL, MARKERS, style
+from forte.experiments.common import DASHES, DPI, MANIP_LABEL, MARKERS, style
 from forte.io.figures import pyplot
 
 FIGURES_DIR = "figures"
@@ -43,12 +43,14 @@ def _value(plan: dict[str, Any], column: str) -> float:
     return np.nan if v is None else float(v)
 
 
-def plot_task(rows: Sequence[dict[str, Any]], path: Path, title: str) -> None:
-    """The three panels of one task (``rows``: its table rows)."""
-    plt = pyplot()
+def plot_task(rows: Sequence[dict[str, Any]], path: Path, title: str) -> bool:
+    """The panels of one task that have data (``rows``: its table rows); False when none has."""
     plans = _plans(rows)
     methods = list(dict.fromkeys(m for m, _ in plans))
-    panels = [p for p in PANELS if any(_value(v, p[0]) == _value(v, p[0]) for v in plans.values())]
+    panels = [p for p in PANELS if any(np.isfinite(_value(v, p[0])) for v in plans.values())]
+    if not panels:  # every plan raised an error: nothing to draw
+        return False
+    plt = pyplot()
     fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.6), layout="constrained", squeeze=False)
     masses = sorted({m for _, m in plans if m is not None})
     for ax, (column, label) in zip(axes[0], panels, strict=True):
@@ -56,7 +58,8 @@ def plot_task(rows: Sequence[dict[str, Any]], path: Path, title: str) -> None:
             for i, method in enumerate(methods):
                 y = [_value(plans[(method, m)], column) if (method, m) in plans else np.nan for m in masses]
                 color, name = style(method)
-                ax.plot(masses, y, color=color, marker=MARKERS[i % len(MARKERS)], lw=1.5, label=name)
+                ax.plot(masses, y, color=color, marker=MARKERS[i % len(MARKERS)], ls=DASHES[i % len(DASHES)],
+                        ms=7 - i * 0.8, lw=1.5, label=name)  # shrinking markers: coinciding points stay visible
                 bad = [(m, v) for m, v in zip(masses, y, strict=True)
                        if (method, m) in plans and plans[(method, m)]["plan_status"] != "success"]
                 if bad:  # the solver's last iterate, or no plan at all
@@ -79,6 +82,7 @@ def plot_task(rows: Sequence[dict[str, Any]], path: Path, title: str) -> None:
     fig.suptitle(title, fontsize=10)
     fig.savefig(path, dpi=DPI, bbox_inches="tight")
     plt.close(fig)
+    return True
 
 
 def write_figures(rows: Sequence[dict[str, Any]], directory: Path) -> list[str]:
@@ -92,6 +96,6 @@ def write_figures(rows: Sequence[dict[str, Any]], directory: Path) -> list[str]:
     for (task, n), task_rows in groups.items():
         stem = f"{task}" + (f"_N{n}" if n is not None and len({w for t, w in groups if t == task}) > 1 else "")
         path = folder / f"{re.sub(r'[^A-Za-z0-9._-]', '_', stem)}.png"
-        plot_task(task_rows, path, f"sweep: task {task}" + (f", {n} waypoints" if n else ""))
-        names.append(f"{FIGURES_DIR}/{path.name}")
+        if plot_task(task_rows, path, f"sweep: task {task}" + (f", {n} waypoints" if n else "")):
+            names.append(f"{FIGURES_DIR}/{path.name}")
     return names

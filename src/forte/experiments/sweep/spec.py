@@ -163,8 +163,8 @@ def _tasks(r: Reader, path: Path) -> tuple[TaskEntry, ...]:
         located = Path(item) if Path(item).is_absolute() else path.parent / item
         if not located.is_file():
             raise r.error(f"tasks[{i}]", f"{located}: task file does not exist")
+        data = read_yaml(located, "task file")  # checks size and encoding first
         digest = hashlib.sha256(located.read_bytes()).hexdigest()
-        data = read_yaml(located, "task file")
         name = data.get("name", located.stem) if isinstance(data, dict) else located.stem
         entries.append(TaskEntry(str(name), item, located, digest, data))
     if len({e.written for e in entries}) != len(entries):
