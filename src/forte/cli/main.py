@@ -43,6 +43,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "forte.cli.estimation",
     "forte.cli.simulate",
     "forte.cli.experiment",
+    "forte.cli.sweep",
     "forte.cli.export",
     "forte.cli.view",
 )

@@ -29,7 +29,7 @@ from forte.exceptions import OutputError
 
 #: The field every output forte writes carries, and the files that carry it.
 GENERATOR = "forte"
-MARKER_FILES = ("plan.json", "comparison.json", "summary.json", "sim.json")
+MARKER_FILES = ("plan.json", "comparison.json", "summary.json", "sim.json", "sweep.json")
 
 
 def atomic_write(path: Path, text: str) -> None:
