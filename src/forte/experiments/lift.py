@@ -119,8 +119,9 @@ def _sufficient_and_lifts(heavy: Case, mh: dict[str, dict[str, Any]], method: st
                   compare(f"{method}'s min capacity − (|f| + r)", mh[method]["min_capacity_margin"], ">=", "0",
                           0.0, " N"),
                   every_run(heavy, method)],
-                 why=f"{method} ignores the force's magnitude (rfp-radius: a ball centred at the origin; rfp-cone: "
-                 "the force's direction), so its plan is the same at both payloads; with the authors' weights its "
+                 why=f"{method} ignores the force's magnitude (" + ("a ball centred at the origin" if method ==
+                 "rfp-radius" else "rays around the force's direction") + "), so its plan is the same at both "
+                 "payloads; with the authors' weights its "
                  f"capacity along f reaches {mh[method]['min_capacity']:.1f} N at the weakest waypoint, "
                  f"{-mh[method]['min_capacity_minus_force']:.1f} N short of |f| there; forte, whose J1 asks for "
                  "the load, keeps it")
