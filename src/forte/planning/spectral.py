@@ -46,8 +46,9 @@ from forte.exceptions import InvalidInputError
 from forte.settings import DCT_FORMS
 from forte.validation import FloatArray
 
-#: ``auto`` keeps a weighting without an exact sparse form dense up to this horizon, banded beyond
-#: (at N = 64 the dense block adds ~15 % to an iteration, at N = 400 ~4x: benchmarks/bench_scaling.py).
+#: ``auto`` keeps a weighting without an exact sparse form dense up to this horizon (the authors'
+#: lift, 41, and the example tasks, up to 61, plan with the formula), banded beyond (the dense block
+#: costs ~20 % more per iteration at N = 100, ~4x at N = 400: benchmarks/bench_scaling.py).
 DENSE_MAX_WAYPOINTS = 64
 
 
