@@ -26,9 +26,9 @@ which the optimizer solves sparsely by lifting ``z = R b`` as variables (``z - R
   ``l^2`` as N grows) gives ``C^T diag(p(kappa)) C = p((N/pi)^2 Lap)``, banded with ``m``
   off-diagonals. Zero weight below the cutoff is the exact correction ``-p(kappa_L)`` on the
   low rows. :func:`banded_weights` defines the cutoff and the weights in wavenumbers ``l``
-  (cycles per two horizons) anchored at a reference horizon, so ``|L|`` and the weight of a given
-  frequency stay fixed as N grows (resolution-independent); see there how it compares with the
-  authors' ramp.
+  (cosine ``l`` has ``l/2`` periods over the horizon: ``l / (2T)`` Hz for a horizon of ``T = N dt``
+  seconds) anchored at a reference horizon, so ``|L|`` and the weight of a given frequency stay
+  fixed as N grows (resolution-independent); see there how it compares with the authors' ramp.
 
 The authors' ramped ``gamma`` (power 2 over ``l/(N-1) > c``) is not constant over ``H`` and not
 a polynomial in ``lambda``: it has no exact sparse form, so :func:`spectral_form` keeps it dense
@@ -188,9 +188,11 @@ def _banded(n: int, cutoff: float, power: float, ramp: bool, reference: int) -> 
 def banded_weights(n: int, cutoff: float, power: float, ramp: bool, reference: int) -> FloatArray:
     """The resolution-independent alternative to :func:`spectral_weights`, ``gamma_l = p(kappa_l)``.
 
-    Frequencies are wavenumbers ``l`` (cosine ``l`` spans ``l/2`` periods over the horizon), the
-    cutoff and the scale are those of the ``reference``-waypoint horizon: ``l_r = reference - 1``
-    and ``m = power / 2`` (an even ``power``). With ``ramp`` (the authors' set)::
+    Frequencies are wavenumbers ``l`` (cosine ``l`` has ``l/2`` periods over the horizon, ``l / (2T)``
+    Hz for a horizon of ``T`` seconds: on the authors' lift, 41 waypoints 0.25 s apart, the cutoff
+    ``l_c = 4`` is about 0.2 Hz at every N), the cutoff and the scale are those of the
+    ``reference``-waypoint horizon: ``l_r = reference - 1`` and ``m = power / 2`` (an even
+    ``power``). With ``ramp`` (the authors' set)::
 
         H = {l : l > l_c},  l_c = c l_r,    gamma_l = ((kappa_l - kappa(l_c)) / (l_r^2 - l_c^2))^m
 
