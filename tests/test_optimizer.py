@@ -11,9 +11,10 @@ from forte.exceptions import InvalidInputError
 from forte.force.taskforce import payload_force
 from forte.model.trajectory import quintic_path
 from forte.planning.ik import follow_path
-from forte.planning.motion_terms import dct_matrix, dct_penalty_matrix, high_frequencies
+from forte.planning.motion_terms import dct_penalty_matrix
 from forte.planning.optimizer import SolverOptions, TrajectoryOptimizer
 from forte.planning.reference import base_spectral_cost, smoothness_cost
+from forte.planning.spectral import dct_matrix, high_frequencies
 from forte.settings import CostWeights
 
 

@@ -61,6 +61,10 @@ class CapabilityParameters:
             _require(_finite(value) and value > 0, name, "a finite number > 0", value)
 
 
+#: Values of ``CostWeights.dct_form`` (see :func:`forte.planning.spectral.spectral_form`).
+DCT_FORMS = ("auto", "exact", "dense", "banded")
+
+
 @dataclass(frozen=True)
 class CostWeights:
     """Weights of the cost terms and their parameters (defaults: the authors' trajectory set).
@@ -97,6 +101,14 @@ class CostWeights:
         dct_power: ``gamma_l = (l / (N - 1)) ** power`` (0: every high frequency weighs 1), or
             with ``dct_ramp`` ``gamma_l = ((l/(N-1) - c)/(1 - c)) ** power`` over ``l/(N-1) > c``.
         dct_ramp: the authors' ramped ``gamma`` and high set (see ``dct_power``).
+        dct_form: how the optimizer solves J5 (:func:`forte.planning.spectral.spectral_form`):
+            ``exact`` (sparse where ``gamma`` is constant over ``H``, else one dense N x N block
+            per axis), ``dense`` (always the dense block), ``banded`` (the resolution-independent
+            alternative weighting: banded in time, linear cost per iteration), ``auto`` (default:
+            ``exact`` up to 64 waypoints or where it is sparse, ``banded`` beyond). Reports always
+            show J5 itself.
+        dct_reference_waypoints: the horizon whose cutoff and scale the ``banded`` weighting
+            keeps at every N (the authors' lift: 41).
         capability_params: the metric's parameters, ``alpha`` among them.
     """
 
@@ -124,6 +136,8 @@ class CostWeights:
     dct_axis: tuple[float, float, float] = (1.0, 1.0, 0.5)
     dct_power: float = 2.0
     dct_ramp: bool = True
+    dct_form: str = "auto"
+    dct_reference_waypoints: int = 41
     collision_radius: float = 0.08
     capability_params: CapabilityParameters = field(default_factory=lambda: CapabilityParameters(alpha=0.9))
 
@@ -149,6 +163,10 @@ class CostWeights:
                 raise InvalidInputError(f"{name}: expected a finite number > 0, got {value}")
         if not (_finite(self.dct_cutoff) and 0.0 < self.dct_cutoff < 1.0):
             raise InvalidInputError(f"dct_cutoff: expected 0 < cutoff < 1, got {self.dct_cutoff}")
+        _require(self.dct_form in DCT_FORMS, "dct_form", f"one of {', '.join(DCT_FORMS)}", self.dct_form)
+        _require(isinstance(self.dct_reference_waypoints, int) and not isinstance(self.dct_reference_waypoints, bool)
+                 and self.dct_reference_waypoints >= 2, "dct_reference_waypoints", "an integer >= 2",
+                 self.dct_reference_waypoints)
         for name in ("smoothness_base", "dct_axis"):
             values = np.asarray(getattr(self, name), dtype=float)
             if values.shape != (3,) or not np.all(np.isfinite(values) & (values >= 0)):

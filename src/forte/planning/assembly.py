@@ -58,7 +58,8 @@ def hessian_pattern(
     index: FloatArray, nq: int, n: int, Q: sparse.spmatrix
 ) -> tuple[ca.Sparsity, tuple[Any, Any, Any]]:
     """Upper-triangular pattern of the Lagrangian Hessian and the maps that fill it from the
-    stage Hessians (3nq x 3nq per waypoint), the pose Hessians (nq x nq) and the constant ``Q``."""
+    stage Hessians (3nq x 3nq per waypoint), the pose Hessians (nq x nq) and the constant ``Q``
+    (``Q`` may be larger than ``nq n``: variables after the configurations, see the optimizer)."""
     w = 3 * nq
     # stage blocks: entry (a, b) of waypoint k -> (index[a, k], index[b, k])
     a, b = np.meshgrid(np.arange(w), np.arange(w), indexing="ij")
@@ -75,7 +76,7 @@ def hessian_pattern(
     rows = np.concatenate([s_rows.ravel(), p_rows.ravel(), Qc.row])
     cols = np.concatenate([s_cols.ravel(), p_cols.ravel(), Qc.col])
     keep = rows <= cols
-    size = nq * n
+    size = Q.shape[0]
     sp, pos = nz_map(rows[keep], cols[keep], (size, size))
     pos_full = np.full(rows.size, -1)
     pos_full[keep] = pos

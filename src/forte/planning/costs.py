@@ -8,7 +8,9 @@ The objective is ``J = sum_i w_i J_i``. A term is one of two kinds:
   backward differences of the paper need the two previous configurations; the first samples
   start at rest (the optimizer pads the trajectory with two copies of ``q_1``);
 - a **quadratic term** ``J_i = x^T Q_i x / 2`` over ``x = vec(q_1..q_N)`` (J4, J5): a constant
-  sparse matrix, assembled once per horizon.
+  sparse matrix, assembled once per horizon (:meth:`CostTerm.matrix`, the exact value). The
+  optimizer solves with :meth:`CostTerm.lifted`, ``x^T D x / 2 + sum_j g_j (A x)_j^2 / 2`` with
+  ``D`` sparse and ``A`` a few dense rows lifted as variables, so the KKT matrix stays sparse.
 
 Built-in terms (``name``: weight field of :class:`~forte.settings.CostWeights`):
 
@@ -37,7 +39,7 @@ import dataclasses
 import hashlib
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import casadi as ca
 import numpy as np
@@ -48,6 +50,16 @@ from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.twin import CasadiTwin
 from forte.settings import WEIGHT_FIELDS, CostWeights
 from forte.validation import FloatArray
+
+
+class LiftedQuadratic(NamedTuple):
+    """``x^T Q x / 2`` as ``x^T D x / 2 + z^T diag(g) z / 2`` with ``z = A x`` (the optimizer lifts
+    ``z`` as variables with the rows ``A x - z = 0``, so a dense ``Q`` becomes ``D`` plus ``len(g)``
+    dense rows)."""
+
+    D: sparse.csr_matrix
+    A: sparse.csr_matrix
+    g: FloatArray
 
 
 @dataclass
@@ -135,6 +147,15 @@ class CostTerm:
 
     def matrix(self, n_arm: int, n: int) -> sparse.csr_matrix:  # pragma: no cover - abstract
         raise NotImplementedError(f"{type(self).__name__} is not a quadratic term")
+
+    def lifted(self, n_arm: int, n: int) -> LiftedQuadratic:
+        """What the optimizer minimizes for a quadratic term (default: :meth:`matrix`, no rows)."""
+        Q = self.matrix(n_arm, n)
+        return LiftedQuadratic(Q, sparse.csr_matrix((0, Q.shape[1])), np.zeros(0))
+
+    def solved_as(self, n: int) -> str:
+        """How :meth:`lifted` represents the term at horizon ``n`` (reported with a plan)."""
+        return "exact"
 
     def parameter_values(self, name: str, f: FloatArray, r: FloatArray) -> FloatArray:  # pragma: no cover
         raise NotImplementedError(f"{type(self).__name__} declares no parameter '{name}'")

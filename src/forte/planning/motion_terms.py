@@ -14,7 +14,8 @@ import numpy as np
 from scipy import sparse
 
 from forte.model.robot import N_BASE
-from forte.planning.costs import CostTerm, Stage, register_term
+from forte.planning.costs import CostTerm, LiftedQuadratic, Stage, register_term
+from forte.planning.spectral import SpectralForm, dct_penalty, spectral_form
 from forte.settings import CostWeights
 from forte.validation import FloatArray
 
@@ -148,7 +149,13 @@ class Collision(CostTerm):
 @register_term
 @dataclass(frozen=True)
 class BaseSpectral(CostTerm):
-    """J5 = ``1/2 sum_xi eta_xi sum_{l in H} gamma_l bhat_{xi,l}^2`` (orthonormal DCT-II per base axis)."""
+    """J5 = ``1/2 sum_xi eta_xi sum_{l in H} gamma_l bhat_{xi,l}^2`` (orthonormal DCT-II per base axis).
+
+    :meth:`matrix` is the formula (the value every report shows); :meth:`lifted` is the form the
+    optimizer solves with, :func:`forte.planning.spectral.spectral_form` by ``form`` (exact unless
+    ``banded`` is chosen, or ``auto`` meets the authors' ramp beyond
+    :data:`~forte.planning.spectral.DENSE_MAX_WAYPOINTS` waypoints).
+    """
 
     name: ClassVar[str] = "base_spectral"
     kind: ClassVar[str] = "quadratic"
@@ -156,57 +163,46 @@ class BaseSpectral(CostTerm):
     axis: tuple[float, float, float] = (1.0, 1.0, 0.5)
     power: float = 0.0
     ramp: bool = False
+    form: str = "auto"
+    reference: int = 41
 
     @classmethod
     def from_weights(cls, weights: CostWeights) -> BaseSpectral:
-        return cls(weights.dct_cutoff, tuple(weights.dct_axis), weights.dct_power, weights.dct_ramp)
+        return cls(weights.dct_cutoff, tuple(weights.dct_axis), weights.dct_power, weights.dct_ramp,
+                   weights.dct_form, weights.dct_reference_waypoints)
+
+    def _selector(self, n_arm: int) -> sparse.csr_matrix:
+        E = np.zeros((n_arm + N_BASE, n_arm + N_BASE))
+        E[:N_BASE, :N_BASE] = np.diag(self.axis)
+        return sparse.csr_matrix(E)
 
     def matrix(self, n_arm: int, n: int) -> sparse.csr_matrix:
         nq = n_arm + N_BASE
         if n == 1:
             return sparse.csr_matrix((nq, nq))
-        E = np.zeros((nq, nq))
-        E[:N_BASE, :N_BASE] = np.diag(self.axis)
         P = dct_penalty(n, self.cutoff, self.power, self.ramp)
-        return sparse.kron(sparse.csr_matrix(P), sparse.csr_matrix(E)).tocsr()
+        return sparse.kron(sparse.csr_matrix(P), self._selector(n_arm)).tocsr()
 
+    def spectral_form(self, n: int) -> SpectralForm:
+        return spectral_form(n, self.cutoff, self.power, self.ramp, self.form, self.reference)
 
-def dct_matrix(n: int) -> FloatArray:
-    """Orthonormal DCT-II matrix ``C`` (``C @ x`` equals ``scipy.fft.dct(x, norm='ortho')``)."""
-    k = np.arange(n)[:, None]
-    i = np.arange(n)[None, :]
-    C = np.cos(np.pi * (2 * i + 1) * k / (2 * n)) * np.sqrt(2.0 / n)
-    C[0] /= np.sqrt(2.0)
-    return C
+    def solved_as(self, n: int) -> str:
+        return "exact" if n == 1 else self.spectral_form(n).kind
 
-
-def high_frequencies(n: int, cutoff: float) -> FloatArray:
-    """Indices ``l`` of the high-frequency set ``H = {l : l >= ceil(cutoff n)}`` (never l = 0)."""
-    return np.arange(max(1, int(np.ceil(cutoff * n))), n)
-
-
-def ramped_frequencies(n: int, cutoff: float) -> FloatArray:
-    """The authors' high set ``H = {l : l / (N - 1) > cutoff}``."""
-    ell = np.arange(n)
-    return ell[ell / max(n - 1, 1) > cutoff]
-
-
-def dct_penalty(n: int, cutoff: float, power: float, ramp: bool = False) -> FloatArray:
-    """``P`` with ``b^T P b = sum_{l in H} gamma_l bhat_l^2``.
-
-    ``gamma_l = (l / (N - 1))^power`` on ``l >= ceil(cutoff N)`` (the paper's text), or with
-    ``ramp`` the authors' ``gamma_l = ((l/(N-1) - c) / (1 - c))^power`` on ``l/(N-1) > c``.
-    """
-    C = dct_matrix(n)
-    H = ramped_frequencies(n, cutoff) if ramp else high_frequencies(n, cutoff)
-    if H.size == 0:
-        return np.zeros((n, n))
-    x = H / max(n - 1, 1)
-    gamma = ((x - cutoff) / (1 - cutoff)) ** power if ramp else x**power
-    CH = C[H]
-    return CH.T @ (gamma[:, None] * CH)
+    def lifted(self, n_arm: int, n: int) -> LiftedQuadratic:
+        """``sum_xi eta_xi (b_xi^T B b_xi + z_xi^T diag(g) z_xi) / 2`` with ``z_xi = R b_xi``."""
+        nq = n_arm + N_BASE
+        if n == 1:
+            return super().lifted(n_arm, n)
+        f = self.spectral_form(n)
+        D = sparse.kron(f.banded, self._selector(n_arm)).tocsr()
+        axes = [i for i in range(N_BASE) if self.axis[i] != 0 and f.gains.size]
+        A = sparse.vstack([sparse.kron(sparse.csr_matrix(f.rows), sparse.csr_matrix(np.eye(1, nq, i)))
+                           for i in axes] or [sparse.csr_matrix((0, nq * n))]).tocsr()
+        g = np.concatenate([self.axis[i] * f.gains for i in axes] or [np.zeros(0)])
+        return LiftedQuadratic(D, A, g)
 
 
 def dct_penalty_matrix(n: int, weights: CostWeights) -> FloatArray:
-    """:func:`dct_penalty` with the cutoff and power of ``weights`` (one base coordinate)."""
+    """:func:`~forte.planning.spectral.dct_penalty` with the parameters of ``weights`` (one base coordinate)."""
     return dct_penalty(n, weights.dct_cutoff, weights.dct_power, weights.dct_ramp)

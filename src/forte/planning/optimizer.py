@@ -11,6 +11,10 @@ Design:
   compiled per-waypoint kernels (:mod:`forte.planning.kernels`) ``map``-ped over the horizon,
   the quadratic terms one constant sparse matrix, so the expression graph and the exact
   Hessian stay linear in N;
+- a quadratic term whose matrix is dense (J5) enters in its lifted form
+  (:meth:`~forte.planning.costs.CostTerm.lifted`): a sparse ``D`` plus variables ``z = A x``
+  appended after ``vec(q_1..q_N)`` and equality rows ``A x - z = 0`` appended after all other
+  constraints, so the KKT matrix stays sparse (:mod:`forte.planning.spectral`);
 - all task data (time steps, forces, radii, target poses, term parameters such as cone rays)
   are NLP *parameters*: a problem is built once per (robot, N, method, weights) and reused for
   every task of that size;
@@ -131,14 +135,30 @@ class TrajectoryOptimizer:
         """Unweighted ``Q_i`` of the quadratic terms (``J_i = x^T Q_i x / 2``)."""
         return [t.matrix(self.robot.n_arm, self.n) for t in self._quadratic]
 
-    def _weighted_quadratic(self) -> sparse.csr_matrix:
-        """``Q = sum_i w_i Q_i`` over the quadratic terms."""
+    def _lifted_quadratic(self) -> tuple[sparse.csr_matrix, sparse.csr_matrix]:
+        """``Q`` over ``[x; z]``, ``blockdiag(sum_i w_i D_i, diag(w_i g_i))``, and the lifting rows
+        ``A`` (``z = A x``) of the quadratic terms' lifted forms (terms of weight 0 are left out)."""
         size = self.robot.nq * self.n
-        Q = None
-        for term, M in zip(self._quadratic, self._quadratic_matrices(), strict=True):
-            wM = self.method_spec.term_weight(term, self.weights) * M
-            Q = wM if Q is None else Q + wM
-        return sparse.csr_matrix((size, size)) if Q is None else Q.tocsr()
+        D, rows, gains = sparse.csr_matrix((size, size)), [sparse.csr_matrix((0, size))], [np.zeros(0)]
+        for term in self._quadratic:
+            w = self.method_spec.term_weight(term, self.weights)
+            if w != 0:
+                lifted = term.lifted(self.robot.n_arm, self.n)
+                keep = lifted.g != 0  # a row of gain 0 adds nothing
+                D, rows, gains = D + w * lifted.D, [*rows, lifted.A[keep]], [*gains, w * lifted.g[keep]]
+        A, g = sparse.vstack(rows, format="csr"), np.concatenate(gains)
+        Q = sparse.block_diag([D, sparse.diags(g)], format="csr") if g.size else D.tocsr()
+        return Q, A
+
+    @property
+    def quadratic_forms(self) -> dict[str, str]:
+        """How the optimizer solves each quadratic term (e.g. J5's ``dense``, ``lifted``, ``banded``)."""
+        return {t.name: t.solved_as(self.n) for t in self._quadratic}
+
+    def _full_x(self, q: FloatArray) -> FloatArray:
+        """The NLP's variables for configurations ``q``: ``vec(q)`` and the lifted ``z = A vec(q)``."""
+        xq = np.asarray(q, dtype=float).ravel()
+        return np.concatenate([xq, self._lift @ xq])
 
     def _build(self) -> None:
         robot, n, kern = self.robot, self.n, self.kernels
@@ -150,8 +170,10 @@ class TrajectoryOptimizer:
             off, size = self._layout[name]
             return ca.reshape(P[off:off + size], rows, size // rows)
 
-        x = ca.MX.sym("x", nq * n)
-        X = ca.reshape(x, nq, n)
+        Q, self._lift = self._lifted_quadratic()
+        x = ca.MX.sym("x", Q.shape[0])
+        xq = x[: nq * n]
+        X = ca.reshape(xq, nq, n)
         index = self._window_index()
         Z = ca.reshape(gather(x, index.T.ravel()), 3 * nq, n)
         dt = par("dt", 1)
@@ -159,15 +181,19 @@ class TrajectoryOptimizer:
         stage_args += [par(name, size) for t in self._stage for name, size in t.parameters]
         wvec = ca.DM([self.method_spec.term_weight(t, self.weights) for t in self._stage])
         stage_args.append(ca.repmat(wvec, 1, n))
-        Q = self._weighted_quadratic()
-        Qx = ca.mtimes(ca.DM(Q), x)
+        Qx = ca.mtimes(dm(Q), x)
         cost = ca.sum2(kern.cost.map(n)(*stage_args)) + 0.5 * ca.dot(x, Qx)
         first = 1 if self.fix_initial else 0
         self._pose_steps = self._posed_waypoints(first)
         pd, Rd = par("p_d", 3), par("R_d", 9)
         g_kin = self._kinematic_rows(X, dt)
+        if self._lift.shape[0]:  # z = A x
+            lift = sparse.hstack([self._lift, -sparse.identity(self._lift.shape[0])])
+            g_kin = ca.vertcat(g_kin, ca.mtimes(dm(lift), x))
         g = ca.vertcat(ca.vec(kern.pose.map(n)(X, pd, Rd)[:, self._pose_steps.tolist()]), g_kin)
-        grad = ca.mtimes(dm(scatter_matrix(index.T.ravel(), nq * n)), ca.vec(kern.grad.map(n)(*stage_args))) + Qx
+        scatter = dm(scatter_matrix(index.T.ravel(), x.numel()))
+        # dense: IPOPT reads every entry (a structural zero would be read as garbage)
+        grad = ca.densify(ca.mtimes(scatter, ca.vec(kern.grad.map(n)(*stage_args))) + Qx)
         jac = self._constraint_jacobian(x, X, pd, Rd, g_kin, first)
         lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", g.numel())
         hess = self._lagrangian_hessian(index, X, pd, Rd, stage_args, Q, lam_f, lam_g, first)
@@ -185,7 +211,7 @@ class TrajectoryOptimizer:
         self.solver = self._nlpsol(opts)
         self._g = ca.Function("g", [x, P], [g])
         stage_values = ca.sum2(kern.terms.map(n)(*stage_args[:-1])) if self._stage else ca.MX(0, 1)
-        quadratic = [0.5 * ca.dot(x, ca.mtimes(ca.DM(M), x)) for M in self._quadratic_matrices()]
+        quadratic = [0.5 * ca.dot(xq, ca.mtimes(dm(M), xq)) for M in self._quadratic_matrices()]
         self._terms = ca.Function("terms", [x, P], [ca.vertcat(stage_values, *quadratic)])
 
     @property
@@ -222,16 +248,16 @@ class TrajectoryOptimizer:
 
     def _constraint_jacobian(self, x: ca.MX, X: ca.MX, pd: ca.MX, Rd: ca.MX, g_kin: ca.MX, first: int) -> ca.MX:
         """6 x nq pose blocks (one per posed waypoint), then the linear rows."""
-        nq, n = self.robot.nq, self.n
+        nq, n, nx = self.robot.nq, self.n, x.numel()
         steps = self._pose_steps
         blocks = self.kernels.pose_jac.map(n)(X, pd, Rd)  # 6 x nq n
         runs = np.split(steps, np.flatnonzero(np.diff(steps) != 1) + 1) if steps.size else []
         parts = []
         for run in runs:  # contiguous runs of posed waypoints: block-diagonal pieces
-            sp, nz = block_diagonal_pattern(6, nq, run.size, col_offset=int(run[0]) * nq, ncol=nq * n)
+            sp, nz = block_diagonal_pattern(6, nq, run.size, col_offset=int(run[0]) * nq, ncol=nx)
             cols = blocks[:, int(run[0]) * nq:(int(run[-1]) + 1) * nq]
             parts.append(ca.MX(sp, ca.mtimes(ca.DM(nz), ca.vec(cols))))
-        jac = ca.vertcat(*parts) if parts else ca.MX(0, nq * n)
+        jac = ca.vertcat(*parts) if parts else ca.MX(0, nx)
         return ca.vertcat(jac, ca.jacobian(g_kin, x)) if g_kin.numel() else jac
 
     def _lagrangian_hessian(self, index: FloatArray, X: ca.MX, pd: ca.MX, Rd: ca.MX, stage_args: list[Any],
@@ -327,16 +353,17 @@ class TrajectoryOptimizer:
         targets = np.asarray(targets, dtype=float)
         self._nominal = np.asarray(q_guess if nominal is None else nominal, dtype=float).reshape(n, nq)
         p = self.parameters(t, targets, f, r, self._nominal)
-        lbx = np.tile(np.r_[np.full(N_BASE, -np.inf), self.robot.lower], n)
-        ubx = np.tile(np.r_[np.full(N_BASE, np.inf), self.robot.upper], n)
+        free = np.full(self._lift.shape[0], np.inf)  # the lifted z
+        lbx = np.r_[np.tile(np.r_[np.full(N_BASE, -np.inf), self.robot.lower], n), -free]
+        ubx = np.r_[np.tile(np.r_[np.full(N_BASE, np.inf), self.robot.upper], n), free]
         if self.fix_initial:
             lbx[:nq] = ubx[:nq] = q_init
-        x0 = np.clip(np.asarray(q_guess, dtype=float).ravel(), lbx, ubx)
+        x0 = self._full_x(np.clip(np.asarray(q_guess, dtype=float).ravel(), lbx[: n * nq], ubx[: n * nq]))
         start = time.perf_counter()
         klb, kub = self._kinematic_bounds(np.asarray(t, dtype=float))
         n_pose = 6 * self._pose_steps.size
-        lbg = np.concatenate([np.zeros(n_pose), klb])
-        ubg = np.concatenate([np.zeros(n_pose), kub])
+        lbg = np.concatenate([np.zeros(n_pose), klb, np.zeros(free.size)])
+        ubg = np.concatenate([np.zeros(n_pose), kub, np.zeros(free.size)])
         solver, extra = self.solver, {}
         if warm is not None:
             solver, extra = self.warm_solver(), {"lam_x0": warm[0], "lam_g0": warm[1]}
@@ -356,7 +383,7 @@ class TrajectoryOptimizer:
         violation = float(max(g_excess.max(initial=0.0), bounds.max(initial=0.0)))
         tol = max(1e-5, 10 * self.options.constraint_tol)
         return SolverResult(
-            q=x.reshape(n, nq), success=bool(stats.get("success", False)) and violation <= tol,
+            q=x[: n * nq].reshape(n, nq), success=bool(stats.get("success", False)) and violation <= tol,
             status=str(stats.get("return_status", "unknown")), iterations=int(stats.get("iter_count", -1)),
             objective=float(result["f"]), constraint_violation=violation, build_time=self.build_time,
             solve_time=solve_time, codegen=self.codegen,
@@ -374,7 +401,8 @@ class TrajectoryOptimizer:
         times = t if self.n > 1 else np.zeros(1)
 
         def margin(x: FloatArray) -> float:
-            rfp = trajectory_rfp(self.robot, x.reshape(self.n, self.robot.nq), times, alpha=alpha)
+            rfp = trajectory_rfp(self.robot, x[: self.n * self.robot.nq].reshape(self.n, self.robot.nq), times,
+                                 alpha=alpha)
             return float(np.min(capability_margin(rfp.A, rfp.b, f, r)))
         return margin
 
@@ -384,13 +412,14 @@ class TrajectoryOptimizer:
         if nominal is None:
             nominal = getattr(self, "_nominal", None)
         p = self.parameters(t, np.asarray(targets, dtype=float), f, r, nominal)
-        values = np.array(self._terms(np.asarray(q, dtype=float).ravel(), p)).ravel()
+        values = np.array(self._terms(self._full_x(q), p)).ravel()
         return dict(zip(self.term_names, map(float, values), strict=True))
 
     def shifted_multipliers(self, lam_x: FloatArray, lam_g: FloatArray, steps: int) -> tuple[FloatArray, FloatArray]:
         """The multipliers of a solve moved ``steps`` waypoints forward (a receding-horizon warm
         start): bounds per waypoint, pose rows (6 per posed waypoint) and kinematic rows (one block
-        per time step) hold their last block; the end-at-rest rows stay."""
+        per time step) hold their last block; the end-at-rest rows, the lifted variables and their
+        rows stay."""
         n, nq = self.n, self.robot.nq
         posed = list(self._pose_steps)
         pose = lam_g[: 6 * len(posed)].reshape(len(posed), 6)
@@ -403,7 +432,8 @@ class TrajectoryOptimizer:
                 out.append(shift_rows(rest[offset:offset + size].reshape(n - 1, rows), steps).ravel())
             offset += size
         out.append(rest[offset:])
-        return shift_rows(lam_x.reshape(n, nq), steps).ravel(), np.concatenate(out)
+        lam_q = shift_rows(lam_x[: n * nq].reshape(n, nq), steps).ravel()
+        return np.concatenate([lam_q, lam_x[n * nq:]]), np.concatenate(out)
 
     def term_weights(self) -> dict[str, float]:
         """The weight ``w_i`` this problem gives each term."""

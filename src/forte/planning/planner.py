@@ -162,7 +162,7 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         "objective": sol.objective, "constraint_violation": sol.constraint_violation,
         "build_time_s": sol.build_time, "solve_time_s": sol.solve_time, "kernels": sol.codegen,
         "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, force.f, force.r),
-        "term_weights": opt.term_weights(),
+        "term_weights": opt.term_weights(), "quadratic_forms": opt.quadratic_forms,
     }
     return sol, info
 
