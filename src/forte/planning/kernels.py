@@ -6,7 +6,8 @@ and the weights ``w`` an input, so one compiled library serves every weight set.
 are the stage cost, its gradient and Hessian in ``z``, the per-term values, and the pose
 residual ``[p - p_d; vee(R_d^T R - R^T R_d) / 2]`` with its Jacobian and Lagrangian Hessian.
 
-With a C compiler the kernels are generated as C, compiled and cached on disk
+With a C compiler the kernels are generated as C (one file per kernel, compiled by concurrent
+compiler processes, one per core, and linked into one library), compiled and cached on disk
 (``$FORTE_CACHE`` or ``~/.cache/forte``) under a key made of the robot's fingerprint, the
 method, what each term bakes in (:meth:`~forte.planning.costs.CostTerm.baked`), the source of
 the modules and term classes involved, and the CasADi and forte versions; without one they run
@@ -24,6 +25,7 @@ import subprocess
 import sys
 import tempfile
 import uuid
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -112,8 +114,9 @@ def kernel_key(robot: MobileManipulator, method: str | Method, w: CostWeights) -
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
-#: Measured first-compile times on a 2-core machine (README), shown as the expected time.
-COMPILE_SECONDS = {"default": 10.0, "rfp-cone": 70.0}
+#: Measured first-compile times on a 2-core machine (benchmarks/bench_startup.py --compile),
+#: shown as the expected time.
+COMPILE_SECONDS = {"default": 6.0, "rfp-cone": 8.0}
 
 
 def load_kernels(robot: MobileManipulator, method: str | Method, w: CostWeights, options: SolverOptions) -> Kernels:
@@ -222,27 +225,21 @@ def _load_verified(lib: Path, quiet: bool = True) -> dict[str, ca.Function] | No
     return None
 
 
+#: Kernels whose reverse mode is generated next to them (``casadi.external`` finds it by name).
+REVERSE_KERNELS = ("stage_cost", "pose")
+
+
 def _compile(functions: dict[str, ca.Function], lib: Path, compiler: str) -> None:
+    """Generate one C file per kernel, compile them concurrently, link them into ``lib``."""
     lib.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
-        gen = ca.CodeGenerator("kernels.c", {"with_header": False})
-        for fn in functions.values():
-            gen.add(fn)
-        for name in ("stage_cost", "pose"):  # reverse mode, found by name by casadi.external
-            gen.add(functions[name].reverse(1))
-        cwd = os.getcwd()
-        try:
-            os.chdir(tmp)
-            gen.generate()
-        finally:
-            os.chdir(cwd)
-        src, out = Path(tmp) / "kernels.c", Path(tmp) / "kernels.so"
-        cmd = [compiler, _optimization(src), "-fPIC", "-shared", str(src), "-o", str(out), "-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
-        if proc.returncode != 0:
-            raise SolverError(f"compiling the NLP kernels failed: {proc.stderr[-2000:]}", status="codegen")
+        folder = Path(tmp)
+        sources = [_generate(name, fn, folder) for name, fn in functions.items()]
+        objects = _compile_objects(sources, compiler)
+        out = folder / "kernels.so"
+        _run_compiler([compiler, "-shared", *map(str, objects), "-o", str(out), "-lm"])
         record = {"size": out.stat().st_size, "sha256": _digest(out), "casadi": ca.__version__, "forte": __version__}
-        rec_tmp = Path(tmp) / "record.json"
+        rec_tmp = folder / "record.json"
         rec_tmp.write_text(json.dumps(record) + "\n", encoding="utf-8")
         # atomic renames; the record goes first: a library without a matching record is rebuilt,
         # never loaded, so a concurrent run or a kill in between costs a rebuild at worst
@@ -250,14 +247,53 @@ def _compile(functions: dict[str, ca.Function], lib: Path, compiler: str) -> Non
         os.replace(out, lib)
 
 
-#: Generated sources above this size are compiled without optimization (measured on the 24 MB
-#: rfp-cone kernels: gcc -O1 ran over 5 minutes and 5 GB of memory, -O0 takes 44 s).
-LARGE_SOURCE_BYTES = 2_000_000
+def _generate(name: str, fn: ca.Function, folder: Path) -> Path:
+    """``folder/name.c``: the kernel (and its reverse mode) with everything it calls."""
+    gen = ca.CodeGenerator(f"{name}.c", {"with_header": False})
+    gen.add(fn)
+    if name in REVERSE_KERNELS:
+        gen.add(fn.reverse(1))
+    gen.generate(f"{folder}{os.sep}")
+    return folder / f"{name}.c"
+
+
+def _compile_objects(sources: list[Path], compiler: str) -> list[Path]:
+    """Object files of ``sources``, compiled by concurrent compiler processes (one per core),
+    the largest first so that it does not finish last."""
+    jobs = [[compiler, _optimization(src), "-fPIC", "-c", str(src), "-o", str(src.with_suffix(".o"))]
+            for src in sorted(sources, key=lambda p: p.stat().st_size, reverse=True)]
+    with ThreadPoolExecutor(max_workers=max(1, min(len(jobs), _cores()))) as pool:
+        list(pool.map(_run_compiler, jobs))  # re-raises the first failure
+    return [src.with_suffix(".o") for src in sources]
+
+
+def _run_compiler(cmd: list[str]) -> None:
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        raise SolverError(f"compiling the NLP kernels failed: {proc.stderr[-2000:]}", status="codegen")
+
+
+def _cores() -> int:
+    """CPU cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+#: Optimization by the size of a generated C file, measured on the 2 MB Hessian kernel of forte
+#: (2 cores): -O1 compiles it in 6.7 s of CPU time, -Og in 4.7 s, -O0 in 2.4 s; the kernel
+#: evaluates in 6.9 ms (-O1, -Og) against 24 ms (-O0) per N = 100 Hessian. Smaller files get -O1;
+#: above ``HUGE_SOURCE_BYTES`` the optimizing passes' time and memory grow faster than the file
+#: (gcc -O1 on a 24 MB file: over 5 minutes and 5 GB), so those get -O0.
+LARGE_SOURCE_BYTES = 1_000_000
+HUGE_SOURCE_BYTES = 4_000_000
 
 
 def _optimization(src: Path) -> str:
-    """``-O1`` for the usual kernels, ``-O0`` for very large generated files (same results)."""
-    return "-O0" if src.stat().st_size > LARGE_SOURCE_BYTES else "-O1"
+    """``-O1`` for the usual kernels, ``-Og`` for large ones, ``-O0`` for huge ones (same results)."""
+    size = src.stat().st_size
+    return "-O0" if size > HUGE_SOURCE_BYTES else "-Og" if size > LARGE_SOURCE_BYTES else "-O1"
 
 
 def _class_digest(cls: type) -> str:
