@@ -6,7 +6,10 @@ Each case measured in issue 12 is answered here.
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -264,3 +267,27 @@ def test_negative_margin_is_reported_recorded_and_can_be_required(capsys, tmp_pa
                     "--out", str(tmp_path / "q"), "--require-capacity")
     assert code == 0 and err == ""
     assert json.loads((tmp_path / "q" / "plan.json").read_text())["capacity"]["sufficient"] is True
+
+
+@pytest.mark.parametrize(("given", "expected"), [(None, "1"), ("3", "3")])
+def test_blas_is_single_threaded_unless_the_user_says_otherwise(tmp_path, given, expected):
+    """The command sets OPENBLAS_NUM_THREADS=1 before NumPy and CasADi load (a fresh process), and
+    keeps the user's value."""
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[1] / "src")
+    if given is not None:
+        env["OPENBLAS_NUM_THREADS"] = given
+    code = ("import os, sys\nfrom forte.cli import main\nmain(['--version'])\n"
+            "import numpy\nprint(os.environ['OPENBLAS_NUM_THREADS'], 'numpy' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    assert out.split()[-2:] == [expected, "True"]
+
+
+def test_blas_threads_untouched_once_numpy_is_loaded(monkeypatch):
+    """In a process that already loaded NumPy (a library user calling main) the variable would
+    no longer reach it: main leaves the environment alone."""
+    from forte.cli.main import thread_defaults
+
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    thread_defaults()
+    assert "OPENBLAS_NUM_THREADS" not in os.environ

@@ -14,6 +14,9 @@ One contract for every command:
   traceback (:func:`crash_report`), never a raw traceback on the terminal.
 
 Python warnings are printed as one line each (``forte: warning: ...``).
+
+The command runs BLAS single-threaded (:data:`THREAD_DEFAULTS`) unless the environment says
+otherwise: ``OPENBLAS_NUM_THREADS=4 forte plan ...`` uses four threads.
 """
 
 from __future__ import annotations
@@ -48,6 +51,15 @@ COMMAND_MODULES: tuple[str, ...] = (
     "forte.cli.view",
 )
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_BUG = 0, 1, 2, 3
+#: Environment the command sets when the user has not. NumPy's, SciPy's and CasADi's OpenBLAS
+#: (IPOPT's MUMPS) each start a thread per core that spins on the small matrices of these NLPs.
+#: Measured on 2 cores (benchmarks/bench_startup.py): a cold ``forte plan lift.yaml --waypoints
+#: 100`` takes the same wall time single-threaded and a third less CPU time; on a loaded machine
+#: the threads cost wall time too (N = 400: 8-10 s single-threaded against 9-17 s); only large
+#: horizons on an idle machine gain from them (N = 400: 2.8 s instead of 3.6 s of solve with
+#: ``OPENBLAS_NUM_THREADS=2``). Single-threaded, the process also may fork its figure drawing
+#: (:mod:`forte.io.figure_processes`).
+THREAD_DEFAULTS = {"OPENBLAS_NUM_THREADS": "1"}
 
 
 class UsageError(Exception):
@@ -123,7 +135,17 @@ def _one_line_warnings() -> Iterator[None]:
         yield
 
 
+def thread_defaults() -> None:
+    """Apply :data:`THREAD_DEFAULTS` where the environment leaves them unset, before the
+    libraries that read them are loaded (later they would only reach child processes)."""
+    if "numpy" in sys.modules or "casadi" in sys.modules:
+        return
+    for name, value in THREAD_DEFAULTS.items():
+        os.environ.setdefault(name, value)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    thread_defaults()
     argv = list(sys.argv[1:] if argv is None else argv)
     with _one_line_warnings():
         try:
