@@ -2,13 +2,23 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from forte.exceptions import InvalidInputError
-from forte.io.figures import figure_format, plan_figures, plot_comparison, pyplot, slice_polygon, style
+from forte.io.figures import (
+    figure_format,
+    plan_figures,
+    plot_comparison,
+    pyplot,
+    slice_polygon,
+    style,
+)
 from forte.planning.methods import METHODS
 from forte.planning.planner import plan
 from forte.planning.tasks import load_task
@@ -60,3 +70,105 @@ def test_hold_comparison_has_no_joining_lines(quintic, tmp_path: Path, monkeypat
     for ax in fig.axes:
         for line in ax.get_lines():  # only horizontal reference lines, no line through categories
             assert np.ptp(np.asarray(line.get_ydata(), dtype=float)) == 0
+
+
+SPLIT = """
+import os, sys
+from pathlib import Path
+from forte.io.figure_processes import can_fork, run_split
+out, parent = Path(sys.argv[1]), os.getpid()
+
+def mark(name, fail_in_child=False):
+    def call():
+        if fail_in_child and os.getpid() != parent:
+            raise RuntimeError("fails in the child only")
+        (out / name).write_text(str(os.getpid()))
+    return call
+
+def boom():
+    raise ValueError("bad figure")
+
+groups = {"ok": [[mark("a")], [mark("b"), mark("c")]], "child-fails": [[mark("a")], [mark("b", True)]],
+          "error": [[mark("a")], [boom]]}[sys.argv[2]]
+try:
+    run_split(groups, fork=True)
+except ValueError as exc:
+    print("raised", exc)
+print("parent", parent, "fork", can_fork())
+"""
+
+
+def _split(tmp_path: Path, case: str) -> tuple[dict[str, int], str]:
+    """Run ``run_split`` in a fresh process (single-threaded BLAS: no other thread, so it can fork)."""
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(Path(__file__).resolve().parents[1] / "src"))
+    out = subprocess.run([sys.executable, "-c", SPLIT, str(tmp_path), case], env=env, capture_output=True,
+                         text=True, check=True).stdout
+    return {p.name: int(p.read_text()) for p in tmp_path.iterdir()}, out
+
+
+def test_run_split_runs_the_other_groups_in_a_child(tmp_path: Path) -> None:
+    pids, out = _split(tmp_path, "ok")
+    parent, forked = int(out.split()[-3]), out.split()[-1] == "True"
+    assert pids["a"] == parent and pids["b"] == pids["c"]
+    assert (pids["b"] != parent) == forked
+    if sys.platform.startswith("linux") and len(os.sched_getaffinity(0)) > 1:
+        assert forked  # nothing else runs in that process: it forks
+
+
+def test_a_group_that_fails_in_the_child_runs_again_here(tmp_path: Path) -> None:
+    pids, out = _split(tmp_path, "child-fails")
+    assert pids["b"] == int(out.split()[-3])
+
+
+def test_an_error_of_a_group_is_raised_here(tmp_path: Path) -> None:
+    pids, out = _split(tmp_path, "error")
+    assert "raised bad figure" in out and pids["a"] == int(out.split()[-3])
+
+
+WORKER = """
+import os, sys
+from pathlib import Path
+from forte.io.figure_processes import can_fork, figure_worker
+from forte.io.figures import figure_format, plan_figures
+from forte.model.robot import default_robot
+from forte.planning.planner import plan
+from forte.planning.tasks import load_task
+
+out, case = Path(sys.argv[1]), sys.argv[2]
+quintic = plan(load_task(sys.argv[3], waypoints=8), "quintic")
+print("fork", can_fork())
+robot = default_robot(torque_limits=[1.0] * 7) if case == "other-robot" else quintic.robot
+with figure_worker(robot, fork=True) as worker:
+    pid = worker.pid if worker else None
+    if case != "unused":
+        with figure_format("svg"):
+            plan_figures(quintic, out)
+        print("worker drew", worker is not None and worker.used and case == "ok")
+print("reaped", pid is None or not os.path.exists(f"/proc/{pid}") or open(f"/proc/{pid}/stat").read().split()[2] == "Z")
+"""
+
+
+@pytest.mark.parametrize("case", ["ok", "other-robot", "unused"])
+def test_the_figure_worker_draws_the_plan_or_leaves_it_here(tmp_path: Path, case: str) -> None:
+    """A worker forked before the plan draws its figures (same files as drawn here); for another
+    robot's plan it steps aside; unused, it is stopped; it is always reaped."""
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(Path(__file__).resolve().parents[1] / "src"))
+    out = subprocess.run([sys.executable, "-c", WORKER, str(tmp_path), case, str(LIFT)], env=env,
+                         capture_output=True, text=True, check=True, timeout=300).stdout
+    forked = "fork True" in out
+    assert "reaped True" in out
+    names = sorted(p.name for p in tmp_path.iterdir())
+    if case == "unused":
+        assert names == []
+    else:
+        assert names == sorted(f"{s}.svg" for s in ("capacity", "manipulability", "rfp_worst", "ellipsoid"))
+        assert ("worker drew True" in out) == (forked and case == "ok")
+
+
+@pytest.mark.parametrize(("load", "idle"), [(0.3, True), (1.4, True), (1.6, False), (4.0, False)])
+def test_processes_only_with_an_idle_core(monkeypatch: pytest.MonkeyPatch, load: float, idle: bool) -> None:
+    from forte.io import figure_processes
+
+    monkeypatch.setattr(figure_processes.os, "sched_getaffinity", lambda pid: {0, 1})
+    monkeypatch.setattr(figure_processes.os, "getloadavg", lambda: (load, 0.0, 0.0))
+    assert figure_processes.idle_core() is idle

@@ -11,6 +11,7 @@ from forte.capability.polytope import (
     cone_measure,
     contains,
     directional_capacity,
+    facets,
     halfspaces,
     inscribed_radius,
     nominal_torques,
@@ -112,6 +113,28 @@ def test_vertices_satisfy_the_halfspaces_with_three_active_rows(robot):
         slack = b - V @ A.T
         assert np.all(slack >= -1e-6 * np.abs(b).max())
         assert np.all((np.abs(slack) < 1e-6 * np.abs(b).max()).sum(axis=1) >= 3)
+
+
+def test_facets_tile_the_convex_hull(robot):
+    """The facets' polygons (vertices ordered around each face) cover the hull SciPy computes:
+    same total area; every polygon lies on its plane and is convex in the order given."""
+    ConvexHull = pytest.importorskip("scipy.spatial").ConvexHull
+    checked = 0
+    for _, _, (A, b) in random_rfps(robot, 12, 9):
+        V = vertices(A, b)
+        if len(V) < 4:
+            continue
+        polygons = facets(A, b, V)
+        area = 0.0
+        for P in polygons:
+            n = np.cross(P[1] - P[0], P[2] - P[0])
+            assert np.allclose((P - P[0]) @ n, 0, atol=1e-6 * np.abs(P).max() ** 3)
+            turns = [np.cross(P[i] - P[i - 1], P[(i + 1) % len(P)] - P[i]) for i in range(len(P))]
+            assert all(t @ turns[0] >= -1e-9 * np.abs(P).max() ** 2 for t in turns)  # one turning sense
+            area += 0.5 * np.linalg.norm(sum(np.cross(P[i], P[(i + 1) % len(P)]) for i in range(len(P))))
+        assert area == pytest.approx(ConvexHull(V).area, rel=1e-6)
+        checked += 1
+    assert checked >= 5
 
 
 def test_vertices_match_pycapacity(robot):

@@ -258,3 +258,36 @@ def vertices(A: Any, b: Any, tol: float = 1e-7) -> FloatArray:
     keys = np.round(pts / (1e-6 * scale))
     _, idx = np.unique(keys, axis=0, return_index=True)
     return pts[np.sort(idx)]
+
+
+def facets(A: Any, b: Any, V: Any, tol: float = 1e-7) -> list[FloatArray]:
+    """Facets of the bounded polytope ``{f : A f <= b}`` with vertices ``V`` (for plots).
+
+    Facet ``i`` holds the vertices on the plane ``a_i . f = b_i`` (within ``tol`` times the
+    scale of ``b``), in order around their centroid; planes touching fewer than three vertices
+    (edges, corners, redundant rows) and repeated planes give none. Returns one (k x 3) array
+    per facet.
+    """
+    A, V = np.asarray(A, dtype=float), np.asarray(V, dtype=float)
+    b = np.asarray(b, dtype=float)
+    if len(V) < 4:
+        return []
+    scale = max(1.0, float(np.abs(b).max()))
+    out, seen = [], set()
+    for a, bi in zip(A, b, strict=True):
+        norm = np.linalg.norm(a)
+        if norm <= ZERO_NORMAL:
+            continue
+        on = np.flatnonzero(np.abs(V @ a - bi) <= tol * scale)
+        key = tuple(on)
+        if on.size < 3 or key in seen:
+            continue
+        seen.add(key)
+        P = V[on]
+        n = a / norm
+        e1 = P[np.argmax(np.linalg.norm(P - P.mean(axis=0), axis=1))] - P.mean(axis=0)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n, e1)
+        rel = P - P.mean(axis=0)
+        out.append(P[np.argsort(np.arctan2(rel @ e2, rel @ e1))])
+    return out

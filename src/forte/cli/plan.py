@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from forte.io.figure_processes import figure_worker
 from forte.io.figures import figure_format
 from forte.io.outputs import check_output, output_lock, replace_directory
 from forte.io.plandir import plan_summary, write_plan
@@ -93,14 +95,16 @@ def run_plan(args: argparse.Namespace) -> int:
         check_output(out)
         task = resolve_payload(task, _estimator_options(args))
         check_force_capacity(task)  # a certainly impossible force: refused before the solve
-        _say(args, f"planning {task.name} ({task.mode}, {task.n} waypoints) with {args.method} ...")
-        res = plan(task, args.method)
-        required = args.require_capacity or getattr(task, "require_capacity", False)
-        short = _capacity_shortfall(res)
-        if short and required and res.success:  # a failure by the user's rule: status and file names say so
-            res = replace(res, success=False, status="insufficient_capacity")
-        with figure_format(args.format):
-            where = write_plan(res, out, figures=not args.no_figures)
+        # the figures' process imports matplotlib on the other core while this one plans
+        with contextlib.nullcontext() if args.no_figures else figure_worker(task.robot):
+            _say(args, f"planning {task.name} ({task.mode}, {task.n} waypoints) with {args.method} ...")
+            res = plan(task, args.method)
+            required = args.require_capacity or getattr(task, "require_capacity", False)
+            short = _capacity_shortfall(res)
+            if short and required and res.success:  # a failure by the user's rule: status and file names say so
+                res = replace(res, success=False, status="insufficient_capacity")
+            with figure_format(args.format):
+                where = write_plan(res, out, figures=not args.no_figures)
     _say(args, _describe(res))
     if short:
         print(f"forte: {'error' if required else 'warning'}: {res.method}: {short}"

@@ -18,8 +18,9 @@ from typing import Any
 import numpy as np
 
 from forte.capability.metrics import ellipsoid_axes
-from forte.capability.polytope import halfspaces, residual_margins, trajectory_rfp, vertices
+from forte.capability.polytope import facets, halfspaces, residual_margins, trajectory_rfp, vertices
 from forte.exceptions import InvalidInputError
+from forte.io.figure_processes import run_split, take_worker
 from forte.planning.methods import METHODS
 from forte.planning.planner import Plan
 
@@ -46,9 +47,12 @@ def figure_path(directory: Path, stem: str) -> Path:
 
 
 def _save(fig: Any, path: Path) -> None:
+    """Write ``fig`` (laid out by its constrained layout: no second, "tight" layout pass); PNGs
+    with fast zlib compression (level 1: about a third less encoding time, files about 10 % larger)."""
     path = Path(path)
     fmt = path.suffix.lstrip(".").lower() or _FORMAT.get()
-    fig.savefig(path, dpi=150 if fmt == "png" else None, format=fmt, bbox_inches="tight")
+    extra = {"dpi": 150, "pil_kwargs": {"compress_level": 1}} if fmt == "png" else {}
+    fig.savefig(path, format=fmt, **extra)
 
 
 def style(method: str) -> tuple[str, str]:
@@ -124,18 +128,13 @@ def _ball_wireframe(ax: Any, f: np.ndarray, r: float, color: str = "tab:red") ->
 def draw_polytope(ax: Any, result: Plan, k: int, color: str | None = None) -> None:
     """The RFP (alpha = 1) at waypoint k with the force f and its ball of radius r, on a 3-D axis."""
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-    from scipy.spatial import ConvexHull, QhullError
 
     color = color or style(result.method)[0]
     A, b = _rfp_halfspaces(result, k)
     V = vertices(A, b)
-    if len(V) >= 4:
-        try:
-            hull = ConvexHull(V)
-            ax.add_collection3d(Poly3DCollection(V[hull.simplices], alpha=0.2, facecolor=color,
-                                                 edgecolor=color, linewidth=0.3))
-        except QhullError:
-            pass
+    polygons = facets(A, b, V)
+    if polygons:
+        ax.add_collection3d(Poly3DCollection(polygons, alpha=0.2, facecolor=color, edgecolor=color, linewidth=0.3))
     f, r = result.force.f[k], result.force.r[k]
     _ball_wireframe(ax, f, r)
     ax.quiver(0, 0, 0, *f, color="tab:red", linewidth=1.2, arrow_length_ratio=0.08)
@@ -303,8 +302,16 @@ def plot_comparison(results: list[Plan], path: Path) -> None:
 
 
 def plan_figures(plan: Plan, directory: Path) -> None:
-    """The four figures of a plan directory (in the format of :func:`figure_format`)."""
-    plot_capacity([plan], figure_path(directory, "capacity"))
-    plot_manipulability([plan], figure_path(directory, "manipulability"))
-    plot_polytope(plan, figure_path(directory, "rfp_worst"))
-    plot_ellipsoid(plan, figure_path(directory, "ellipsoid"))
+    """The four figures of a plan directory (in the format of :func:`figure_format`): by the
+    figure worker when one waits (:func:`forte.io.figure_processes.figure_worker`), else here,
+    two groups in two processes where :func:`~forte.io.figure_processes.run_split` can fork
+    (about 0.3 s of CPU time each)."""
+    worker = take_worker(plan.robot)
+    if worker is not None and worker.draw(plan, directory, _FORMAT.get()):
+        return
+    run_split([
+        [lambda: plot_polytope(plan, figure_path(directory, "rfp_worst")),
+         lambda: plot_manipulability([plan], figure_path(directory, "manipulability"))],
+        [lambda: plot_ellipsoid(plan, figure_path(directory, "ellipsoid")),
+         lambda: plot_capacity([plan], figure_path(directory, "capacity"))],
+    ])
