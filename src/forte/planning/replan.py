@@ -3,21 +3,39 @@
 A :class:`Replanner` builds the NLP of one task once (its horizon ``N`` fixed) and solves it.
 After a change of payload mass, force profile, targets or start configuration it re-solves
 from the last solution: the configurations as the initial guess and the last bound and
-constraint multipliers as IPOPT's warm start (small barrier parameter, tiny bound pushes), so
-a re-plan typically takes a handful of iterations instead of tens.
+constraint multipliers as IPOPT's warm start (barrier parameter ``tol / 10``, tiny bound pushes:
+:meth:`~forte.planning.optimizer.TrajectoryOptimizer.warm_solver`), so a re-plan takes a handful
+of full Newton steps instead of tens of iterations.
 
-:meth:`Replanner.shift` moves the horizon forward (receding horizon): the targets, the guess and
-the multipliers are shifted by whole waypoints and the tail holds the last target, so ``N``
-and the compiled problem stay the same.
+The problem re-solved is the planner's own (:func:`forte.planning.planner.plan`): same cost,
+constraints and nominal trajectory (the task's, computed once; not the last solution, which
+would make each re-plan depend on the ones before it). So a converged re-plan is a cold plan of
+the changed task, reached from a better start.
 
-A re-plan that IPOPT does not converge is retried once from the cold initial guess; if that
-fails too the result says so (``success`` false) and the last good solution is kept: a
-re-plan never returns an unconverged plan as a success.
+:meth:`Replanner.shift` moves the horizon forward (receding horizon): the targets, the nominal
+trajectory, the guess and the multipliers are shifted by whole waypoints and the tail holds the
+last target, so ``N`` and the compiled problem stay the same.
+
+Converged means IPOPT's ``Solve_Succeeded`` (its ``tol`` on the scaled KKT error, no
+"acceptable level" exit) with the constraint violation within ``constraint_tol``. A warm try that
+does not converge is retried once from the cold initial guess; if that fails too the result says
+so (``success`` false) and the last good solution is kept: a re-plan never returns an
+unconverged plan as a success.
+
+Why IPOPT and not a real-time-iteration SQP: from the last solution IPOPT's warm iterations are
+already Newton steps on the KKT system (nearly all of full length, the inequalities inactive,
+the barrier at ``tol / 10``, the Hessian perturbed only where its inertia is wrong); an SQP
+takes at best the same steps, and the sparse QP solvers (OSQP, proxsuite) need a convex
+Hessian, which the capability terms' Lagrangian Hessian is not (``benchmarks/bench_replan.py
+--sqp``: CasADi's SQP with OSQP and a regularized Hessian does not converge in 50 iterations).
+What a re-plan's time goes to is IPOPT's KKT factorizations (about two thirds) and the stage
+Hessian kernels; the re-plan runs them with one BLAS thread (:mod:`forte.planning.blas`).
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any, NamedTuple
 
@@ -25,21 +43,40 @@ import numpy as np
 
 from forte.exceptions import InvalidInputError
 from forte.force.taskforce import TaskForce
-from forte.planning.ik import initial_guess
+from forte.planning.blas import single_threaded_blas
 from forte.planning.methods import get_method
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer, shift_rows
-from forte.planning.planner import Plan, evaluate, resolve_payload
+from forte.planning.planner import Plan, evaluate, resolve_payload, start_guess
 from forte.planning.tasks import Task
 from forte.validation import FloatArray
+
+#: IPOPT's status of a solve converged to its ``tol`` (its "acceptable level" exit is not).
+CONVERGED = "Solve_Succeeded"
 
 
 class ReplanResult(NamedTuple):
     """One re-plan: the plan, its latency and how it was reached."""
 
     plan: Plan
-    latency_s: float
-    iterations: int
+    latency_s: float  # the whole call: new task data, solve(s), metrics, plan
+    iterations: int  # IPOPT iterations, the cold retry's included
     warm: bool  # solved from the last primal-dual point (else: a cold retry)
+    solve_s: float = 0.0  # time inside IPOPT's solve calls
+
+
+class Problem(NamedTuple):
+    """A changed problem: the task, its force, nominal trajectory, primal guess and multipliers."""
+
+    task: Task
+    force: TaskForce
+    nominal: FloatArray
+    guess: FloatArray
+    warm: tuple[FloatArray, FloatArray]
+
+
+def converged(sol: SolverResult) -> bool:
+    """IPOPT converged to ``tol`` and the constraints hold (see the module docstring)."""
+    return sol.success and sol.status == CONVERGED
 
 
 class Replanner:
@@ -60,8 +97,9 @@ class Replanner:
             task.robot, task.n, self.method, task.weights, fix_initial=task.mode != "hold",
             options=task.solver, limits=task.limits, keep_multipliers=True)
         self.force = self.task.force()
-        first = self._solve(initial_guess(self.task), warm=None)
-        if not first.success:
+        self.nominal = self.task.nominal()  # the planner's nominal trajectory, shifted with the horizon
+        first = self._solve(self.task, self.force, self.nominal, start_guess(self.task, self.nominal), None)
+        if not converged(first):
             raise InvalidInputError(f"re-planning: the first solve failed ({first.status}); nothing to warm-start")
         self.last = first
 
@@ -69,18 +107,7 @@ class Replanner:
     def replan(self, mass: float | None = None, force: TaskForce | None = None, targets: FloatArray | None = None,
                q_init: FloatArray | None = None) -> ReplanResult:
         """Re-solve after a new payload ``mass``, ``force`` profile, ``targets`` or start ``q_init``."""
-        task = self.task
-        if targets is not None:
-            task = replace(task, targets=np.asarray(targets, dtype=float))
-        if q_init is not None:
-            task = replace(task, q_init=task.robot.check_configuration(q_init, "q_init"))
-        if mass is not None:
-            task = task.with_payload(task.payload.with_mass(mass, source="replan"))
-        new_force = force if force is not None else (task.force() if (mass is not None or targets is not None)
-                                                     else self.force)
-        guess = self.last.q.copy()
-        guess[0] = task.q_init
-        return self._commit(task, new_force, guess, (self.last.lam_x, self.last.lam_g))
+        return self._run(lambda: self._changed(mass, force, targets, q_init))
 
     def shift(self, steps: int, q_now: FloatArray | None = None, mass: float | None = None) -> ReplanResult:
         """Move the horizon ``steps`` waypoints forward; the tail holds the last target.
@@ -89,6 +116,24 @@ class Replanner:
         planned one at the new start); ``mass``, when given, is the payload's new mass. The new
         first waypoint starts at rest, as every plan does (the backward differences need it).
         """
+        return self._run(lambda: self._shifted(steps, q_now, mass))
+
+    def _changed(self, mass: float | None, force: TaskForce | None, targets: FloatArray | None,
+                 q_init: FloatArray | None) -> Problem:
+        task = self.task
+        if targets is not None:
+            task = replace(task, targets=np.asarray(targets, dtype=float))
+        if q_init is not None:
+            task = replace(task, q_init=task.robot.check_configuration(q_init, "q_init"))
+        if mass is not None:
+            task = task.with_payload(task.payload.with_mass(mass, source="replan"))
+        if force is None:
+            force = task.force() if (mass is not None or targets is not None) else self.force
+        guess = self.last.q.copy()
+        guess[0] = task.q_init
+        return Problem(task, force, self.nominal, guess, (self.last.lam_x, self.last.lam_g))
+
+    def _shifted(self, steps: int, q_now: FloatArray | None, mass: float | None) -> Problem:
         n = self.task.n
         if not 0 < steps < n:
             raise InvalidInputError(f"steps: expected 0 < steps < {n}, got {steps}")
@@ -101,31 +146,32 @@ class Replanner:
         force = self.force if self.task.force_profile is not None else task.force()
         if self.task.force_profile is not None:
             force = TaskForce(self.force.t, shift_rows(self.force.f, steps), shift_rows(self.force.r, steps))
-        lam_x, lam_g = self.optimizer.shifted_multipliers(self.last.lam_x, self.last.lam_g, steps)
-        return self._commit(task, force, guess, (lam_x, lam_g))
+        warm = self.optimizer.shifted_multipliers(self.last.lam_x, self.last.lam_g, steps)
+        return Problem(task, force, shift_rows(self.nominal, steps), guess, warm)
 
     # -- solving ------------------------------------------------------------------------
-    def _commit(self, task: Task, force: TaskForce, guess: FloatArray,
-                warm: tuple[FloatArray, FloatArray]) -> ReplanResult:
+    def _run(self, change: Callable[[], Problem]) -> ReplanResult:
+        """Build the changed problem, solve it warm (cold once more if needed), keep it if converged."""
         start = time.perf_counter()
-        sol, used_warm = self._solve(guess, warm, task, force), True
-        iterations = sol.iterations
-        if not sol.success:  # one cold retry before giving up
-            sol, used_warm = self._solve(initial_guess(task), None, task, force), False
-            iterations += sol.iterations
+        with single_threaded_blas():
+            pb = change()
+            sol, used_warm = self._solve(pb.task, pb.force, pb.nominal, pb.guess, pb.warm), True
+            iterations, solve_s = sol.iterations, sol.solve_time
+            if not converged(sol):  # one cold retry before giving up
+                cold = start_guess(pb.task, pb.nominal)
+                sol, used_warm = self._solve(pb.task, pb.force, pb.nominal, cold, None), False
+                iterations, solve_s = iterations + sol.iterations, solve_s + sol.solve_time
+            metrics = evaluate(pb.task.robot, sol.q, pb.task.t, pb.force, pb.task.weights.capability_params)
+        ok = converged(sol)
+        if ok:
+            self.task, self.force, self.nominal, self.last = pb.task, pb.force, pb.nominal, sol
+        plan = Plan(method=self.method.name, robot=pb.task.robot, t=pb.task.t, q=sol.q, force=pb.force,
+                    payload=pb.task.payload, metrics=metrics, success=ok, status=sol.status,
+                    solver={"iterations": iterations, "warm": used_warm, "solve_time_s": solve_s}, task=pb.task)
         latency = time.perf_counter() - start
-        if sol.success:
-            self.task, self.force, self.last = task, force, sol
-        plan = Plan(method=self.method.name, robot=task.robot, t=task.t, q=sol.q, force=force, payload=task.payload,
-                    metrics=evaluate(task.robot, sol.q, task.t, force, task.weights.capability_params),
-                    success=sol.success, status=sol.status,
-                    solver={"iterations": iterations, "latency_s": latency, "warm": used_warm}, task=task)
-        return ReplanResult(plan, latency, iterations, used_warm)
+        plan.solver["latency_s"] = latency
+        return ReplanResult(plan, latency, iterations, used_warm, solve_s)
 
-    def _solve(self, guess: FloatArray, warm: tuple[FloatArray, FloatArray] | None, task: Task | None = None,
-               force: TaskForce | None = None) -> SolverResult:
-        task = task or self.task
-        force = force or self.force
-        return self.optimizer.solve(task.t, task.targets, force.f, force.r, task.q_init, guess, warm=warm)
-
-
+    def _solve(self, task: Task, force: TaskForce, nominal: FloatArray, guess: FloatArray,
+               warm: tuple[FloatArray, FloatArray] | None) -> SolverResult:
+        return self.optimizer.solve(task.t, task.targets, force.f, force.r, task.q_init, guess, nominal, warm=warm)
