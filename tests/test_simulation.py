@@ -356,3 +356,11 @@ def test_unloaded_run_keeps_the_tool_s_share_of_the_force(tmp_path: Path) -> Non
     # without that share the tool's weight is not compensated: the end effector sags more
     bare = simulate_plan(plan_dir, 0.0, force_feedforward=False, hold=1.0, write=False)
     assert bare.summary["max_ee_error_m"] > 2 * empty.summary["max_ee_error_m"]
+
+
+def test_the_plan_s_own_derivatives_as_reference(tmp_path: Path) -> None:
+    res = plan(load_task(LIFT, mass=0.35, waypoints=15), "quintic")
+    plan_dir = write_plan(res, tmp_path / "quintic", figures=False)
+    own = simulate_plan(plan_dir, hold=0.3, write=False, reference="plan")
+    assert own.success, own.detail
+    assert own.summary["reference"] == "plan" and own.summary["max_ee_error_m"] < 0.01

@@ -40,6 +40,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="true payload mass in kg (default: the plan's payload mass). A different "
                    "mass > 0 models an estimation error (the force feedforward keeps the plan's "
                    "force); 0 means no payload: the feedforward keeps only the tool's share of the force")
+    p.add_argument("--reference", choices=("spline", "plan"), default="spline",
+                   help="controller reference: a clamped cubic spline through the waypoints (default), or "
+                   "'plan': the plan's own backward-difference velocities and accelerations at every waypoint "
+                   "(quintic Hermite)")
     p.add_argument("--no-force", action="store_true",
                    help="switch the task-force feedforward tau_F = J^T f off (any mass)")
     p.add_argument("--out", type=Path, default=None, help="result folder (default: PLAN_DIR)")
@@ -124,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
             args.plan_dir, args.mass, force_feedforward=False if args.no_force else None,
             out_dir=args.out, gains=gains, thresholds=th, hold=args.hold,
             stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video, viewer=args.viewer,
-            replan=_replan_options(args),
+            replan=_replan_options(args), reference=args.reference,
         )
     s = result.summary
     if result.success:

@@ -2,7 +2,8 @@
 
 :func:`simulate_plan` reads a plan directory (``trajectory.csv`` + ``plan.json``, see
 :func:`forte.io.plandir.write_plan_dir`), builds the model (:func:`forte.execution.model.build_sim_model`),
-interpolates the waypoints (:func:`forte.execution.control.interpolate_plan`) and calls
+interpolates the waypoints (:mod:`forte.execution.reference`: a clamped spline or the plan's own
+derivatives) and calls
 :func:`run_simulation`, which runs one control step of :class:`forte.execution.control.ArmImpedance`
 and :class:`forte.execution.control.BaseAdmittance` per MuJoCo step and judges every step
 (:class:`forte.execution.judge.Judge`). When the plan has no payload (``payload.mass`` null) but
@@ -32,10 +33,11 @@ import mujoco
 import numpy as np
 
 from forte.exceptions import InvalidInputError
-from forte.execution.control import ArmCommand, ArmImpedance, BaseAdmittance, ControlGains, Reference, interpolate_plan
+from forte.execution.control import ArmCommand, ArmImpedance, BaseAdmittance, ControlGains, Reference
 from forte.execution.gains import default_gains, describe_gains, gains_from_mapping, sampled_loop_radius_at
 from forte.execution.judge import Judge, SimResult, Thresholds
 from forte.execution.model import SimModel, build_sim_model
+from forte.execution.reference import plan_reference
 from forte.execution.render import FrameRecorder, FrameSink, LiveViewer
 from forte.io.outputs import atomic_write
 from forte.io.plandir import read_plan_dir
@@ -238,6 +240,7 @@ def simulate_plan(
     viewer: bool = False,
     write: bool = True,
     replan: Any = None,
+    reference: str = "spline",
 ) -> SimResult:
     """Simulate the plan in ``plan_dir`` and (with ``write``) store ``sim.csv`` and ``sim.json``.
 
@@ -272,6 +275,9 @@ def simulate_plan(
             run (and after writing the results) wait until the user closes the window.
         replan: :class:`~forte.execution.closed_loop.ReplanOptions` to identify the payload
             online and re-plan the remaining motion (:mod:`forte.execution.closed_loop`).
+        reference: How the waypoints become the controller's reference: ``"spline"`` (clamped
+            cubic spline) or ``"plan"`` (the plan's own backward-difference velocities and
+            accelerations at every waypoint); see :mod:`forte.execution.reference`.
         write: Write ``sim.csv``/``sim.json``, after the run, each through a temporary file
             and a rename: an interrupted or crashed run never replaces earlier results.
 
@@ -305,7 +311,7 @@ def simulate_plan(
     carried = (true_mass or 0.0) + (robot.tool_force_mass if plan.payload.mass is not None else 0.0)
     sim = build_sim_model(robot, carried, meshes=offscreen or viewer, timestep=timestep)
     gains = _resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
-    reference = _plan_reference(plan, sim.timestep, hold, force_share)
+    reference_kind, reference = reference, _plan_reference(plan, sim.timestep, hold, force_share, kind=reference)
     recorder = FrameRecorder(sim, _optional_path(frames_dir), _optional_path(video), fps) if offscreen else None
     live = LiveViewer(sim) if viewer else None
     loop = None
@@ -321,6 +327,7 @@ def simulate_plan(
     )
     result.summary.update(_run_facts(plan, Path(plan_dir), sim, gains))
     result.summary["force_feedforward_share"] = force_share if gains.force_feedforward else 0.0
+    result.summary["reference"] = reference_kind
     if loop is not None:
         result.summary["replanning"] = loop.summary()
     if recorder is not None:
@@ -366,13 +373,14 @@ def _with_torque_limits(robot: MobileManipulator, torque_limits: Any) -> MobileM
     return robot_from_description({**robot.describe(), "torque_limits": list(limits)})
 
 
-def _plan_reference(plan: Plan, dt: float, hold: float, force_share: float = 1.0) -> Reference:
+def _plan_reference(plan: Plan, dt: float, hold: float, force_share: float = 1.0,
+                    kind: str = "spline") -> Reference:
     """The plan's reference at every control step ``t_0 + k dt`` up to ``hold`` s after its end
     (the force times ``force_share``)."""
     steps = int(round((plan.t[-1] - plan.t[0] + hold) / dt)) + 1
     times = plan.t[0] + dt * np.arange(steps)
     force_t, force = (None, None) if plan.force is None else (plan.force.t, force_share * np.asarray(plan.force.f))
-    return interpolate_plan(plan.t, plan.q, times, force_t, force)
+    return plan_reference(plan.t, plan.q, times, force_t, force, kind)
 
 
 def write_results(result: SimResult, out_dir: Path) -> tuple[Path, Path]:

@@ -1,0 +1,53 @@
+"""Controller references: the quintic Hermite against scipy, the plan's own derivatives at the knots."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.interpolate import BPoly
+
+from forte.exceptions import InvalidInputError
+from forte.execution.reference import plan_reference, quintic_hermite
+from forte.model.trajectory import backward_differences
+
+
+def _random_plan(seed: int = 0, n: int = 9, d: int = 4):
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.1, 0.4, n)) - 0.1
+    return t, np.cumsum(rng.normal(0.0, 0.05, (n, d)), axis=0)
+
+
+def test_quintic_hermite_equals_scipy_s_piecewise_polynomial_from_derivatives():
+    t, q = _random_plan()
+    rng = np.random.default_rng(1)
+    v, a = rng.normal(size=q.shape), rng.normal(size=q.shape)
+    times = np.sort(rng.uniform(t[0], t[-1], 200))
+    pos, vel, acc = quintic_hermite(t, q, v, a, times)
+    for j in range(q.shape[1]):
+        ref = BPoly.from_derivatives(t, np.stack([q[:, j], v[:, j], a[:, j]], axis=1))
+        np.testing.assert_allclose(pos[:, j], ref(times), atol=1e-9)
+        np.testing.assert_allclose(vel[:, j], ref(times, 1), atol=1e-8)
+        np.testing.assert_allclose(acc[:, j], ref(times, 2), atol=1e-7)
+
+
+def test_plan_reference_has_the_plan_s_backward_differences_at_its_waypoints():
+    t, q = _random_plan(2, d=10)
+    v, a = backward_differences(q, t)
+    ref = plan_reference(t, q, t, kind="plan")
+    np.testing.assert_allclose(ref.q, q, atol=1e-12)
+    np.testing.assert_allclose(ref.dq, v, atol=1e-9)
+    np.testing.assert_allclose(ref.ddq, a, atol=1e-7)
+    # the spline passes through the same points with its own derivatives
+    spline = plan_reference(t, q, t)
+    np.testing.assert_allclose(spline.q, q, atol=1e-12)
+    assert np.abs(spline.ddq - a).max() > 1e-3
+    # outside the plan: the last waypoint held at rest
+    after = plan_reference(t, q, np.array([t[-1] + 1.0]), kind="plan")
+    np.testing.assert_allclose(after.q[0], q[-1])
+    assert not after.dq.any() and not after.ddq.any()
+
+
+def test_unknown_reference_kind_is_refused():
+    t, q = _random_plan()
+    with pytest.raises(InvalidInputError, match="reference: expected one of spline, plan"):
+        plan_reference(t, q, t, kind="linear")
