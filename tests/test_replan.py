@@ -111,3 +111,18 @@ def test_single_threaded_blas_restores_the_thread_counts():
 def test_replanning_needs_an_optimized_method(task):
     with pytest.raises(InvalidInputError, match="optimized method"):
         Replanner(task, "quintic")
+
+
+def test_new_targets_of_a_pose_path_task_re_derive_its_nominal():
+    # A path of poses has an IK nominal trajectory: new targets change it, as plan() would.
+    from dataclasses import replace
+
+    path_task = load_task(LIFT.with_name("lift-path.yaml"), mass=1.0, waypoints=12)
+    assert path_task.knots is None
+    replanner = Replanner(path_task)
+    targets = path_task.targets.copy()
+    targets[1:, 2, 3] += 0.02  # the path 2 cm higher after its start
+    result = replanner.replan(targets=targets)
+    cold = plan(replace(path_task, targets=targets), "forte")
+    assert result.plan.success and cold.success
+    np.testing.assert_allclose(result.plan.q, cold.q, atol=1e-5)

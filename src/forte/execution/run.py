@@ -296,14 +296,8 @@ def simulate_plan(
     plan = read_plan_dir(plan_dir)
     robot = plan.robot if torque_limits is None else _with_torque_limits(plan.robot, torque_limits)
     true_mass = plan.payload.mass if mass is None else check_mass(mass)
-    force_share = 1.0
-    if force_feedforward is None and mass is not None and true_mass == 0.0 and plan.payload.mass is not None:
-        # no payload: the tool the plan's force includes is still carried, so the feedforward
-        # keeps the tool's share of that force, m_tool / (m_payload + m_tool) (none without a tool)
-        force_share = robot.tool_force_mass / (plan.payload.mass + robot.tool_force_mass)
-        force_feedforward = force_share > 0.0
-    elif force_feedforward is None:
-        force_feedforward = True
+    force_feedforward, force_share = _feedforward(plan, robot, mass is not None and true_mass == 0.0,
+                                                  force_feedforward)
     hold = as_positive(hold, "hold", allow_zero=True)
     offscreen = frames_dir is not None or video is not None
     # the robot's end-effector load that the plan's force includes (tool_force_mass) is carried
@@ -337,6 +331,18 @@ def simulate_plan(
     if live is not None:
         live.finish()
     return result
+
+
+def _feedforward(plan: Plan, robot: MobileManipulator, unloaded: bool, wanted: bool | None) -> tuple[bool, float]:
+    """Whether the force feedforward is on, and the share of the plan's force it applies."""
+    if wanted is not None:
+        return wanted, 1.0
+    if unloaded and plan.payload.mass is not None:
+        # no payload: the tool the plan's force includes is still carried, so the feedforward
+        # keeps the tool's share of that force, m_tool / (m_payload + m_tool) (none without a tool)
+        share = robot.tool_force_mass / (plan.payload.mass + robot.tool_force_mass)
+        return share > 0.0, share
+    return True, 1.0
 
 
 def _optional_path(path: str | Path | None) -> Path | None:

@@ -289,21 +289,25 @@ def _heavy_claims(heavy: Case, unloaded: dict[str, dict[str, Any]]) -> list[Clai
         *[Claim("5.4", f"2.7 L: {m} keeps the uncertainty ball inside the RFP with a margin, so it can hold the "
                 "payload", "d (N); simulation (every run)", f"{mh[m]['min_d']:.1f}; {sim_text(heavy.sims.get(m))}",
                 [solved(res, m), compare(f"{m}'s d", mh[m]["min_d"], ">=", "0", 0.0, " N"), every_run(heavy, m)],
-                why=_ball_why(m, mh[m], need + rad))
+                why=_ball_why(m, mh[m], res[m]))
           for m in ("forte", "rfp-radius", "rfp-cone")],
     ]
 
 
-def _ball_why(method: str, m: dict[str, Any], top: float) -> str:
+def _ball_why(method: str, m: dict[str, Any], res: Plan) -> str:
     """Why a 2.7 L configuration's ball is not inside its RFP (numbers of the run)."""
     if method == "forte":
         return (f"forte's ball touches the polytope (d = {m['min_d']:.3f} N): J1 vanishes only for d >= 0 and "
                 "forte gives any slack back to manipulability (task-sufficient by design), so its optimum sits on "
                 f"the ball's edge; its capacity along f is {m['min_capacity_margin']:.1f} N above |f| + r")
+    need, rad = float(res.force.magnitude[0]), float(res.force.r[0])
+    robot, starts = res.task.robot, res.task.solver.hold_starts
+    limits = "/".join(f"{v:g}" for v in dict.fromkeys(robot.torque_limits))
     return (f"{method} maximizes a measure taken from the origin, not around the task force: the best "
-            f"configuration of its 16 starts has inscribed radius {m['min_inscribed_radius']:.1f} N and capacity "
-            f"along f {m['min_capacity']:.1f} N < |f| + r = {top:.1f} N, so the 10 N ball around the "
-            "37.7 N force sticks out (our model: 60 Nm limits, the 1.146 kg tool in the force)")
+            f"configuration of its {starts} start(s) has inscribed radius {m['min_inscribed_radius']:.1f} N and "
+            f"capacity along f {m['min_capacity']:.1f} N < |f| + r = {need + rad:.1f} N, so the {rad:g} N ball "
+            f"around the {need:.1f} N force sticks out (our model: {limits} Nm limits, the "
+            f"{robot.tool_force_mass:g} kg tool in the force)")
 
 
 def _light_claims(light: Case, heavy: Case) -> list[Claim]:

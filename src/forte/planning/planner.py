@@ -164,6 +164,10 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, force.f, force.r),
         "term_weights": opt.term_weights(), "quadratic_forms": opt.quadratic_forms,
     }
+    if "starts" in info:  # the work of every start, the chosen start's own figures under "starts"
+        starts = info["starts"]
+        starts["chosen_iterations"], starts["chosen_solve_time_s"] = sol.iterations, sol.solve_time
+        info["iterations"], info["solve_time_s"] = starts["iterations"], starts["solve_time_s"]
     return sol, info
 
 
@@ -190,6 +194,7 @@ def _best_of_starts(opt: TrajectoryOptimizer, task: Task, force: TaskForce, firs
     best = min(converged, key=lambda i: results[i].objective) if converged else 0
     facts = {"count": len(results), "converged": len(converged), "chosen": best,
              "objectives": [float(r.objective) for r in results],
+             "iterations": int(sum(r.iterations for r in results)),
              "solve_time_s": float(sum(r.solve_time for r in results))}
     return results[best], facts
 

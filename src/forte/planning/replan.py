@@ -8,9 +8,11 @@ constraint multipliers as IPOPT's warm start (barrier parameter ``tol / 10``, ti
 of full Newton steps instead of tens of iterations.
 
 The problem re-solved is the planner's own (:func:`forte.planning.planner.plan`): same cost,
-constraints and nominal trajectory (the task's, computed once; not the last solution, which
-would make each re-plan depend on the ones before it). So a converged re-plan is a cold plan of
-the changed task, reached from a better start.
+constraints and nominal trajectory (the task's: from its taught configurations, or derived
+again by IK when new targets or a new start change it; never the last solution, which would
+make each re-plan depend on the ones before it). So a converged re-plan is a cold plan of the
+changed task, reached from a better start, with one difference for a hold task: :func:`plan`
+keeps the best of ``solver.hold_starts`` starts, a re-plan continues from the last solution.
 
 :meth:`Replanner.shift` moves the horizon forward (receding horizon): the targets, the nominal
 trajectory, the guess and the multipliers are shifted by whole waypoints and the tail holds the
@@ -129,9 +131,12 @@ class Replanner:
             task = task.with_payload(task.payload.with_mass(mass, source="replan"))
         if force is None:
             force = task.force() if (mass is not None or targets is not None) else self.force
+        nominal = self.nominal
+        if task.knots is None and (targets is not None or q_init is not None):
+            nominal = task.nominal()  # the IK path / pose the planner would derive from the new task
         guess = self.last.q.copy()
         guess[0] = task.q_init
-        return Problem(task, force, self.nominal, guess, (self.last.lam_x, self.last.lam_g))
+        return Problem(task, force, nominal, guess, (self.last.lam_x, self.last.lam_g))
 
     def _shifted(self, steps: int, q_now: FloatArray | None, mass: float | None) -> Problem:
         n = self.task.n
