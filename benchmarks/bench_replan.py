@@ -40,7 +40,6 @@ from pathlib import Path
 
 import numpy as np
 
-from forte.model.robot import N_BASE
 from forte.planning.blas import single_threaded_blas
 from forte.planning.planner import plan, start_guess
 from forte.planning.replan import Replanner, ReplanResult, converged
@@ -152,21 +151,17 @@ def sqp_probe(task: Task, planner: Replanner, mass: float = 0.5, max_iter: int =
     solver = ca.nlpsol("sqp", "sqpmethod", nlp, options)
     heavy = task.with_payload(task.payload.with_mass(mass))
     force = heavy.force()
-    n, nq = task.n, task.robot.nq  # the bounds as TrajectoryOptimizer.solve sets them
-    lbx = np.tile(np.r_[np.full(N_BASE, -np.inf), task.robot.lower], n)
-    ubx = np.tile(np.r_[np.full(N_BASE, np.inf), task.robot.upper], n)
-    lbx[:nq] = ubx[:nq] = heavy.q_init
-    klb, kub = opt._kinematic_bounds(heavy.t)
-    lbg, ubg = (np.r_[np.zeros(6 * opt._pose_steps.size), k] for k in (klb, kub))
+    bounds = opt.bounds(heavy.t, heavy.q_init)  # as TrajectoryOptimizer.solve sets them (lifted variables too)
     start = time.perf_counter()
-    out = solver(x0=first.q.ravel(), p=opt.parameters(heavy.t, heavy.targets, force.f, force.r, planner.nominal),
-                 lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, lam_x0=first.lam_x, lam_g0=first.lam_g)
+    out = solver(x0=opt.full_x(first.q), p=opt.parameters(heavy.t, heavy.targets, force.f, force.r, planner.nominal),
+                 **bounds._asdict(), lam_x0=first.lam_x, lam_g0=first.lam_g)
     wall = time.perf_counter() - start
     stats = solver.stats()
     ref = planner.replan(mass=mass)
+    q = np.asarray(out["x"]).ravel()[: task.n * task.robot.nq]
     print(f"SQP (sqpmethod + OSQP) {task.payload.mass} -> {mass} kg from the warm point: {stats['return_status']}, "
           f"{stats['iter_count']} iterations, {1000 * wall:.0f} ms; max |q - q_IPOPT| "
-          f"{np.abs(np.asarray(out['x']).ravel() - ref.plan.q.ravel()).max():.1e} "
+          f"{np.abs(q - ref.plan.q.ravel()).max():.1e} "
           f"(warm IPOPT: {ref.iterations} iterations, {1000 * ref.latency_s:.0f} ms)")
 
 

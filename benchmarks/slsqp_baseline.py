@@ -38,7 +38,8 @@ def compare(n: int = 25, max_iter: int = 300) -> None:
         return float(oracle(x=full(z), p=p)["f"])
 
     n_pose = 6 * (n - 1)
-    lower_g, upper_g = opt._kinematic_bounds(task.t)  # velocity and acceleration rows
+    bounds = opt.bounds(task.t, task.q_init)  # the rows after the pose rows: kinematic (and lifting) rows
+    lower_g, upper_g = bounds.lbg[n_pose:], bounds.ubg[n_pose:]
 
     def rows(z: np.ndarray) -> np.ndarray:
         return np.array(oracle(x=full(z), p=p)["g"]).ravel()

@@ -271,16 +271,19 @@ def test_negative_margin_is_reported_recorded_and_can_be_required(capsys, tmp_pa
 
 @pytest.mark.parametrize(("given", "expected"), [(None, "1"), ("3", "3")])
 def test_blas_is_single_threaded_unless_the_user_says_otherwise(tmp_path, given, expected):
-    """The command sets OPENBLAS_NUM_THREADS=1 before NumPy and CasADi load (a fresh process), and
-    keeps the user's value."""
-    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    """The command sets OPENBLAS_NUM_THREADS=1 (and OpenMP's, MKL's: forte.system.SINGLE_THREAD_ENV)
+    before NumPy and CasADi load (a fresh process), and keeps the user's value."""
+    from forte.system import SINGLE_THREAD_ENV
+
+    env = {k: v for k, v in os.environ.items() if k not in SINGLE_THREAD_ENV}
     env["PYTHONPATH"] = str(Path(__file__).resolve().parents[1] / "src")
     if given is not None:
         env["OPENBLAS_NUM_THREADS"] = given
     code = ("import os, sys\nfrom forte.cli import main\nmain(['--version'])\n"
-            "import numpy\nprint(os.environ['OPENBLAS_NUM_THREADS'], 'numpy' in sys.modules)")
+            "import numpy\nprint(os.environ['OPENBLAS_NUM_THREADS'], os.environ['OMP_NUM_THREADS'], "
+            "os.environ['MKL_NUM_THREADS'], 'numpy' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
-    assert out.split()[-2:] == [expected, "True"]
+    assert out.split()[-4:] == [expected, "1", "1", "True"]
 
 
 def test_blas_threads_untouched_once_numpy_is_loaded(monkeypatch):

@@ -128,30 +128,43 @@ def test_an_error_of_a_group_is_raised_here(tmp_path: Path) -> None:
 WORKER = """
 import os, sys
 from pathlib import Path
-from forte.io.figure_processes import can_fork, figure_worker
-from forte.io.figures import figure_format, plan_figures
+from forte.io import figure_processes, figures
+from forte.io.figure_processes import FigureWorker, can_fork, figure_worker
+from forte.io.figures import figure_format
 from forte.model.robot import default_robot
 from forte.planning.planner import plan
 from forte.planning.tasks import load_task
 
-out, case = Path(sys.argv[1]), sys.argv[2]
+out, case, parent = Path(sys.argv[1]), sys.argv[2], os.getpid()
 quintic = plan(load_task(sys.argv[3], waypoints=8), "quintic")
 print("fork", can_fork())
+answers = []  # what FigureWorker.draw returned: True only when the worker said it drew the files
+draw = FigureWorker.draw
+FigureWorker.draw = lambda self, *args: answers.append(draw(self, *args)) or answers[-1]
+if case == "worker-fails":  # the worker's drawing fails (in the child only): this process draws
+    plan_figures = figures.plan_figures
+    def failing(*args):
+        if os.getpid() != parent:
+            raise RuntimeError("fails in the worker")
+        plan_figures(*args)
+    figures.plan_figures = failing
 robot = default_robot(torque_limits=[1.0] * 7) if case == "other-robot" else quintic.robot
 with figure_worker(robot, fork=True) as worker:
     pid = worker.pid if worker else None
     if case != "unused":
         with figure_format("svg"):
-            plan_figures(quintic, out)
-        print("worker drew", worker is not None and worker.used and case == "ok")
+            figures.plan_figures(quintic, out)
+        print("worker drew", answers == [True])
+        print("asked", bool(answers), "used", worker is not None and worker.used)
 print("reaped", pid is None or not os.path.exists(f"/proc/{pid}") or open(f"/proc/{pid}/stat").read().split()[2] == "Z")
 """
 
 
-@pytest.mark.parametrize("case", ["ok", "other-robot", "unused"])
+@pytest.mark.parametrize("case", ["ok", "other-robot", "unused", "worker-fails"])
 def test_the_figure_worker_draws_the_plan_or_leaves_it_here(tmp_path: Path, case: str) -> None:
     """A worker forked before the plan draws its figures (same files as drawn here); for another
-    robot's plan it steps aside; unused, it is stopped; it is always reaped."""
+    robot's plan it steps aside; unused, it is stopped; when its drawing fails, they are drawn
+    here; it is always reaped."""
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(Path(__file__).resolve().parents[1] / "src"))
     out = subprocess.run([sys.executable, "-c", WORKER, str(tmp_path), case, str(LIFT)], env=env,
                          capture_output=True, text=True, check=True, timeout=300).stdout
@@ -163,12 +176,49 @@ def test_the_figure_worker_draws_the_plan_or_leaves_it_here(tmp_path: Path, case
     else:
         assert names == sorted(f"{s}.svg" for s in ("capacity", "manipulability", "rfp_worst", "ellipsoid"))
         assert ("worker drew True" in out) == (forked and case == "ok")
+        if forked and case == "worker-fails":  # asked and used, yet it did not draw
+            assert "asked True used True" in out
 
 
 @pytest.mark.parametrize(("load", "idle"), [(0.3, True), (1.4, True), (1.6, False), (4.0, False)])
 def test_processes_only_with_an_idle_core(monkeypatch: pytest.MonkeyPatch, load: float, idle: bool) -> None:
     from forte.io import figure_processes
 
-    monkeypatch.setattr(figure_processes.os, "sched_getaffinity", lambda pid: {0, 1})
+    monkeypatch.setattr(figure_processes, "cpu_count", lambda: 2)
     monkeypatch.setattr(figure_processes.os, "getloadavg", lambda: (load, 0.0, 0.0))
     assert figure_processes.idle_core() is idle
+
+
+def _open_fds() -> int:
+    return len(os.listdir("/proc/self/fd"))
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc and fork: Linux")
+def test_no_process_to_be_had_draws_here(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, quintic) -> None:
+    """``fork`` failing (EAGAIN; a real failure cannot be provoked safely, so os.fork raises):
+    run_split runs every group here, no worker starts, its pipes are closed, the figures are
+    drawn here."""
+    import errno
+
+    from forte.io import figure_processes
+
+    def no_fork() -> int:
+        raise BlockingIOError(errno.EAGAIN, "Resource temporarily unavailable")
+
+    monkeypatch.setattr(figure_processes, "can_fork", lambda: True)  # threads or not: nothing forks
+    monkeypatch.setattr(figure_processes.os, "fork", no_fork)
+    ran: list[tuple[str, int]] = []
+    groups = [[lambda: ran.append(("a", os.getpid()))], [lambda: ran.append(("b", os.getpid())),
+                                                         lambda: ran.append(("c", os.getpid()))]]
+    figure_processes.run_split(groups, fork=True)
+    assert ran == [("a", os.getpid()), ("b", os.getpid()), ("c", os.getpid())]
+    before = _open_fds()
+    assert figure_processes.FigureWorker(quintic.robot).pid == -1
+    assert _open_fds() == before  # its pipes were closed
+    with figure_processes.figure_worker(quintic.robot, fork=True) as worker:
+        assert worker is None and figure_processes.take_worker(quintic.robot) is None
+        with figure_format("svg"):
+            plan_figures(quintic, tmp_path)
+    assert _open_fds() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        f"{s}.svg" for s in ("capacity", "manipulability", "rfp_worst", "ellipsoid"))

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from forte.exceptions import InvalidInputError
-from forte.planning.blas import openblas_builds, single_threaded_blas
 from forte.planning.optimizer import shift_rows
 from forte.planning.planner import plan, start_guess
 from forte.planning.replan import Replanner, converged
@@ -97,15 +100,38 @@ def test_a_replan_stopped_at_ipopts_acceptable_level_is_not_a_success(task):
     np.testing.assert_array_equal(planner.last.q, good)
 
 
-def test_single_threaded_blas_restores_the_thread_counts():
-    builds = openblas_builds()
-    if not builds:
-        pytest.skip("no OpenBLAS build found")
+BLAS_COUNTS = """
+import json
+from forte.planning.blas import openblas_builds, single_threaded_blas
+
+builds = openblas_builds()
+original = [b.get() for b in builds]
+try:
     for b in builds:
         b.set(2)
     with single_threaded_blas():
-        assert [b.get() for b in builds] == [1] * len(builds)
-    assert [b.get() for b in builds] == [2] * len(builds)
+        inside = [b.get() for b in builds]
+    after = [b.get() for b in builds]
+finally:
+    for b, count in zip(builds, original):
+        b.set(count)
+print(json.dumps({"builds": len(builds), "inside": inside, "after": after,
+                  "restored": [b.get() for b in builds] == original}))
+"""
+
+
+def test_single_threaded_blas_restores_the_thread_counts():
+    """In a fresh process: a count raised above 1 starts OpenBLAS worker threads that outlive
+    any restore, and the later tests of this process need it free of them (``can_fork``)."""
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(Path(__file__).resolve().parents[1] / "src"))
+    out = subprocess.run([sys.executable, "-c", BLAS_COUNTS], env=env, capture_output=True, text=True,
+                         check=True).stdout
+    counts = json.loads(out.splitlines()[-1])
+    if not counts["builds"]:
+        pytest.skip("no OpenBLAS build found")
+    assert counts["inside"] == [1] * counts["builds"]
+    assert counts["after"] == [2] * counts["builds"]
+    assert counts["restored"]
 
 
 def test_replanning_needs_an_optimized_method(task):

@@ -142,7 +142,7 @@ def test_the_optimizer_minimizes_the_formula(robot, spectral_method, weights, ki
     T = np.repeat(robot.ee_pose(robot.home())[None], n, 0)
     t, f, r = np.linspace(0, 2, n), np.zeros((n, 3)), np.full(n, 10.0)
     p = opt.parameters(t, T, f, r)
-    x = opt._full_x(q)
+    x = opt.full_x(q)
     value, grad = opt.solver.get_function("nlp_grad_f")(x, p)
     grad = np.array(grad).ravel()
     reduced = grad[: n * nq] + opt._lift.T @ grad[n * nq:]  # d/dq f(q, A q)
@@ -189,6 +189,31 @@ def test_multipliers_shift_around_the_lifted_block(robot, spectral_method):
     np.testing.assert_array_equal(sx[: n * nq].reshape(n, nq)[:, 0], [2, 3, 4, 5, 6, 7, 8, 8, 8])
     np.testing.assert_array_equal(sx[n * nq:], -1.0)  # the lifted variables' block stays
     np.testing.assert_array_equal(sg[ng - m:], lam_g[ng - m:])  # so do the lifting rows (the last rows)
+
+
+def test_bounds_cover_the_lifted_variables_and_rows(robot, spectral_method):
+    """``bounds`` and ``full_x`` fit the lifted NLP (what a caller of the raw solver, such as
+    the SQP benchmark, hands it): z free, lifting rows 0, and ``full_x(q)`` satisfies them."""
+    n, nq = 9, robot.nq
+    opt = TrajectoryOptimizer(robot, n, spectral_method, CostWeights(dct_power=0.0),
+                              options=SolverOptions(codegen=False))
+    m = opt._lift.shape[0]
+    assert m > 0
+    q0 = robot.home()
+    t = np.linspace(0, 2, n)
+    b = opt.bounds(t, q0)
+    assert b.lbx.size == b.ubx.size == opt.solver.size_in("x0")[0] == n * nq + m
+    assert b.lbg.size == b.ubg.size == opt.solver.size_in("lbg")[0]
+    np.testing.assert_array_equal(b.lbx[:nq], q0)
+    np.testing.assert_array_equal(b.ubx[:nq], q0)
+    assert np.all(b.lbx[n * nq:] == -np.inf) and np.all(b.ubx[n * nq:] == np.inf)
+    np.testing.assert_array_equal(b.lbg[-m:], 0)
+    np.testing.assert_array_equal(b.ubg[-m:], 0)
+    q = np.tile(q0, (n, 1)) + 0.01 * np.random.default_rng(4).normal(size=(n, nq))
+    T = np.repeat(robot.ee_pose(q0)[None], n, 0)
+    p = opt.parameters(t, T, np.zeros((n, 3)), np.full(n, 10.0))
+    g = np.array(opt.solver.oracle()(x=opt.full_x(q), p=p)["g"]).ravel()
+    np.testing.assert_allclose(g[-m:], 0, atol=1e-12)  # z = A vec(q)
 
 
 @pytest.mark.slow

@@ -15,8 +15,8 @@ One contract for every command:
 
 Python warnings are printed as one line each (``forte: warning: ...``).
 
-The command runs BLAS single-threaded (:data:`THREAD_DEFAULTS`) unless the environment says
-otherwise: ``OPENBLAS_NUM_THREADS=4 forte plan ...`` uses four threads.
+The command runs BLAS and OpenMP single-threaded (:data:`forte.system.SINGLE_THREAD_ENV`)
+unless the environment says otherwise: ``OPENBLAS_NUM_THREADS=4 forte plan ...`` uses four threads.
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ from typing import Any, NoReturn
 
 from forte import __version__, progress
 from forte.exceptions import ForteError
+from forte.system import SINGLE_THREAD_ENV
 
 #: Modules that add sub-commands (each has ``register(subparsers)``).
 COMMAND_MODULES: tuple[str, ...] = (
@@ -51,7 +52,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "forte.cli.view",
 )
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_BUG = 0, 1, 2, 3
-#: Environment the command sets when the user has not. NumPy's, SciPy's and CasADi's OpenBLAS
+#: The environment the command sets where the user has not (:data:`forte.system.SINGLE_THREAD_ENV`).
+#: NumPy's, SciPy's and CasADi's OpenBLAS
 #: (IPOPT's MUMPS) each start a thread per core that spins on the small matrices of these NLPs.
 #: Measured on 2 cores (benchmarks/bench_startup.py): a cold ``forte plan lift.yaml --waypoints
 #: 100`` takes the same wall time single-threaded and a third less CPU time; on a loaded machine
@@ -59,7 +61,7 @@ EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_BUG = 0, 1, 2, 3
 #: horizons on an idle machine gain from them (N = 400: 2.8 s instead of 3.6 s of solve with
 #: ``OPENBLAS_NUM_THREADS=2``). Single-threaded, the process also may fork its figure drawing
 #: (:mod:`forte.io.figure_processes`).
-THREAD_DEFAULTS = {"OPENBLAS_NUM_THREADS": "1"}
+THREAD_DEFAULTS = SINGLE_THREAD_ENV
 
 
 class UsageError(Exception):

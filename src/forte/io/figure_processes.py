@@ -12,7 +12,8 @@ Two tools, both falling back to drawing in this process:
 Both use processes only where a core is probably idle (:func:`idle_core`): on a busy machine a
 second process would only share this one's core. A child never returns into its caller: it ends
 with ``os._exit``. A child that fails has its work done again here, so an error is raised here,
-with its traceback; children are always waited for.
+with its traceback; children are always waited for. Where no process can be had (``fork`` or
+``pipe`` fails: EAGAIN, ENOMEM, EMFILE), the work is done here.
 """
 
 from __future__ import annotations
@@ -30,6 +31,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from forte.system import cpu_count
+
 
 def can_fork() -> bool:
     """Linux, more than one core for this process, and no other thread (a fork copies only this
@@ -37,7 +40,7 @@ def can_fork() -> bool:
     if not sys.platform.startswith("linux") or threading.active_count() > 1:
         return False
     try:
-        return len(os.sched_getaffinity(0)) > 1 and len(os.listdir("/proc/self/task")) == 1
+        return cpu_count() > 1 and len(os.listdir("/proc/self/task")) == 1
     except OSError:
         return False
 
@@ -48,8 +51,7 @@ def idle_core() -> bool:
     instead of 1.5 s; with the other core busy, the second process only shares this one (1.7 s
     instead of 1.5 s)."""
     try:
-        cores = len(os.sched_getaffinity(0))
-        return os.getloadavg()[0] <= cores - 0.5
+        return os.getloadavg()[0] <= cpu_count() - 0.5
     except (AttributeError, OSError):
         return False
 
@@ -59,10 +61,14 @@ def _use_processes(fork: bool | None) -> bool:
     return can_fork() and (idle_core() if fork is None else fork)
 
 
-def _fork() -> int:
+def _fork() -> int | None:
+    """``os.fork()``, or None where the OS has no process to give (the caller works alone)."""
     sys.stdout.flush()
     sys.stderr.flush()
-    return os.fork()
+    try:
+        return os.fork()
+    except OSError:
+        return None
 
 
 def _succeeded(pid: int) -> bool:
@@ -90,7 +96,7 @@ def run_split(groups: list[list[Callable[[], None]]], fork: bool | None = None) 
         for call in (call for group in groups for call in group):
             call()
         return
-    children: list[tuple[int, list[Callable[[], None]]]] = []
+    children: list[tuple[int | None, list[Callable[[], None]]]] = []
     try:
         for group in groups[1:]:
             pid = _fork()
@@ -99,8 +105,8 @@ def run_split(groups: list[list[Callable[[], None]]], fork: bool | None = None) 
             children.append((pid, group))
         for call in groups[0]:
             call()
-    finally:
-        failed = [group for pid, group in children if not _succeeded(pid)]
+    finally:  # a group without a process (fork failed) or whose child failed runs here
+        failed = [group for pid, group in children if pid is None or not _succeeded(pid)]
     for group in failed:
         for call in group:
             call()
@@ -116,9 +122,18 @@ class FigureWorker:
     def __init__(self, robot: Any) -> None:
         self.robot = robot
         self.used = False
-        requests, self._send = os.pipe()
-        self._answers, answer = os.pipe()
-        self.pid = _fork()
+        self.pid, self._send, self._answers = -1, -1, -1
+        fds: list[int] = []
+        with contextlib.suppress(OSError):
+            fds += os.pipe()
+            fds += os.pipe()
+        pid = _fork() if len(fds) == 4 else None
+        if pid is None:  # no pipe or process to be had: no worker (pid -1), the figures are drawn here
+            for fd in fds:
+                os.close(fd)
+            return
+        requests, self._send, self._answers, answer = fds
+        self.pid = pid
         if self.pid == 0:
             os.close(self._send)
             os.close(self._answers)
@@ -184,8 +199,10 @@ _WORKER: ContextVar[FigureWorker | None] = ContextVar("forte_figure_worker", def
 def figure_worker(robot: Any, fork: bool | None = None) -> Iterator[FigureWorker | None]:
     """Inside the block, the next plan of ``robot`` has its figures drawn by a
     :class:`FigureWorker` started now where :func:`can_fork` and ``fork`` (None: when
-    :func:`idle_core`); else None, and the figures are drawn here."""
+    :func:`idle_core`) and the OS gives a process; else None, and the figures are drawn here."""
     worker = FigureWorker(robot) if _use_processes(fork) else None
+    if worker is not None and worker.pid <= 0:  # it could not start
+        worker = None
     token = _WORKER.set(worker)
     try:
         yield worker

@@ -39,6 +39,7 @@ from forte.model.twin import CasadiTwin
 from forte.planning.costs import CostTerm, Stage
 from forte.planning.methods import Method, get_method
 from forte.settings import CostWeights, SolverOptions
+from forte.system import cpu_count
 
 KERNEL_NAMES = ("stage_cost", "stage_grad", "stage_hess", "stage_terms", "pose", "pose_jac", "pose_hess")
 
@@ -262,7 +263,7 @@ def _compile_objects(sources: list[Path], compiler: str) -> list[Path]:
     the largest first so that it does not finish last."""
     jobs = [[compiler, _optimization(src), "-fPIC", "-c", str(src), "-o", str(src.with_suffix(".o"))]
             for src in sorted(sources, key=lambda p: p.stat().st_size, reverse=True)]
-    with ThreadPoolExecutor(max_workers=max(1, min(len(jobs), _cores()))) as pool:
+    with ThreadPoolExecutor(max_workers=max(1, min(len(jobs), cpu_count()))) as pool:
         list(pool.map(_run_compiler, jobs))  # re-raises the first failure
     return [src.with_suffix(".o") for src in sources]
 
@@ -271,14 +272,6 @@ def _run_compiler(cmd: list[str]) -> None:
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise SolverError(f"compiling the NLP kernels failed: {proc.stderr[-2000:]}", status="codegen")
-
-
-def _cores() -> int:
-    """CPU cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        return os.cpu_count() or 1
 
 
 #: Optimization by the size of a generated C file, measured on the 2 MB Hessian kernel of forte

@@ -36,12 +36,16 @@ from scipy import sparse
 
 from forte import progress
 from forte.exceptions import InvalidInputError, SolverError
-from forte.model.robot import N_BASE, MobileManipulator
+from forte.model.robot import MobileManipulator
+from forte.planning import layout
 from forte.planning.assembly import block_diagonal_pattern, dm, gather, hessian_pattern, scatter_matrix
+from forte.planning.ipopt_progress import IpoptProgress, margin_of
 from forte.planning.kernels import load_kernels
 from forte.planning.methods import Method, get_method, method_names
 from forte.settings import CostWeights, KinematicLimits, SolverOptions
 from forte.validation import FloatArray
+
+shift_rows = layout.shift_rows  # the re-planner's import
 
 
 @dataclass
@@ -118,11 +122,11 @@ class TrajectoryOptimizer:
         sizes = {"dt": n, "f": 3 * n, "r": n, "q_nom": self.robot.nq * n, "p_d": 3 * n, "R_d": 9 * n}
         for term in self._stage:
             sizes |= {name: size * n for name, size in term.parameters}
-        layout, offset = {}, 0
+        spans, offset = {}, 0
         for name, size in sizes.items():
-            layout[name] = (offset, size)
+            spans[name] = (offset, size)
             offset += size
-        return layout
+        return spans
 
     def _window_index(self) -> FloatArray:
         """Global variable index of each entry of the stage window ``[q_{k-2}; q_{k-1}; q_k]``."""
@@ -135,30 +139,24 @@ class TrajectoryOptimizer:
         """Unweighted ``Q_i`` of the quadratic terms (``J_i = x^T Q_i x / 2``)."""
         return [t.matrix(self.robot.n_arm, self.n) for t in self._quadratic]
 
-    def _lifted_quadratic(self) -> tuple[sparse.csr_matrix, sparse.csr_matrix]:
-        """``Q`` over ``[x; z]``, ``blockdiag(sum_i w_i D_i, diag(w_i g_i))``, and the lifting rows
-        ``A`` (``z = A x``) of the quadratic terms' lifted forms (terms of weight 0 are left out)."""
-        size = self.robot.nq * self.n
-        D, rows, gains = sparse.csr_matrix((size, size)), [sparse.csr_matrix((0, size))], [np.zeros(0)]
-        for term in self._quadratic:
-            w = self.method_spec.term_weight(term, self.weights)
-            if w != 0:
-                lifted = term.lifted(self.robot.n_arm, self.n)
-                keep = lifted.g != 0  # a row of gain 0 adds nothing
-                D, rows, gains = D + w * lifted.D, [*rows, lifted.A[keep]], [*gains, w * lifted.g[keep]]
-        A, g = sparse.vstack(rows, format="csr"), np.concatenate(gains)
-        Q = sparse.block_diag([D, sparse.diags(g)], format="csr") if g.size else D.tocsr()
-        return Q, A
-
     @property
     def quadratic_forms(self) -> dict[str, str]:
         """How the optimizer solves each quadratic term (e.g. J5's ``dense``, ``lifted``, ``banded``)."""
         return {t.name: t.solved_as(self.n) for t in self._quadratic}
 
-    def _full_x(self, q: FloatArray) -> FloatArray:
-        """The NLP's variables for configurations ``q``: ``vec(q)`` and the lifted ``z = A vec(q)``."""
-        xq = np.asarray(q, dtype=float).ravel()
-        return np.concatenate([xq, self._lift @ xq])
+    def full_x(self, q: FloatArray) -> FloatArray:
+        """The NLP's variables for configurations ``q`` (N x nq): ``vec(q)`` and the lifted
+        ``z = A vec(q)`` (:mod:`forte.planning.layout`)."""
+        return layout.full_x(q, self._lift)
+
+    def bounds(self, t: Any, q_init: FloatArray) -> layout.Bounds:
+        """Bounds of a solve at times ``t``: joint limits, ``q_1 = q_init`` (trajectory mode), free
+        lifted variables; pose and lifting rows equal 0, kinematic rows within ``v dt``, ``a dt``."""
+        lifted = self._lift.shape[0]
+        lbx, ubx = layout.variable_bounds(self.robot, self.n, lifted, q_init if self.fix_initial else None)
+        kinematic = layout.kinematic_bounds(self._vel[self._vel_rows], self._acc[self._acc_rows], t,
+                                            2 * self.robot.nq if self.rests_at_end else 0)
+        return layout.Bounds(lbx, ubx, *layout.constraint_bounds(self._pose_steps.size, kinematic, lifted))
 
     def _build(self) -> None:
         robot, n, kern = self.robot, self.n, self.kernels
@@ -170,7 +168,8 @@ class TrajectoryOptimizer:
             off, size = self._layout[name]
             return ca.reshape(P[off:off + size], rows, size // rows)
 
-        Q, self._lift = self._lifted_quadratic()
+        Q, self._lift = layout.lifted_quadratic(self._quadratic, [self.method_spec.term_weight(t, self.weights)
+                                                           for t in self._quadratic], robot.n_arm, n, nq * n)
         x = ca.MX.sym("x", Q.shape[0])
         xq = x[: nq * n]
         X = ca.reshape(xq, nq, n)
@@ -203,8 +202,6 @@ class TrajectoryOptimizer:
         opts["hess_lag"] = ca.Function("nlp_hess_l", [x, P, lam_f, lam_g], [hess])
         self._progress = None
         if progress.active() is not None:  # IPOPT's iterations on the progress line (off in the library)
-            from forte.planning.ipopt_progress import IpoptProgress
-
             opts["iteration_callback"] = self._progress = IpoptProgress(x.numel(), g.numel(), P.numel())
         self._nlp = {"x": x, "p": P, "f": cost, "g": g}
         self._nlp_options = opts
@@ -287,7 +284,7 @@ class TrajectoryOptimizer:
 
     def _kinematic_rows(self, X: ca.MX, dt: ca.MX) -> ca.MX:
         """Velocity rows ``q_k - q_{k-1}`` and acceleration rows ``dq_k - dq_{k-1}`` (k >= 2), with
-        ``dq_1 = 0``; :meth:`_kinematic_bounds` scales the limits by ``dt_k``."""
+        ``dq_1 = 0``; :meth:`bounds` scales the limits by ``dt_k``."""
         self._vel_rows = np.flatnonzero(np.isfinite(self._vel)) if self.limits.enabled else np.array([], int)
         self._acc_rows = np.flatnonzero(np.isfinite(self._acc)) if self.limits.enabled else np.array([], int)
         if self.n < 2 or not self.fix_initial:
@@ -302,17 +299,6 @@ class TrajectoryOptimizer:
         if self.rests_at_end:  # v_N = 0 and a_N = (v_N - v_{N-1}) / dt_N = 0
             rows += [step[:, -1], step[:, -2]]
         return ca.vertcat(*rows)
-
-    def _kinematic_bounds(self, t: FloatArray) -> tuple[FloatArray, FloatArray]:
-        if self.n < 2 or not self.fix_initial:
-            return np.zeros(0), np.zeros(0)
-        dt = np.diff(t)
-        vel = (self._vel[self._vel_rows][:, None] * dt[None, :]).ravel(order="F")
-        acc = (self._acc[self._acc_rows][:, None] * dt[None, :]).ravel(order="F")
-        ub = np.concatenate([vel, acc])
-        if self.rests_at_end:
-            ub = np.concatenate([ub, np.zeros(2 * self.robot.nq)])
-        return -ub, ub
 
     def _ipopt_options(self) -> dict[str, Any]:
         o = self.options
@@ -360,22 +346,15 @@ class TrajectoryOptimizer:
         targets = np.asarray(targets, dtype=float)
         self._nominal = np.asarray(q_guess if nominal is None else nominal, dtype=float).reshape(n, nq)
         p = self.parameters(t, targets, f, r, self._nominal)
-        free = np.full(self._lift.shape[0], np.inf)  # the lifted z
-        lbx = np.r_[np.tile(np.r_[np.full(N_BASE, -np.inf), self.robot.lower], n), -free]
-        ubx = np.r_[np.tile(np.r_[np.full(N_BASE, np.inf), self.robot.upper], n), free]
-        if self.fix_initial:
-            lbx[:nq] = ubx[:nq] = q_init
-        x0 = self._full_x(np.clip(np.asarray(q_guess, dtype=float).ravel(), lbx[: n * nq], ubx[: n * nq]))
+        lbx, ubx, lbg, ubg = self.bounds(t, q_init)
+        x0 = self.full_x(np.clip(np.asarray(q_guess, dtype=float).ravel(), lbx[: n * nq], ubx[: n * nq]))
         start = time.perf_counter()
-        klb, kub = self._kinematic_bounds(np.asarray(t, dtype=float))
-        n_pose = 6 * self._pose_steps.size
-        lbg = np.concatenate([np.zeros(n_pose), klb, np.zeros(free.size)])
-        ubg = np.concatenate([np.zeros(n_pose), kub, np.zeros(free.size)])
         solver, extra = self.solver, {}
         if warm is not None:
             solver, extra = self.warm_solver(), {"lam_x0": warm[0], "lam_g0": warm[1]}
         if self._progress is not None:
-            self._progress.start(lbg, ubg, self._margin_of(np.asarray(t, dtype=float), f, r))
+            self._progress.start(lbg, ubg, margin_of(self.robot, self.n, np.asarray(t, dtype=float), f, r,
+                                                     self.weights.capability_params.alpha))
         try:
             with progress.step(f"solving with IPOPT ({self.method}, N = {n})"):
                 result = solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **extra)
@@ -398,57 +377,20 @@ class TrajectoryOptimizer:
             lam_g=np.array(result["lam_g"]).ravel(),
         )
 
-    def _margin_of(self, t: FloatArray, f: Any, r: Any) -> Any:
-        """``x -> min_k d_k``, the exact capability margin of an iterate (for the progress line)."""
-        from forte.capability.metrics import capability_margin
-        from forte.capability.polytope import trajectory_rfp
-
-        f, r = np.asarray(f, dtype=float), np.asarray(r, dtype=float)
-        alpha = self.weights.capability_params.alpha
-        times = t if self.n > 1 else np.zeros(1)
-
-        def margin(x: FloatArray) -> float:
-            rfp = trajectory_rfp(self.robot, x[: self.n * self.robot.nq].reshape(self.n, self.robot.nq), times,
-                                 alpha=alpha)
-            return float(np.min(capability_margin(rfp.A, rfp.b, f, r)))
-        return margin
-
     def cost_terms(self, q: FloatArray, t: Any, targets: Any, f: Any, r: Any,
                    nominal: FloatArray | None = None) -> dict[str, float]:
         """Unweighted value of each cost term (capability-type terms are their smooth surrogates)."""
         if nominal is None:
             nominal = getattr(self, "_nominal", None)
         p = self.parameters(t, np.asarray(targets, dtype=float), f, r, nominal)
-        values = np.array(self._terms(self._full_x(q), p)).ravel()
+        values = np.array(self._terms(self.full_x(q), p)).ravel()
         return dict(zip(self.term_names, map(float, values), strict=True))
 
     def shifted_multipliers(self, lam_x: FloatArray, lam_g: FloatArray, steps: int) -> tuple[FloatArray, FloatArray]:
-        """The multipliers of a solve moved ``steps`` waypoints forward (a receding-horizon warm
-        start): bounds per waypoint, pose rows (6 per posed waypoint) and kinematic rows (one block
-        per time step) hold their last block; the end-at-rest rows, the lifted variables and their
-        rows stay."""
-        n, nq = self.n, self.robot.nq
-        posed = list(self._pose_steps)
-        pose = lam_g[: 6 * len(posed)].reshape(len(posed), 6)
-        row = {k: i for i, k in enumerate(posed)}
-        out = [np.array([pose[row.get(min(k + steps, posed[-1]), row[posed[-1]])] for k in posed]).ravel()]
-        rest, offset = lam_g[6 * len(posed):], 0
-        for rows in (len(self._vel_rows), len(self._acc_rows)):
-            size = rows * (n - 1)
-            if size:
-                out.append(shift_rows(rest[offset:offset + size].reshape(n - 1, rows), steps).ravel())
-            offset += size
-        out.append(rest[offset:])
-        lam_q = shift_rows(lam_x[: n * nq].reshape(n, nq), steps).ravel()
-        return np.concatenate([lam_q, lam_x[n * nq:]]), np.concatenate(out)
+        """The multipliers of a solve moved ``steps`` waypoints forward (:func:`layout.shifted_multipliers`)."""
+        return layout.shifted_multipliers(lam_x, lam_g, steps, self.n, self.robot.nq, self._pose_steps.tolist(),
+                                          (len(self._vel_rows), len(self._acc_rows)))
 
     def term_weights(self) -> dict[str, float]:
         """The weight ``w_i`` this problem gives each term."""
         return {t.name: self.method_spec.term_weight(t, self.weights) for t in (*self._stage, *self._quadratic)}
-
-
-def shift_rows(a: FloatArray, steps: int) -> FloatArray:
-    """``a[steps:]`` followed by ``steps`` copies of its last row (same shape as ``a``)."""
-    a = np.asarray(a, dtype=float)
-    steps = min(steps, a.shape[0])
-    return np.concatenate([a[steps:], np.repeat(a[-1:], steps, axis=0)])
