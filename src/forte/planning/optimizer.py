@@ -42,7 +42,7 @@ from forte.planning.assembly import block_diagonal_pattern, dm, gather, hessian_
 from forte.planning.ipopt_progress import IpoptProgress, margin_of
 from forte.planning.kernels import load_kernels
 from forte.planning.methods import Method, get_method, method_names
-from forte.settings import CostWeights, KinematicLimits, SolverOptions
+from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights, KinematicLimits, SolverOptions
 from forte.validation import FloatArray
 
 shift_rows = layout.shift_rows  # the re-planner's import
@@ -65,6 +65,10 @@ class SolverResult:
     lam_g: FloatArray | None = None  # constraint multipliers
 
 
+#: The weights a task file gets by default in trajectory mode.
+DEFAULT_TRAJECTORY_WEIGHTS = WEIGHT_SETS[DEFAULT_WEIGHT_SET["trajectory"]]
+
+
 class TrajectoryOptimizer:
     """The FORTE NLP (or a baseline) for one robot, horizon ``n`` and method.
 
@@ -72,7 +76,8 @@ class TrajectoryOptimizer:
         robot: The mobile manipulator.
         n: Number of waypoints (1 gives single-point holding).
         method: An optimized method of :data:`forte.planning.methods.METHODS` (name or object).
-        weights: Cost weights and term parameters.
+        weights: Cost weights and term parameters (default: forte's trajectory set, as a task
+            file gets; the authors' exact set is ``WEIGHT_SETS['authors-trajectory']``).
         fix_initial: Fix ``q_1 = q_init`` (trajectory mode). With ``False`` (holding), the
             first configuration is free and ``q_init`` only seeds the solver.
         options: Solver and build options.
@@ -83,7 +88,7 @@ class TrajectoryOptimizer:
 
     def __init__(
         self, robot: MobileManipulator, n: int, method: str | Method = "forte",
-        weights: CostWeights = CostWeights(), fix_initial: bool = True,
+        weights: CostWeights = DEFAULT_TRAJECTORY_WEIGHTS, fix_initial: bool = True,
         options: SolverOptions = SolverOptions(), limits: KinematicLimits = KinematicLimits(),
         keep_multipliers: bool = False,
     ) -> None:
