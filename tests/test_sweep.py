@@ -92,6 +92,64 @@ def test_grid_cells_and_stable_ids(tmp_path):
                                         for c in g.cells}
 
 
+def test_an_edited_urdf_changes_the_cell_ids(tmp_path):
+    """The task file is the same bytes; the URDF it points to changes: every id changes."""
+    from forte.model.robot import default_robot
+
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_bytes(default_robot().urdf_path.read_bytes())
+    data = yaml.safe_load((TASKS / "hold.yaml").read_text())
+    data["robot"] = {"urdf": "arm.urdf", "ee_frame": "panda_hand"}
+    (tmp_path / "custom-hold.yaml").write_text(yaml.safe_dump(data))
+    sweep = write_sweep(tmp_path, tasks=["custom-hold.yaml"])
+
+    def ids() -> list[str]:
+        return [c.id for g in plan_groups(read_sweep(sweep)) for c in g.cells]
+
+    before = ids()
+    assert ids() == before  # unchanged files: the same ids
+    text = urdf.read_text()
+    assert '<mass value="0.629769"/>' in text
+    urdf.write_text(text.replace('<mass value="0.629769"/>', '<mass value="0.7"/>', 1))
+    after = ids()
+    assert len(after) == len(before) and not set(after) & set(before)
+    assert all(c.key["robot"] for g in plan_groups(read_sweep(sweep)) for c in g.cells)
+
+
+def test_rows_of_a_plan_that_raised_carry_the_task_waypoints(tmp_path):
+    """A raised plan's rows get the task's waypoint count, as rows of plans that ran do (the
+    figures group rows by task and waypoints)."""
+    from forte.planning.tasks import load_task
+
+    start = [0, 0, 0, 0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398]
+    up = {"name": "reach-up", "mode": "trajectory", "initial_configuration": start, "payload": {"mass": 1.0},
+          "path": {"kind": "waypoints", "relative": True, "samples": 5,
+                   "waypoints": [{"t": 0.0, "position": [0, 0, 0]}, {"t": 2.0, "position": [0, 0, 3.0]}]}}
+    hold = {"name": "hold-up", "mode": "hold", "initial_configuration": start, "payload": {"mass": 1.0},
+            "pose": {"position": [0, 0, 3.0], "relative": True}}
+    for name, doc in (("up.yaml", up), ("hold-up.yaml", hold)):
+        (tmp_path / name).write_text(yaml.safe_dump(doc))
+    sweep = write_sweep(tmp_path, tasks=["up.yaml", "hold-up.yaml"], methods=["forte"], masses=[1.0],
+                        simulation=False)
+    groups = plan_groups(read_sweep(sweep))
+    ns = {}
+    for g in groups:
+        rows = [r.row for r in run_group(g)]
+        assert {r["plan_status"] for r in rows} == {"error"} and "unreachable" in rows[0]["error"]
+        ns[rows[0]["task"]] = {r["waypoints"] for r in rows}
+    assert ns == {"reach-up": {load_task(tmp_path / "up.yaml").n}, "hold-up": {1}}
+    assert load_task(tmp_path / "up.yaml").n == 5
+
+
+def test_rows_carry_the_same_waypoints_whether_planned_or_not(pool_run):
+    """Every row of a task has that task's waypoint count (the hold task: 1)."""
+    _, out, _ = pool_run
+    by_task: dict[str, set] = {}
+    for r in read_csv(out / CSV_FILE):
+        by_task.setdefault(r["task"], set()).add(r["waypoints"])
+    assert by_task == {"short-lift": {11}, "hold": {1}}
+
+
 def test_methods_all_and_waypoint_axis(tmp_path):
     from forte.planning.planner import methods_for
     from forte.planning.tasks import load_task
@@ -187,6 +245,13 @@ def _children(pid: int) -> set[int]:
     return {int(p) for p in text.split()}
 
 
+def _cmdline(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")[:120]
+    except OSError:
+        return ""
+
+
 def _alive(pid: int) -> bool:
     try:
         state = Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0]
@@ -195,39 +260,85 @@ def _alive(pid: int) -> bool:
     return state != "Z"
 
 
-def _start_and_stop(sweep: Path, out: Path, sig: int, workers: int) -> tuple[int, set[int]]:
-    """Run ``forte sweep`` in a subprocess, send ``sig`` once its first cell is stored; returns its
-    exit status and the pids of its children (the pool's workers)."""
+def _start(sweep: Path, out: Path, workers: int, *extra: str) -> tuple[subprocess.Popen, set[int]]:
+    """Run ``forte sweep`` in a subprocess until its first cell is stored; returns the process and
+    the pids of its children seen until then."""
     env = {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
     proc = subprocess.Popen([sys.executable, "-m", "forte.cli", "sweep", str(sweep), "--out", str(out),
-                             "--workers", str(workers), "--no-figures", "--quiet"], env=env, stderr=subprocess.PIPE)
-    cells, deadline, workers_seen = out / "cells", time.monotonic() + 120, set()
+                             "--workers", str(workers), "--no-figures", "--quiet", *extra], env=env,
+                            stderr=subprocess.PIPE)
+    cells, deadline, workers_seen = out / "cells", time.monotonic() + 180, set()
     while time.monotonic() < deadline and not (cells.is_dir() and any(p.suffix == ".json" for p in cells.iterdir())):
         workers_seen |= _children(proc.pid)
         assert proc.poll() is None, proc.stderr.read().decode()
         time.sleep(0.02)
-    workers_seen |= _children(proc.pid)
+    return proc, workers_seen | _children(proc.pid)
+
+
+def _start_and_stop(sweep: Path, out: Path, sig: int, workers: int, *extra: str) -> tuple[int, set[int]]:
+    """Run ``forte sweep`` in a subprocess, send ``sig`` once its first cell is stored; returns its
+    exit status and the pids of its children (the pool's workers, or Ray's processes)."""
+    proc, workers_seen = _start(sweep, out, workers, *extra)
     os.kill(proc.pid, sig)
     code = proc.wait()
+    err = proc.stderr.read().decode(errors="replace")
     proc.stderr.close()
     deadline = time.monotonic() + 10  # orphaned workers notice that the driver is gone and exit
     while time.monotonic() < deadline and any(_alive(p) for p in workers_seen):
         time.sleep(0.1)
-    assert workers_seen and not any(_alive(p) for p in workers_seen)
+    left = {p: _cmdline(p) for p in workers_seen if _alive(p)}
+    assert workers_seen and not left, (left, err)
+    assert code == (130 if sig == signal.SIGTERM else -sig), err
     return code, workers_seen
 
 
 @pytest.mark.slow
-def test_sigterm_stops_with_a_partial_table(pool_run, tmp_path):
+@pytest.mark.parametrize("backend", [(), ("--ray",)], ids=["pool", "ray"])
+def test_sigterm_stops_with_a_partial_table(pool_run, tmp_path, backend):
+    """With --ray too: ray.init installs its own SIGTERM handler (sys.exit(15)); forte keeps its own."""
+    if backend:
+        pytest.importorskip("ray")
     sweep, _, _ = pool_run
     out = tmp_path / "stopped"
-    assert _start_and_stop(sweep, out, signal.SIGTERM, workers=2)[0] == 130
+    assert _start_and_stop(sweep, out, signal.SIGTERM, 2, *backend)[0] == 130
     doc = json.loads((out / "sweep.json").read_text())
     finished = len(list((out / "cells").glob("*.json")))
     assert doc["status"] == "partial" and doc["finished"] == finished and 0 < finished < 24
     assert len(read_csv(out / CSV_FILE)) == finished
     assert SweepDir(out).events()[-1] | {"time": 0} == {"time": 0, "event": "end", "run": 1, "status": "interrupted",
                                                         "computed": finished}
+
+
+def _pool_workers(pid: int) -> list[int]:
+    """The children of ``pid`` that are spawned pool workers (not multiprocessing's resource tracker)."""
+    return [child for child in _children(pid) if "spawn_main" in _cmdline(child)]
+
+
+@pytest.mark.slow
+def test_a_worker_that_dies_is_one_line_and_the_sweep_resumes(pool_run, tmp_path):
+    """SIGKILL to the pool's worker (as the out-of-memory killer does): exit 2, one line, a partial
+    table of the cells finished before; the same command then completes the grid."""
+    sweep, reference, _ = pool_run
+    out = tmp_path / "crashed"
+    proc, _ = _start(sweep, out, 1)
+    (worker,) = _pool_workers(proc.pid)
+    os.kill(worker, signal.SIGKILL)
+    code = proc.wait(timeout=60)
+    err = proc.stderr.read().decode()
+    proc.stderr.close()
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith(f"forte: error: a sweep worker died (pool worker {worker} killed by SIGKILL"), err
+    assert "run the same command to resume" in err
+    doc = json.loads((out / "sweep.json").read_text())
+    finished = len(list((out / "cells").glob("*.json")))
+    assert doc["status"] == "partial" and doc["finished"] == finished and 0 < finished < 24
+    assert len(read_csv(out / CSV_FILE)) == finished
+    end = SweepDir(out).events()[-1]
+    assert (end["event"], end["status"], end["computed"]) == ("end", "failed", finished)
+    assert "a sweep worker died" in end["error"]
+    result = run_sweep(sweep, out, workers=2)
+    assert (result.status, result.skipped, result.computed) == ("complete", finished, 24 - finished)
+    assert (out / CSV_FILE).read_bytes() == (reference / CSV_FILE).read_bytes()
 
 
 @pytest.mark.slow
@@ -264,6 +375,48 @@ def test_a_grown_grid_computes_only_its_new_cells(tmp_path):
     rows = read_csv(out / CSV_FILE)
     assert [r["mass_kg"] for r in rows] == [0.35, 2.7, 0.35, 2.7] and {r["run"] for r in rows} == {"plan-only"}
     assert all(r["sim_verdict"] is None for r in rows) and list(rows[0]) == list(NAMES)
+
+
+def test_the_marker_is_written_before_anything_else(tmp_path, monkeypatch):
+    """open() writes sweep.json into the new directory before creating cells/: a kill in between
+    leaves an empty or a marked directory, never an unmarked one with files in it."""
+    import forte.experiments.sweep.store as store_module
+
+    seen = []
+    real = store_module.atomic_write
+
+    def recording(path, text):  # the real write, noting what the directory held at that moment
+        seen.append((path.name, sorted(p.name for p in path.parent.iterdir())))
+        real(path, text)
+
+    monkeypatch.setattr(store_module, "atomic_write", recording)
+    spec = read_sweep(write_sweep(tmp_path, tasks=[str(TASKS / "hold.yaml")], masses=[0.35], simulation=False))
+    out = SweepDir(tmp_path / "new" / "out")
+    out.check()
+    out.open(spec, 2)
+    assert seen[0][0] == "sweep.json" and not any(not n.startswith(".sweep.json.") for n in seen[0][1])
+    assert sorted(p.name for p in out.out.iterdir()) == ["cells", "sweep.json"]
+
+
+def test_a_directory_left_by_a_kill_at_start_is_resumed(tmp_path, capsys):
+    """Only an empty cells/ (forte's old order) and a temporary file of sweep.json: accepted and cleaned;
+    anything else beside them is still refused."""
+    sweep = write_sweep(tmp_path, tasks=[str(TASKS / "hold.yaml")], masses=[0.35], simulation=False)
+    out = tmp_path / "out"
+    (out / "cells").mkdir(parents=True)
+    (out / ".sweep.json.k2x_9abc.tmp").write_text('{"generator": "fo')
+    result = run_sweep(sweep, out, workers=1, figures=False)
+    assert result.status == "complete" and result.computed == 2
+    assert not (out / ".sweep.json.k2x_9abc.tmp").exists()
+
+    for extra in ("notes.txt", "cells/x.json"):
+        other = tmp_path / f"other-{extra.replace('/', '-')}"
+        (other / "cells").mkdir(parents=True)
+        (other / extra).write_text("keep me")
+        code, err = _cli(capsys, sweep, "--out", other)
+        assert code == 2 and err.count("\n") == 1 and "forte did not write" in err, err
+        assert (other / extra).read_text() == "keep me"
+        assert sorted(p.name for p in other.rglob("*")) == sorted({"cells", *Path(extra).parts})
 
 
 def test_a_corrupted_cell_file_is_recomputed(tmp_path):
@@ -304,6 +457,16 @@ def test_bad_sweep_files_exit_2_with_one_line(tmp_path, capsys, fields, expected
     code, err = _cli(capsys, sweep, "--out", tmp_path / "out")
     assert code == 2 and err.count("\n") == 1 and err.startswith("forte: error: ")
     assert str(sweep) in err and expected in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_two_tasks_with_one_name_exit_2(tmp_path, capsys):
+    short_lift(tmp_path)
+    (tmp_path / "copy.yaml").write_text((tmp_path / "short-lift.yaml").read_text())  # name: short-lift too
+    sweep = write_sweep(tmp_path, tasks=["short-lift.yaml", "copy.yaml"])
+    code, err = _cli(capsys, sweep, "--out", tmp_path / "out")
+    assert code == 2 and err.count("\n") == 1 and err.startswith(f"forte: error: {sweep}: tasks: ")
+    assert "short-lift.yaml" in err and "copy.yaml" in err and "'short-lift'" in err, err
     assert not (tmp_path / "out").exists()
 
 

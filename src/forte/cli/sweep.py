@@ -3,8 +3,11 @@
 Exit codes: 0 when every cell of the grid has a result (failed plans and simulations are
 results: they are rows of the table); 2 for a bad sweep or task file, an output directory forte
 may not use (or one another forte process is writing), ``--ray`` without Ray installed or with
-an address it cannot reach; 130 when interrupted (the finished cells are kept: run the same
-command again to resume; SIGTERM counts as an interruption).
+an address it cannot reach, and a worker process that died while the sweep ran (killed for
+memory, a native crash, a lost Ray node: the environment, like the others; the finished cells
+are kept); 130 when interrupted (SIGTERM counts as an interruption, with the pool or ``--ray``).
+Whenever a sweep stops early, the table is rebuilt from the finished cells and running the same
+command again resumes.
 """
 
 from __future__ import annotations

@@ -44,7 +44,7 @@ def one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
-def _identity(cell: Cell, waypoints: int | None) -> dict[str, Any]:
+def _identity(cell: Cell, waypoints: int) -> dict[str, Any]:
     return {"cell_id": cell.id, "task": cell.task, "task_file": cell.task_file, "waypoints": waypoints,
             "method": cell.method, "mass_kg": cell.mass, "run": cell.run, "trial": cell.trial,
             "true_mass_kg": cell.true_mass}
@@ -85,7 +85,7 @@ def run_group(group: PlanGroup) -> list[CellResult]:
         res = plan(task, group.method)
     except ForteError as exc:
         spent = time.perf_counter() - start
-        return [CellResult(c.id, {**_identity(c, group.waypoints), "plan_status": "error", "error": one_line(exc)},
+        return [CellResult(c.id, {**_identity(c, group.n), "plan_status": "error", "error": one_line(exc)},
                            {"plan_s": spent, "sim_s": 0.0, "worker": worker}) for c in group.cells]
     plan_s = time.perf_counter() - start
     head = plan_columns(res)
@@ -94,7 +94,7 @@ def run_group(group: PlanGroup) -> list[CellResult]:
         plan_dir = write_plan(res, Path(tmp) / "plan", figures=False) if group.simulation and res.success else None
         for cell in group.cells:
             t0 = time.perf_counter()
-            row = {**_identity(cell, res.task.n if res.task else group.waypoints), **head,
+            row = {**_identity(cell, group.n), **head,
                    **simulate_cell(cell, plan_dir, group.simulation)}
             out.append(CellResult(cell.id, row, {"plan_s": plan_s, "sim_s": time.perf_counter() - t0,
                                                  "worker": worker}))

@@ -1,10 +1,12 @@
 """Where the plan groups of a sweep run: a local process pool (default) or a Ray cluster.
 
 Both yield the results of :func:`forte.experiments.sweep.cell.run_group` as groups finish (in any
-order). Workers are fresh processes (``spawn``, or Ray's workers) with one BLAS/OpenMP thread
-each (:data:`THREAD_ENV`), so N workers use N cores and every group computes the same numbers on
-either backend. Ray is imported only here and only when asked for (an optional extra:
-``pip install 'forte[ray]'``).
+order), and raise :class:`~forte.exceptions.ForteError` (:func:`worker_died`) when a worker
+process dies (killed for memory, a crash in native code, a lost Ray node): the cells finished
+until then are kept and the same command resumes. Workers are fresh processes (``spawn``, or
+Ray's workers) with one BLAS/OpenMP thread each (:data:`THREAD_ENV`), so N workers use N cores
+and every group computes the same numbers on either backend. Ray is imported only here and only
+when asked for (an optional extra: ``pip install 'forte[ray]'``).
 """
 
 from __future__ import annotations
@@ -19,9 +21,10 @@ import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
-from forte.exceptions import InvalidInputError
+from forte.exceptions import ForteError, InvalidInputError
 from forte.experiments.sweep.cell import CellResult, run_group
 from forte.experiments.sweep.spec import PlanGroup
 
@@ -54,6 +57,31 @@ def _thread_env() -> Iterator[None]:
                 os.environ[k] = v
 
 
+def worker_died(reason: str) -> ForteError:
+    """The one-line error of a sweep whose worker process died (``forte sweep`` exits 2)."""
+    return ForteError(f"a sweep worker died ({reason}); the finished cells are kept, run the same command "
+                      "to resume")
+
+
+def _death(pool: ProcessPoolExecutor, procs: Sequence[Any]) -> str:
+    """How a dead one of ``procs`` (the workers of a broken ``pool``) ended: its exit status or
+    signal. The pool sends SIGTERM to the others once one died, so another ending is named first."""
+    manager = getattr(pool, "_executor_manager_thread", None)
+    if manager is not None:  # it joins the workers: waiting beside it races for their exit status
+        manager.join(timeout=5.0)
+    dead = [p for p in procs if p.exitcode not in (None, 0)]
+    if not dead:
+        return "a pool worker process ended abruptly"
+    proc = min(dead, key=lambda p: p.exitcode == -signal.SIGTERM)
+    if proc.exitcode > 0:
+        return f"pool worker {proc.pid} exited with status {proc.exitcode}"
+    try:
+        name = signal.Signals(-proc.exitcode).name
+    except ValueError:
+        name = f"signal {-proc.exitcode}"
+    return f"pool worker {proc.pid} killed by {name}" + (", out of memory?" if name == "SIGKILL" else "")
+
+
 def _worker_init(parent: int) -> None:
     """In each pool worker: leave Ctrl-C to the driver, and exit when the driver is gone (killed)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -82,9 +110,14 @@ def pool_results(groups: Sequence[PlanGroup], workers: int) -> Iterator[list[Cel
         try:
             pending: set[Future[list[CellResult]]] = {pool.submit(run_group, g) for g in groups}
             while pending:
+                procs = list((getattr(pool, "_processes", None) or {}).values())  # to name a dead one
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for future in finished:
-                    yield future.result()
+                    try:
+                        result = future.result()
+                    except BrokenProcessPool:
+                        raise worker_died(_death(pool, procs)) from None
+                    yield result
             done = True
         finally:
             procs = list((getattr(pool, "_processes", None) or {}).values())
@@ -135,6 +168,10 @@ def ray_session(address: str | None, workers: int) -> Iterator[None]:
     options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "logging_level": "ERROR"}
     if address not in (None, LOCAL):
         _check_reachable(address)
+    # ray.init replaces the SIGTERM handler with sys.exit(15): keep the caller's (forte sweep's
+    # turns SIGTERM into an interruption that writes the partial table and exits 130)
+    main = threading.current_thread() is threading.main_thread()
+    saved = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)} if main else {}
     try:
         if address in (None, LOCAL):
             ray.init(address="local", num_cpus=workers, **options)  # a new instance, even beside a cluster
@@ -143,6 +180,10 @@ def ray_session(address: str | None, workers: int) -> Iterator[None]:
     except (ConnectionError, ValueError, RuntimeError) as exc:
         raise InvalidInputError(f"--ray {address}: cannot connect to a Ray cluster there "
                                 f"({' '.join(str(exc).split())[:200]})") from None
+    finally:
+        for sig, handler in saved.items():
+            if handler is not None:  # None: a handler not installed from Python, cannot be put back
+                signal.signal(sig, handler)
     try:
         yield
     finally:
@@ -151,15 +192,27 @@ def ray_session(address: str | None, workers: int) -> Iterator[None]:
 
 def ray_results(groups: Sequence[PlanGroup]) -> Iterator[list[CellResult]]:
     """Run ``groups`` as Ray tasks of one CPU each (inside :func:`ray_session`); yield each group's
-    results when it finishes. Leaving the iterator early cancels the others."""
+    results when it finishes. Leaving the iterator early cancels the others.
+
+    Ray retries a task whose worker died (its default three times); a failure left after that (a
+    worker crash, a lost node, out of memory) raises :func:`worker_died`. An exception raised in
+    :func:`run_group` itself (``RayTaskError``: a bug) propagates as it is.
+    """
     import ray
+    from ray.exceptions import RayError, RayTaskError
 
     remote = ray.remote(num_cpus=1, runtime_env={"env_vars": THREAD_ENV})(run_group)
     pending = [remote.remote(g) for g in groups]
     try:
         while pending:
             ready, pending = ray.wait(pending, num_returns=1)
-            yield ray.get(ready[0])
+            try:
+                result = ray.get(ready[0])
+            except RayTaskError:
+                raise
+            except RayError as exc:
+                raise worker_died(f"{type(exc).__name__}: {' '.join(str(exc).split())[:200]}") from None
+            yield result
     finally:
         for ref in pending:
             with contextlib.suppress(Exception):

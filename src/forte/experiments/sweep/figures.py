@@ -4,6 +4,8 @@ Three panels against the payload mass, one curve per method: the plan's min capa
 (|f| + r) (N; below 0 the capacity along f misses the band's upper edge somewhere), its mean
 manipulability (m³), and the share of simulated runs with the payload (nominal and mass-error
 trials) that succeeded. A task with a force profile (no payload) gets bars per method instead.
+A plan that did not succeed is marked with an x: at the solver's last iterate, or on the bottom
+edge of the panel when planning raised an error (no value).
 """
 
 from __future__ import annotations
@@ -43,6 +45,19 @@ def _value(plan: dict[str, Any], column: str) -> float:
     return np.nan if v is None else float(v)
 
 
+def _mark_failed(ax: Any, bad: list[tuple[float, float]]) -> None:
+    """An x at each failed plan's value; a plan without one (it raised) on the panel's bottom edge."""
+    from matplotlib.transforms import blended_transform_factory
+
+    valued = [(m, v) for m, v in bad if np.isfinite(v)]
+    if valued:
+        ax.plot(*zip(*valued, strict=True), "kx", ms=9, mew=1.8, zorder=4)
+    raised = [m for m, v in bad if not np.isfinite(v)]
+    if raised:
+        edge = blended_transform_factory(ax.transData, ax.transAxes)
+        ax.plot(raised, [0.0] * len(raised), "kx", ms=9, mew=1.8, zorder=4, transform=edge, clip_on=False)
+
+
 def plot_task(rows: Sequence[dict[str, Any]], path: Path, title: str) -> bool:
     """The panels of one task that have data (``rows``: its table rows); False when none has."""
     plans = _plans(rows)
@@ -62,8 +77,7 @@ def plot_task(rows: Sequence[dict[str, Any]], path: Path, title: str) -> bool:
                         ms=7 - i * 0.8, lw=1.5, label=name)  # shrinking markers: coinciding points stay visible
                 bad = [(m, v) for m, v in zip(masses, y, strict=True)
                        if (method, m) in plans and plans[(method, m)]["plan_status"] != "success"]
-                if bad:  # the solver's last iterate, or no plan at all
-                    ax.plot(*zip(*bad, strict=True), "kx", ms=9, mew=1.8, zorder=4)
+                _mark_failed(ax, bad)
             ax.set_xlabel("payload mass (kg)")
         else:
             y = [_value(plans[(m, None)], column) for m in methods]
@@ -78,7 +92,7 @@ def plot_task(rows: Sequence[dict[str, Any]], path: Path, title: str) -> bool:
     if masses:
         axes[0, -1].legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, frameon=False)
     if any(p["plan_status"] != "success" for p in plans.values()):
-        title += " (x: planning failed, the solver's last iterate)"
+        title += " (x: planning failed: the solver's last iterate, on the bottom edge when it raised)"
     fig.suptitle(title, fontsize=10)
     fig.savefig(path, dpi=DPI, bbox_inches="tight")
     plt.close(fig)

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from forte import progress
+from forte.exceptions import ForteError
 from forte.experiments.sweep.cell import CellResult
 from forte.experiments.sweep.executors import Execute, backend, default_workers
 from forte.experiments.sweep.figures import write_figures
@@ -21,6 +22,7 @@ from forte.experiments.sweep.spec import Cell, PlanGroup, SweepSpec, plan_groups
 from forte.experiments.sweep.store import SweepDir
 from forte.experiments.sweep.table import write_table
 from forte.io.outputs import output_lock
+from forte.io.reports import package_versions
 
 Log = Callable[[str], None]
 
@@ -64,9 +66,13 @@ class _Counter:
         self.total, self.done, self.computed, self.log = total, skipped, 0, log
         self.start = time.perf_counter()
 
+    def stored(self) -> None:
+        """One more cell stored (counted as it is written: an interruption between two cells of a
+        group leaves the count equal to the cell files)."""
+        self.done += 1
+        self.computed += 1
+
     def line(self, group: PlanGroup, results: list[CellResult]) -> str:
-        self.done += len(results)
-        self.computed += len(results)
         elapsed = time.perf_counter() - self.start
         eta = elapsed / self.computed * (self.total - self.done)
         row = results[0].row
@@ -95,7 +101,8 @@ def run_sweep(sweep: str | Path | SweepSpec, out: str | Path | None = None, work
     :class:`~forte.exceptions.TaskFileError` for a bad sweep or task file,
     :class:`~forte.exceptions.OutputError` for an output directory forte may not use or one
     another process is writing, :class:`~forte.exceptions.InvalidInputError` for Ray missing or
-    unreachable.
+    unreachable. While it runs: :class:`~forte.exceptions.ForteError` when a worker process dies
+    (the finished cells are kept, the table is rebuilt from them; call again to resume).
     """
     spec = sweep if isinstance(sweep, SweepSpec) else read_sweep(sweep)
     groups = plan_groups(spec)
@@ -112,7 +119,8 @@ def run_sweep(sweep: str | Path | SweepSpec, out: str | Path | None = None, work
             store.open(spec, len(cells))
             run = _Run(store, spec, cells, figures, log)
             return run.compute(todo, len(finished), execute,
-                               {"backend": "pool" if ray is None else f"ray:{ray}", "workers": workers})
+                               {"backend": "pool" if ray is None else f"ray:{ray}", "workers": workers,
+                                "versions": package_versions()})
 
 
 class _Run:
@@ -131,13 +139,14 @@ class _Run:
         counter = _Counter(total, skipped, self.log)
         if skipped:
             self.log(f"{self.spec.name}: {skipped} of {total} cells finished earlier, skipped")
-        status = "failed"
+        status, error = "failed", None
         try:
             with progress.step(f"sweep {self.spec.name}: {total - skipped} cells to compute"):
                 index = {c.id: (c, g) for g in todo for c in g.cells}
                 for results in execute(todo) if execute is not None else ():
                     for r in results:
                         store.write_cell(index[r.cell_id][0], r, run)
+                        counter.stored()
                     line = counter.line(index[results[0].cell_id][1], results)
                     progress.update(line)
                     self.log(line)
@@ -145,10 +154,13 @@ class _Run:
         except KeyboardInterrupt:
             status = "interrupted"
             raise
+        except ForteError as exc:  # a worker died
+            error = str(exc)
+            raise
         finally:
             result = self.finish(counter.computed, skipped)
             store.log({"event": "end", "run": run, "status": result.status if status == "done" else status,
-                       "computed": counter.computed})
+                       "computed": counter.computed} | ({"error": error} if error else {}))
         return result
 
     def finish(self, computed: int, skipped: int) -> SweepResult:

@@ -27,9 +27,12 @@ same draw for every task and method (the methods are compared on the same true m
 independent of the order in which cells run.
 
 A cell's id is the first 16 hex digits of the SHA-256 of its key (:func:`cell_key`): the task
-file as written and the SHA-256 of its bytes, waypoints, method, mass, run, trial and the
-simulation settings the run depends on. The forte version is not part of it: a sweep directory
-resumed after an upgrade keeps its finished cells (start a new directory to recompute them).
+file as written and the SHA-256 of its bytes, the robot's fingerprint
+(:attr:`~forte.model.robot.MobileManipulator.fingerprint`: the URDF's bytes and every model
+setting, so an edited URDF the task points to changes it), waypoints, method, mass, run, trial and
+the simulation settings the run depends on. The versions of forte and of its libraries are not
+part of it: a sweep directory resumed after an upgrade keeps its finished cells (start a new
+directory to recompute them).
 """
 
 from __future__ import annotations
@@ -49,8 +52,8 @@ from forte.planning.schema import Reader
 from forte.planning.tasks import Task, read_yaml, task_from_dict
 from forte.validation import MAX_HOLD_S, MAX_MASS_KG, MAX_WAYPOINTS
 
-#: Version of the cell key and cell file layout (part of every cell id).
-CELL_FORMAT = 1
+#: Version of the cell key and cell file layout (part of every cell id). 2: the key holds the robot.
+CELL_FORMAT = 2
 #: Largest grid a sweep file may describe (forte's documented bound).
 MAX_CELLS = 100_000
 #: Largest number of mass-error trials per plan.
@@ -127,7 +130,8 @@ class PlanGroup(NamedTuple):
 
     task_data: Any
     task_path: str
-    waypoints: int | None
+    waypoints: int | None  # the sweep's value (None: the task file's own, and for hold tasks)
+    n: int  # the task's waypoints at that value: the table's ``waypoints`` column
     method: str
     mass: float | None
     simulation: Simulation | None
@@ -169,6 +173,12 @@ def _tasks(r: Reader, path: Path) -> tuple[TaskEntry, ...]:
         entries.append(TaskEntry(str(name), item, located, digest, data))
     if len({e.written for e in entries}) != len(entries):
         raise r.error("tasks", "lists a task file twice; expected each once")
+    seen: dict[str, TaskEntry] = {}
+    for e in entries:  # the table's task column and the figures tell tasks apart by name
+        if e.name in seen:
+            raise r.error("tasks", f"task files {seen[e.name].written} and {e.written} are both named {e.name!r}; "
+                          "expected distinct task names (set name: in one of them)")
+        seen[e.name] = e
     return tuple(entries)
 
 
@@ -258,16 +268,17 @@ def plan_groups(spec: SweepSpec) -> list[PlanGroup]:
                 raise r.error("methods", f"'{m}' does not apply to task {entry.written} ({base.mode} mode); "
                               f"expected methods among {', '.join(methods_for(base))}")
         masses = _task_masses(spec, entry, base, r)
+        robot = base.robot.fingerprint
         for w in waypoints:
-            load_entry(entry, w, None)  # checks the waypoints against the task
+            n = load_entry(entry, w, None).n  # also checks the waypoints against the task
             for method in methods:
                 for mass in masses:
-                    cells = tuple(_cells(spec, entry, w, method, mass))
+                    cells = tuple(_cells(spec, entry, robot, w, method, mass))
                     count += len(cells)
                     if count > MAX_CELLS:
                         raise r.error("", f"the grid has more than {MAX_CELLS} cells (forte's documented bound); "
                                       "split it into several sweeps")
-                    groups.append(PlanGroup(entry.data, str(entry.path), w, method, mass, spec.simulation, cells))
+                    groups.append(PlanGroup(entry.data, str(entry.path), w, n, method, mass, spec.simulation, cells))
     return groups
 
 
@@ -288,7 +299,8 @@ def _task_masses(spec: SweepSpec, entry: TaskEntry, task: Task, r: Reader) -> tu
     return (float(task.payload.mass),)
 
 
-def _cells(spec: SweepSpec, entry: TaskEntry, waypoints: int | None, method: str, mass: float | None) -> list[Cell]:
+def _cells(spec: SweepSpec, entry: TaskEntry, robot: str, waypoints: int | None, method: str,
+           mass: float | None) -> list[Cell]:
     sim = spec.simulation
     runs: list[tuple[str, int, float | None]]
     if sim is None:
@@ -300,7 +312,7 @@ def _cells(spec: SweepSpec, entry: TaskEntry, waypoints: int | None, method: str
             runs.append(("no-payload", 0, 0.0))
     out = []
     for run, trial, true_mass in runs:
-        key = cell_key(entry, waypoints, method, mass, run, trial, sim)
+        key = cell_key(entry, robot, waypoints, method, mass, run, trial, sim)
         out.append(Cell(cell_id(key), entry.name, entry.written, waypoints, method, mass, run, trial, true_mass, key))
     return out
 
@@ -313,11 +325,12 @@ def trial_mass(mass: float | None, trial: int, sim: Simulation) -> float:
     return float(mass * (1.0 + rng.uniform(-sim.mass_error, sim.mass_error)))
 
 
-def cell_key(entry: TaskEntry, waypoints: int | None, method: str, mass: float | None, run: str, trial: int,
-             sim: Simulation | None) -> dict[str, Any]:
-    """What a cell's result depends on (hashed into its id)."""
+def cell_key(entry: TaskEntry, robot: str, waypoints: int | None, method: str, mass: float | None, run: str,
+             trial: int, sim: Simulation | None) -> dict[str, Any]:
+    """What a cell's result depends on (hashed into its id); ``robot``: the task's robot fingerprint."""
     key: dict[str, Any] = {"format": CELL_FORMAT, "task_file": entry.written, "task_sha256": entry.sha256,
-                           "waypoints": waypoints, "method": method, "mass": mass, "run": run, "trial": trial}
+                           "robot": robot, "waypoints": waypoints, "method": method, "mass": mass, "run": run,
+                           "trial": trial}
     if sim is not None:
         key["simulation"] = {"hold": sim.hold, "stop_on_failure": sim.stop_on_failure}
         if run == "mass-error":

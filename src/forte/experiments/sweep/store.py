@@ -13,7 +13,11 @@ A cell file is written through a temporary file and a rename when the cell finis
 loses at most the cells that were running. On the next run a cell counts as finished when its
 file parses, is forte's, and its stored key hashes to its id; every other cell is computed.
 Only a new path, an empty directory or a directory holding ``sweep.json`` is accepted: never a
-directory forte did not create, nor another kind of forte output.
+directory forte did not create, nor another kind of forte output. A new directory gets its
+``sweep.json`` (written through a temporary file and a rename) before anything else, so a kill
+while it is being created leaves it empty or marked. A directory holding nothing but an empty
+``cells/`` (what earlier versions, which made it first, could leave) and temporary files of
+``sweep.json`` is a start killed before its marker: it is accepted too.
 """
 
 from __future__ import annotations
@@ -38,6 +42,7 @@ if TYPE_CHECKING:
 SWEEP_FILE, LOG_FILE, CELLS_DIR = "sweep.json", "sweep.log", "cells"
 KIND = "sweep"
 _LEFTOVER = re.compile(r"^\.[0-9a-f]{16}\.json\..+\.tmp$")  # atomic_write's temporary files
+_MARKER_LEFTOVER = re.compile(r"^\.sweep\.json\..+\.tmp$")
 
 
 def _read_json(path: Path) -> Any:
@@ -62,23 +67,45 @@ class SweepDir:
         self.out, self.option = Path(out), option
         self.cells = self.out / CELLS_DIR
 
+    def _killed_at_start(self) -> bool:
+        """True for a directory holding only what a sweep killed before its marker leaves (see the module docstring)."""
+        try:
+            if self.out.is_symlink() or not self.out.is_dir():
+                return False
+            entries = list(self.out.iterdir())
+            return bool(entries) and all(
+                (p.name == CELLS_DIR and not p.is_symlink() and p.is_dir() and not any(p.iterdir()))
+                or (_MARKER_LEFTOVER.match(p.name) is not None and not p.is_symlink() and p.is_file())
+                for p in entries)
+        except OSError:
+            return False
+
     def check(self) -> None:
         """Refuse a path that is not new, empty or a sweep directory (:class:`OutputError`, one line)."""
+        if self._killed_at_start():
+            if not os.access(self.out, os.W_OK | os.X_OK):
+                raise OutputError(f"{self.option} {self.out}: is not a writable directory")
+            return
         check_output(self.out, self.option)
         if self.out.is_dir() and any(self.out.iterdir()) and not is_sweep_dir(self.out):
             raise OutputError(f"{self.option} {self.out}: holds files that are not a forte sweep (no forte "
                               f"{SWEEP_FILE}); choose a new directory for the sweep")
 
     def open(self, spec: SweepSpec, total: int) -> None:
-        """Create (or re-open) the directory and mark it; call with the output lock held."""
+        """Create (or re-open) the directory and mark it; call with the output lock held.
+
+        The marker comes first (a kill leaves no unmarked directory with files in it), then ``cells/``.
+        """
         try:
-            self.cells.mkdir(parents=True, exist_ok=True)
-            for leftover in self.cells.iterdir():  # temporary files of a killed writer
-                if _LEFTOVER.match(leftover.name) and leftover.is_file():
-                    leftover.unlink(missing_ok=True)
+            self.out.mkdir(parents=True, exist_ok=True)
+            self.write_marker(spec, total, finished=0, status="running")
+            self.cells.mkdir(exist_ok=True)
+            for folder, pattern in ((self.cells, _LEFTOVER), (self.out, _MARKER_LEFTOVER)):
+                for leftover in folder.iterdir():  # temporary files of a killed writer
+                    if pattern.match(leftover.name) and leftover.is_file() and not leftover.is_symlink():
+                        leftover.unlink(missing_ok=True)
         except OSError as exc:
             raise OutputError(f"{self.option} {self.out}: cannot write there ({exc.strerror or exc})") from None
-        self.write_marker(spec, total, finished=0, status="running")
 
     def write_marker(self, spec: SweepSpec, total: int, finished: int, status: str,
                      files: Iterable[str] = ()) -> None:
