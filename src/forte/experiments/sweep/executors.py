@@ -27,19 +27,17 @@ from typing import Any
 from forte.exceptions import ForteError, InvalidInputError
 from forte.experiments.sweep.cell import CellResult, run_group
 from forte.experiments.sweep.spec import PlanGroup
+from forte.system import SINGLE_THREAD_ENV, cpu_count
 
 #: Environment of every worker: one thread per BLAS / OpenMP library (no oversubscription).
-THREAD_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+THREAD_ENV = SINGLE_THREAD_ENV
 #: ``--ray`` without an address: start a local Ray instance with ``--workers`` CPUs.
 LOCAL = "local"
 
 
 def default_workers() -> int:
-    """The CPUs this process may use."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not on Linux
-        return os.cpu_count() or 1
+    """The CPUs this process may use (:func:`forte.system.cpu_count`)."""
+    return cpu_count()
 
 
 @contextlib.contextmanager
