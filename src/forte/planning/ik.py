@@ -78,7 +78,7 @@ def follow_path(
             q, err = solve_pose(robot, target, q, options)
         else:
             err = pose_error(robot, q, target)
-        pos, ang = np.linalg.norm(err[:3]), np.linalg.norm(err[3:])
+        pos, ang = float(np.linalg.norm(err[:3])), float(np.linalg.norm(err[3:]))
         if pos > options.position_tolerance or ang > options.orientation_tolerance:
             label = name(k) if name is not None else f"waypoint {k}"
             where = f"the initial configuration does not reach {label}" if k == 0 else label
