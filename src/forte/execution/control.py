@@ -207,10 +207,15 @@ def interpolate_plan(
         q = spline(tc)
         dq = np.where(inside, spline(tc, 1), 0.0)
         ddq = np.where(inside, spline(tc, 2), 0.0)
+    return Reference(ts, q, dq, ddq, interpolate_force(ts, force_t, force))
+
+
+def interpolate_force(times: Any, force_t: Any = None, force: Any = None) -> FloatArray:
+    """The task force (N x 3 at ``force_t``) linear in time at ``times``, held constant outside
+    its time range; zero when none is given."""
+    ts = as_array(times, "times", (None,))
     if force is None:
-        f = np.zeros((ts.size, 3))
-    else:
-        ft = check_times(force_t, "force.t")
-        fv = as_array(force, "force.f", (ft.size, 3))
-        f = np.stack([np.interp(ts, ft, fv[:, i]) for i in range(3)], axis=1)
-    return Reference(ts, q, dq, ddq, f)
+        return np.zeros((ts.size, 3))
+    ft = check_times(force_t, "force.t")
+    fv = as_array(force, "force.f", (ft.size, 3))
+    return np.stack([np.interp(ts, ft, fv[:, i]) for i in range(3)], axis=1)

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from forte.exceptions import InvalidInputError
-from forte.execution.control import Reference, interpolate_plan
+from forte.execution.control import Reference, interpolate_force, interpolate_plan
 from forte.model.trajectory import backward_differences
 from forte.validation import as_array, check_times
 
@@ -54,12 +54,12 @@ def plan_reference(t_plan: Any, q_plan: Any, times: Any, force_t: Any = None, fo
     """The controller's reference of a plan, sampled at ``times`` (``kind``: module docstring)."""
     if kind not in REFERENCE_KINDS:
         raise InvalidInputError(f"reference: expected one of {', '.join(REFERENCE_KINDS)}, got {kind!r}")
-    spline = interpolate_plan(t_plan, q_plan, times, force_t, force)
     tp = check_times(t_plan, "t")
     if kind == "spline" or tp.size == 1:
-        return spline
+        return interpolate_plan(t_plan, q_plan, times, force_t, force)
+    ts = as_array(times, "times", (None,))
     qp = as_array(q_plan, "q", (tp.size, None)).copy()
-    qp[:, 2] = np.unwrap(qp[:, 2])
+    qp[:, 2] = np.unwrap(qp[:, 2])  # as the spline: never turn the long way round
     v, a = backward_differences(qp, tp, "q")
-    q, dq, ddq = quintic_hermite(tp, qp, v, a, spline.t)
-    return Reference(spline.t, q, dq, ddq, spline.f)
+    q, dq, ddq = quintic_hermite(tp, qp, v, a, ts)
+    return Reference(ts, q, dq, ddq, interpolate_force(ts, force_t, force))
