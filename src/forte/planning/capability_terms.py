@@ -94,7 +94,9 @@ class ConeVolume(CostTerm):
     ``V_k = Omega/(3M) sum_j rho_j^3`` (``cone_intersection_volume`` in the authors' public code).
 
     The authors' rays: the axis along ``f`` (+z where ``f = 0``) plus 4 rings x 12 azimuths at
-    ``theta_j = 0.1 j / 4`` (M = 49), each ray's capacity clamped at 0, no alpha.
+    ``theta_j = 0.1 j / 4`` (M = 49), each ray's capacity clamped at 0, the margins scaled by
+    ``alpha`` as in the radius baseline (the authors pass their ``capability_alpha`` to every ray,
+    so their ``V`` is ``alpha^3`` times the unscaled one).
 
     ``rho_j``, the capacity along ray ``d_j`` of the cone of half-angle ``half_angle`` around the
     desired force (``rings x azimuths`` rays plus the axis, an NLP parameter per waypoint), is the
@@ -129,7 +131,7 @@ class ConeVolume(CostTerm):
 
     def stage(self, s: Stage) -> ca.SX:
         tm = ca.DM(s.robot.torque_limits)
-        b = ca.vertcat(tm - s.tau, tm + s.tau)
+        b = self.params.alpha * ca.vertcat(tm - s.tau, tm + s.tau)
         scale = ca.fmax(ca.norm_2(s.f) + s.r, self.params.eps)
         rays = ca.reshape(s.parameters["rays"], self.rays, 3).T  # 3 x M, one ray per column
         total = self.ray_sum(s.robot.n_arm)(s.J, b, rays, scale)
