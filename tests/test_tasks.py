@@ -230,3 +230,18 @@ def test_mass_range_rule_covers_the_estimate_s_range(tmp_path):
     # the authors' default keeps r = 10 N whatever the range
     default = load_task(EXAMPLES / "hold.yaml")
     np.testing.assert_allclose(default.with_payload(ranged.payload).force().r, 10.0)
+
+
+def test_capability_params_override_keeps_the_preset_s_other_fields(tmp_path):
+    """``weights: {capability_params: {knee: 0}}`` changes the knee only: alpha stays the preset's
+    (0.9 on the trajectory sets, 0.7 in holding), not the class default."""
+    for name, alpha in (("lift.yaml", 0.9), ("hold.yaml", 0.7)):
+        data = yaml.safe_load((EXAMPLES / name).read_text())
+        data.setdefault("weights", {})["capability_params"] = {"knee": 0}
+        path = tmp_path / name
+        path.write_text(yaml.safe_dump(data))
+        params = load_task(path).weights.capability_params
+        preset = load_task(EXAMPLES / name).weights.capability_params
+        assert params.knee == 0 and preset.knee == 3
+        assert params.alpha == preset.alpha == alpha
+        assert (params.kappa, params.max_exponent) == (preset.kappa, preset.max_exponent)

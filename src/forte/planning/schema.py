@@ -235,7 +235,7 @@ def dataclass_from(reader: Reader, name: str, cls: type, base: Any) -> Any:
                 sub = r.sub(key)
                 sub.unknown({f.name for f in dataclasses.fields(CapabilityParameters)})
                 try:
-                    values[key] = CapabilityParameters(**{k: sub.number(k) for k in sub.data})
+                    values[key] = dataclasses.replace(getattr(base, key), **{k: sub.number(k) for k in sub.data})
                 except ForteError as exc:
                     raise sub.error("", str(exc)) from exc
             elif kind.startswith("tuple"):
