@@ -106,7 +106,7 @@ def test_smooth_surrogate_converges_to_the_exact_penalty(robot):
     cases = list(random_cases(robot, 30, 13))
     previous = np.inf
     for beta in (10.0, 100.0, 1000.0, 1e5):
-        params = CapabilityParameters(beta=beta, eps_normal=1e-9)
+        params = CapabilityParameters(beta=beta, eps_normal=1e-9)  # the default knee (3)
         worst = 0.0
         for J, tau, f, r in cases:
             A, b = halfspaces(J, *residual_margins(tau, robot.torque_limits), params.alpha)
@@ -115,11 +115,44 @@ def test_smooth_surrogate_converges_to_the_exact_penalty(robot):
             smooth = smooth_capability_penalty(A, b, f, np.array(r), params)
             assert smooth >= exact - 1e-9 * (1 + exact)  # upper bound
             worst = max(worst, abs(np.log1p(smooth) - np.log1p(exact)))
-        # error in the exponent is at most kappa log(1 + 2n) / beta
-        assert worst <= params.kappa * np.log(15) / beta + 1e-9
+        # error in the exponent is at most kappa (log(1 + 2n) + knee) / beta
+        assert worst <= params.kappa * (np.log(15) + params.knee) / beta + 1e-9
         assert worst < previous
         previous = worst
     assert previous < 1e-3
+
+
+def _one_facet_surrogate(d: float, params: CapabilityParameters) -> float:
+    """The surrogate of one facet at signed distance ``d`` from a unit ball at the origin (rho = 1)."""
+    A, b = np.array([[0.0, 0.0, 1.0]]), np.array([d + 1.0])
+    return float(smooth_capability_penalty(A, b, np.zeros(3), np.array(1.0), params))
+
+
+def test_surrogate_knee_puts_the_smoothing_band_inside_the_polytope():
+    """The knee shifts the log-sum-exp by ``knee / beta`` (in ``d / rho``): at ``d = 0`` the surrogate's
+    exponent has ``sigmoid(knee)`` of the exact exponent's slope ``kappa / rho``; it stays an upper bound."""
+    from scipy.optimize import minimize_scalar
+    from scipy.special import expit
+
+    rho = 1.0  # |f| = 0, r = 1: rho = max(|f| + r, eps)
+    for knee in (0.0, 1.0, 3.0):
+        params = CapabilityParameters(knee=knee, eps_normal=1e-12)
+        h = 1e-7
+        # the exponent's slope (the penalty's own slope is this times 1 + c~(0))
+        slope = (np.log1p(_one_facet_surrogate(-h, params)) - np.log1p(_one_facet_surrogate(h, params))) / (2 * h)
+        assert slope == pytest.approx(params.kappa / rho * expit(knee), rel=1e-4)
+        for d in np.linspace(-2.0, 2.0, 41):  # an upper bound of the exact penalty everywhere
+            exact = capability_penalty(d, rho, params.kappa, params.max_exponent)
+            assert _one_facet_surrogate(d, params) >= exact - 1e-12
+    # where the exact J1 stops on the ball's edge (a pull of 0.6 of its kink slope toward d < 0),
+    # the centred surrogate stops outside and the default knee inside, within (knee + 1) rho / beta
+    pull = 0.6 * 3.0 / rho
+    for knee, inside in ((0.0, False), (3.0, True)):
+        params = CapabilityParameters(knee=knee, eps_normal=1e-12)
+        best = minimize_scalar(lambda d: _one_facet_surrogate(d, params) + pull * d, bounds=(-1, 1),
+                               method="bounded", options={"xatol": 1e-10}).x
+        assert bool(best >= 0) == inside
+        assert abs(best) <= (knee + 1) * rho / params.beta
 
 
 def test_casadi_surrogate_equals_numpy(robot):

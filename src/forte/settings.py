@@ -43,6 +43,10 @@ class CapabilityParameters:
         eps: Lower bound of the normalization ``rho``.
         max_exponent: Cap on ``kappa (-d) / rho``.
         beta: Sharpness of the smooth surrogate (dimensionless, per unit of ``d / rho``).
+        knee: Where the surrogate's knee sits, in units of ``1 / beta`` inside the polytope
+            (dimensionless, >= 0): 0 centres it on ``d = 0``; larger values move the whole
+            smoothing band to ``d > 0``, so that at ``d = 0`` the surrogate already has
+            ``sigmoid(knee)`` of the exact penalty's slope (see :mod:`forte.capability.metrics`).
         eps_normal: Regularization of zero normals in the surrogate (m).
     """
 
@@ -52,6 +56,7 @@ class CapabilityParameters:
     max_exponent: float = 40.0
     beta: float = 50.0
     eps_normal: float = 1e-6
+    knee: float = 3.0
 
     def __post_init__(self) -> None:
         if not (_finite(self.alpha) and 0.0 < self.alpha <= 1.0):
@@ -59,6 +64,7 @@ class CapabilityParameters:
         for name in ("kappa", "eps", "max_exponent", "beta", "eps_normal"):
             value = getattr(self, name)
             _require(_finite(value) and value > 0, name, "a finite number > 0", value)
+        _require(_finite(self.knee) and self.knee >= 0, "knee", "a finite number >= 0", self.knee)
 
 
 #: Values of ``CostWeights.dct_form`` (see :func:`forte.planning.spectral.spectral_form`).

@@ -18,11 +18,18 @@ never binds) or ``-inf`` (the polytope is empty), and the exponent is capped at
 whenever the capability term is active at the optimum). With ``x_i = -d_i / rho`` the
 normalized violations, the exact exponent ``kappa max(0, max_i x_i)`` is replaced by the log-sum-exp
 
-    s_beta = (1/beta) log(1 + sum_i exp(beta x_i))
+    s_beta = (1/beta) log(1 + sum_i exp(beta x_i + knee))
 
-which bounds ``max(0, max_i x_i)`` from above by at most ``log(1 + 2n) / beta`` and converges
-to it as ``beta -> inf``; zero normals use ``sqrt(||n||^2 + eps_n^2)``. Reports always use the
-exact metric.
+which bounds ``max(0, max_i x_i)`` from above by at most ``(log(1 + 2n) + knee) / beta`` and
+converges to it as ``beta -> inf`` (``knee`` fixed); zero normals use ``sqrt(||n||^2 + eps_n^2)``.
+Reports always use the exact metric.
+
+The ``knee`` (3 by default) moves the smoothing band to ``d > 0``. With a single binding facet the
+exponent's slope at ``d = 0`` is ``sigmoid(knee)`` (95 %) of the exact ``kappa / rho``. Where the
+exact J1 stops on the ball's edge because another term pulls outward with less than the kink's
+slope, the surrogate stops inside the polytope, within ``(knee + 1) rho / beta``; a centred
+surrogate (``knee = 0``, half the slope at ``d = 0``) stops outside whenever that pull exceeds
+half the kink's slope. Both are tested against the exact penalty.
 """
 
 from __future__ import annotations
@@ -96,7 +103,7 @@ def smooth_capability_penalty(
     r = np.asarray(r, dtype=float)
     norms = np.sqrt(np.sum(A**2, axis=-1) + params.eps_normal**2)
     d = (b - np.einsum("...ij,...j->...i", A, f)) / norms - r[..., None]
-    x = -d / normalization(f, r, params.eps)[..., None]
+    x = -d / normalization(f, r, params.eps)[..., None] + params.knee / params.beta
     z = params.beta * np.concatenate([np.zeros(x.shape[:-1] + (1,)), x], axis=-1)
     top = z.max(axis=-1, keepdims=True)
     soft = (top[..., 0] + np.log(np.sum(np.exp(z - top), axis=-1))) / params.beta
@@ -122,7 +129,7 @@ def smooth_penalty_expr(
     d_plus = (a * (tau_max - tau_nom) - proj) / norms - r
     d_minus = (a * (tau_max + tau_nom) + proj) / norms - r  # -alpha tau- = alpha (tau_max + tau_nom)
     rho = ca.fmax(ca.norm_2(f) + r, params.eps)
-    x = -ca.vertcat(d_plus, d_minus) / rho
+    x = -ca.vertcat(d_plus, d_minus) / rho + params.knee / params.beta
     soft = ca.logsumexp(ca.vertcat(0, params.beta * x)) / params.beta
     return ca.exp(ca.fmin(params.kappa * soft, params.max_exponent)) - 1
 
