@@ -262,3 +262,57 @@ def test_the_cli_offers_the_figure_formats_the_runners_accept():
         parser.parse_args(["experiment", "hold", "--format", "jpg"])
     with pytest.raises(ValueError, match="svg"):
         common.check_format("jpg")
+
+
+# -- the RFP baselines at other capability weights -------------------------------------------
+def sweep_points(points: dict[str, list[tuple[float, float, float, dict]]]) -> list:
+    """SweepPoints from (weight, heavy capacity, light manipulability, heavy simulation) per method."""
+    from forte.experiments.baseline_weights import SweepPoint
+    return [SweepPoint(m, w, fake_plan(m, 20.0, mu=mu, mag=3.4), fake_plan(m, cap), s)
+            for m, rows in points.items() for w, cap, mu, s in rows]
+
+
+def test_no_weight_gives_a_baseline_forte_s_balance_is_judged_per_weight():
+    from forte.experiments.baseline_weights import weight_claims
+    forte_light = fake_plan("forte", 20.0, mu=0.2, mag=3.4)
+    ok = sim(True, True, True)
+    # enough force (capacity >= |f| + r = 36.5 N, every run ok) only where manipulability drops
+    rows = [(60.0, 30.0, 0.19, sim(False, False)), (600.0, 40.0, 0.16, ok)]
+    shift, balance = weight_claims(sweep_points({"rfp-radius": rows, "rfp-cone": rows}), forte_light, "5.3", "2.7 L")
+    assert shift.reproduced and balance.reproduced
+    assert "sufficient from weight 600, where its 0.33 L manipulability is 0.1600" in balance.ours
+    # a weight with both breaks the claim and is named
+    both = [*rows, (1800.0, 45.0, 0.21, ok)]
+    _, balance = weight_claims(sweep_points({"rfp-radius": both, "rfp-cone": rows}), forte_light, "5.3", "2.7 L")
+    assert not balance.reproduced and "both at weight 1800" in balance.cause
+    # a failed trial is not enough force, whatever the plan's capacity
+    trial_fails = [(60.0, 30.0, 0.19, sim(False)), (600.0, 45.0, 0.21, sim(True, True, False))]
+    _, balance = weight_claims(sweep_points({"rfp-radius": trial_fails, "rfp-cone": rows}), forte_light, "5.3",
+                               "2.7 L")
+    assert balance.reproduced and "rfp-radius: never sufficient" in balance.ours
+    # no rise in capacity: the weights do not shift the curves
+    flat = [(60.0, 40.0, 0.16, ok), (600.0, 40.0, 0.16, ok)]
+    shift, _ = weight_claims(sweep_points({"rfp-radius": flat, "rfp-cone": rows}), forte_light, "5.3", "2.7 L")
+    assert not shift.reproduced and "rfp-radius's mean capacity at weight 600" in shift.cause
+
+
+def test_a_failed_sweep_plan_is_no_evidence():
+    from forte.experiments.baseline_weights import SweepPoint, weight_claims
+    ok = sim(True, True)
+    points = sweep_points({"rfp-radius": [(60.0, 30.0, 0.19, ok)], "rfp-cone": [(60.0, 30.0, 0.19, ok)]})
+    points.append(SweepPoint("rfp-cone", 600.0, fake_plan("rfp-cone", 20.0, mag=3.4),
+                             fake_plan("rfp-cone", 60.0, success=False), ok))
+    for claim in weight_claims(points, fake_plan("forte", 20.0, mag=3.4), "5.4", "2.7 L"):
+        assert not claim.reproduced and "rfp-cone@600: Maximum_Iterations_Exceeded" in claim.cause
+
+
+def test_the_sweep_starts_from_the_authors_weight_of_each_set():
+    from forte.experiments.baseline_weights import sweep_weights, with_capability_weight
+    from forte.settings import WEIGHT_SETS
+    for preset, base in (("forte-trajectory", 60.0), ("authors-trajectory", 60.0), ("authors-hold", 2.0)):
+        weights = WEIGHT_SETS[preset]
+        assert sweep_weights("rfp-cone", weights, (1.0, 10.0)) == (base, 10 * base)
+        tuned = with_capability_weight("rfp-cone", 123.0, preset).resolve_weights(weights)
+        assert tuned.capability == 123.0
+        # the method's other tuning on that set is kept (the cone's joint-limit weight 2 on trajectories)
+        assert tuned.joint_limits == (2.0 if preset != "authors-hold" else weights.joint_limits)

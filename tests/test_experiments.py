@@ -46,8 +46,14 @@ def test_continuous_runs_end_to_end(tmp_path):
 
 def test_lift_runs_end_to_end_with_simulation(tmp_path):
     out = tmp_path / "lift"
-    doc = run_lift(out, trials=1, waypoints=12)
-    _check_outputs(out, ["lift.png"], 2)
+    doc = run_lift(out, trials=1, waypoints=12, weight_factors=(1.0, 30.0))
+    _check_outputs(out, ["lift.png", "lift_weights.png"], 2)
+    sweep = doc["baseline_weights"]
+    assert sweep["factors"] == [1.0, 30.0]
+    assert [(p["method"], p["weight"]) for p in sweep["points"]] == [
+        ("rfp-radius", 60.0), ("rfp-radius", 1800.0), ("rfp-cone", 60.0), ("rfp-cone", 1800.0)]
+    assert all(p["heavy_simulation"]["trials"]["count"] == 1 for p in sweep["points"])
+    assert "## RFP baselines at other capability weights" in (out / "summary.md").read_text()
     for case in doc["cases"].values():
         assert set(case["methods"]) == {"forte", "manipulability", "rfp-radius", "rfp-cone", "quintic"}
         for entry in case["methods"].values():
@@ -71,15 +77,18 @@ def test_hold_runs_through_the_cli_parser_with_vector_figures(tmp_path):
     out = tmp_path / "hold"
     args = parser.parse_args(["experiment", "hold", "--out", str(out), "--trials", "1", "--quiet", "--format", "svg"])
     assert args.func(args) == 0
-    doc = _check_outputs(out, ["hold_metrics.svg", "hold_polytopes.svg", "hold_ellipsoids.svg"], 2)
+    doc = _check_outputs(out, ["hold_metrics.svg", "hold_polytopes.svg", "hold_ellipsoids.svg", "hold_weights.svg"],
+                         2)
+    assert {p["weight"] for p in doc["baseline_weights"]["points"]} == {2.0, 6.0, 20.0, 60.0}
     assert (out / "hold_polytopes.svg").read_text().lstrip().startswith("<?xml")
     assert not list(out.glob("*.png"))
     assert set(doc["cases"]["2.7 L"]["methods"]) == {"forte", "manipulability", "rfp-radius", "rfp-cone", "teaching"}
 
 
 def test_hold_function_is_deterministic_in_its_seeded_trials(tmp_path):
-    a = run_hold(tmp_path / "a", trials=2, seed=3)
-    b = run_hold(tmp_path / "b", trials=2, seed=3)
+    a = run_hold(tmp_path / "a", trials=2, seed=3, weight_factors=())
+    b = run_hold(tmp_path / "b", trials=2, seed=3, weight_factors=())
+    assert "baseline_weights" not in a and "hold_weights.png" not in a["figures"]
     masses = [[r["mass"] for r in m["simulation"]["trials"]["runs"]]
               for c in (a, b) for m in c["cases"]["2.7 L"]["methods"].values()]
     assert masses[:5] == masses[5:]

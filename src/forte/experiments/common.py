@@ -217,8 +217,12 @@ def _table(case: Case) -> list[str]:
 
 
 def write_summary(directory: Path, title: str, intro: list[str], cases: list[Case], claims: list[Claim],
-                  figures: list[str], settings: dict[str, Any], notes: list[str]) -> dict[str, Any]:
-    """``summary.json`` and ``summary.md``: per-case tables, the paper's claims, our notes, figures."""
+                  figures: list[str], settings: dict[str, Any], notes: list[str],
+                  sections: list[str] | None = None, extra: dict[str, Any] | None = None) -> dict[str, Any]:
+    """``summary.json`` and ``summary.md``: per-case tables, the paper's claims, our notes, figures.
+
+    ``sections`` are markdown lines placed after the per-case tables; ``extra`` adds keys to the JSON.
+    """
     doc = {
         "generator": GENERATOR, "format_version": FORMAT_VERSION,
         "experiment": title,
@@ -230,11 +234,13 @@ def write_summary(directory: Path, title: str, intro: list[str], cases: list[Cas
         "notes": notes,
         "figures": figures,
         "versions": package_versions(),
+        **(extra or {}),
     }
     (directory / "summary.json").write_text(json.dumps(jsonable(doc), indent=1) + "\n")
     lines = [f"# {title}", "", *intro, ""]
     for case in cases:
         lines += [f"## {case.label}", "", *_table(case), ""]
+    lines += [*(sections or [])]
     lines += claims_section(claims)
     if notes:
         lines += ["## Notes (our observations, not claims of the paper)", "", *[f"- {n}" for n in notes], ""]

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from forte.capability.polytope import directional_capacity, trajectory_rfp
-from forte.experiments.claims import Claim, compare, every_run, runs, solved, unloaded_succeeds
+from forte.experiments.baseline_weights import SWEEP_FACTORS, weight_sweep_report
 from forte.experiments.common import (
     MANIP_DEF,
     MANIP_LABEL,
@@ -26,18 +26,16 @@ from forte.experiments.common import (
     Case,
     Log,
     check_format,
-    metrics,
     paper_methods,
     plan_payloads,
     quiet,
     save,
-    sim_text,
     simulate_cases,
     style,
     unloaded_runs,
-    unloaded_text,
     write_summary,
 )
+from forte.experiments.hold_claims import hold_claims, hold_notes
 from forte.io.figures import pyplot
 from forte.io.outputs import replace_directory
 from forte.planning.planner import Plan
@@ -224,11 +222,14 @@ def plot_hold_ellipses(cases: list[Case], directory: Path, fmt: str) -> str:
 
 # -- run -------------------------------------------------------------------------------------
 def run_hold(out: str | Path, trials: int = 3, waypoints: int | None = None, seed: int = 0,
-             log: Log = quiet, fmt: str = "png") -> dict[str, Any]:
+             log: Log = quiet, fmt: str = "png",
+             weight_factors: tuple[float, ...] = SWEEP_FACTORS) -> dict[str, Any]:
     """Plan, simulate (nominal + ``trials`` seeded mass errors) and summarize Section 5.4 in ``out``.
 
     ``waypoints`` is accepted for a uniform interface (a hold task has one waypoint); ``fmt`` is
     the figure format (png, pdf or svg).
+    ``weight_factors``: the RFP baselines' capability weight in the sweep of
+    :mod:`forte.experiments.baseline_weights`, as multiples of the authors' (empty: no sweep).
     """
     out, fmt = Path(out), check_format(fmt)
     cases = plan_payloads("hold", paper_methods("hold"), waypoints, log)
@@ -236,141 +237,19 @@ def run_hold(out: str | Path, trials: int = 3, waypoints: int | None = None, see
     def build(tmp: Path) -> None:
         simulate_cases(tmp, cases, trials, seed, log, hold=HOLD_SECONDS)
         unloaded = unloaded_runs(tmp, cases[1], HOLD_SECONDS, log)
+        sweep = weight_sweep_report(cases, tmp, weight_factors, trials, seed, HOLD_SECONDS, log, fmt, "5.4",
+                                    "holding")
         figures = [plot_hold_metrics(cases, tmp, fmt), plot_hold_polytopes(cases, tmp, fmt),
-                   plot_hold_ellipses(cases, tmp, fmt)]
+                   plot_hold_ellipses(cases, tmp, fmt), *sweep.figures]
         write_summary(tmp, "Section 5.4: single-point holding", [
             "Task `examples/tasks/hold.yaml`: one end-effector pose; the optimized methods choose the whole-body "
             "configuration, `teaching` is the given teaching configuration. Payload 0.35 kg (0.33 L) and 2.7 kg "
             f"(2.7 L). Each configuration is held {HOLD_SECONDS:.0f} s in MuJoCo with the nominal mass, then "
             f"{trials} time(s) with a seeded payload-mass error uniform in ±{MASS_ERROR:.0%} (seed {seed}); a claim "
             "on the simulation counts only if it holds in every run."],
-            cases, hold_claims(cases, unloaded), figures,
+            cases, [*hold_claims(cases, unloaded), *sweep.claims], figures,
             {"trials": trials, "seed": seed, "mass_error": MASS_ERROR, "hold_s": HOLD_SECONDS,
-             "unloaded_2p7_plans": unloaded, "format": fmt}, hold_notes(cases, unloaded))
+             "unloaded_2p7_plans": unloaded, "format": fmt}, hold_notes(cases, unloaded), sweep.sections, sweep.extra)
 
     replace_directory(build, out)
     return json.loads((out / "summary.json").read_text())
-
-
-# -- claims ----------------------------------------------------------------------------------
-def min_axis(res: Plan) -> float:
-    """Smallest semi-axis of the velocity-manipulability ellipsoid at the held configuration (m/s)."""
-    return float(np.linalg.svd(res.task.robot.arm_jacobian(res.q[0]), compute_uv=False)[-1])
-
-
-def _heavy_claims(heavy: Case, unloaded: dict[str, dict[str, Any]]) -> list[Claim]:
-    mh = {m: metrics(r) for m, r in heavy.results.items()}
-    res = heavy.results
-    need, rad = float(res["forte"].force.magnitude[0]), float(res["forte"].force.r[0])
-    cap = {m: v["mean_capacity"] for m, v in mh.items()}
-    return [
-        Claim("5.4", "2.7 L: forte's capacity is comparable to (>= 0.8x) rfp-radius's and above the |f| ± r band",
-              "capacity (N); capacity − (|f| + r)", f"forte {cap['forte']:.1f} vs rfp-radius "
-              f"{cap['rfp-radius']:.1f}; {mh['forte']['min_capacity_margin']:.1f}",
-              [solved(res, "forte", "rfp-radius"),
-               compare("forte's capacity", cap["forte"], ">=", "0.8 x rfp-radius's", 0.8 * cap["rfp-radius"], " N"),
-               compare("forte's capacity", cap["forte"], ">=", "|f| + r", need + rad, " N")]),
-        Claim("5.4", "2.7 L: manipulability-only's capacity falls into the |f| ± r band",
-              "capacity vs |f| − r and |f| + r (N)", f"{cap['manipulability']:.1f} vs [{need - rad:.1f}, "
-              f"{need + rad:.1f}]",
-              [solved(res, "manipulability"),
-               compare("manipulability-only's capacity", cap["manipulability"], "<", "|f| + r", need + rad, " N"),
-               compare("manipulability-only's capacity", cap["manipulability"], ">=", "|f| − r", need - rad, " N")],
-              why="on our model the manipulability optimum lies below the band, not in it "
-              f"({cap['manipulability']:.1f} N < |f| − r = {need - rad:.1f} N): the paper's point, too little "
-              "capacity for the load, holds more strongly than its wording"),
-        Claim("5.4", "2.7 L: the teaching point's capacity is below the required force (ball centre outside the RFP)",
-              "capacity − |f| (N)", f"{mh['teaching']['min_capacity_minus_force']:.1f}",
-              [solved(res, "teaching"), compare("teaching's capacity", cap["teaching"], "<", "|f|", need, " N")]),
-        Claim("5.4", "2.7 L: the teaching point cannot hold the pose under the load",
-              "simulation with the payload (every run); without it", f"{sim_text(heavy.sims.get('teaching'))}; "
-              f"without payload: {unloaded_text({k: v for k, v in unloaded.items() if k == 'teaching'})}",
-              [every_run(heavy, "teaching", success=False), unloaded_succeeds(unloaded, "teaching")]),
-        *[Claim("5.4", f"2.7 L: {m} keeps the uncertainty ball inside the RFP with a margin, so it can hold the "
-                "payload", "d (N); simulation (every run)", f"{mh[m]['min_d']:.1f}; {sim_text(heavy.sims.get(m))}",
-                [solved(res, m), compare(f"{m}'s d", mh[m]["min_d"], ">=", "0", 0.0, " N"), every_run(heavy, m)],
-                why=_ball_why(m, mh[m], res[m]))
-          for m in ("forte", "rfp-radius", "rfp-cone")],
-    ]
-
-
-def _ball_why(method: str, m: dict[str, Any], res: Plan) -> str:
-    """Why a 2.7 L configuration's ball is not inside its RFP (numbers of the run)."""
-    if method == "forte":
-        return (f"forte's ball touches the polytope (d = {m['min_d']:.3f} N): J1 vanishes only for d >= 0 and "
-                "forte gives any slack back to manipulability (task-sufficient by design), so its optimum sits on "
-                f"the ball's edge; its capacity along f is {m['min_capacity_margin']:.1f} N above |f| + r")
-    need, rad = float(res.force.magnitude[0]), float(res.force.r[0])
-    robot, starts = res.task.robot, res.task.solver.hold_starts
-    limits = "/".join(f"{v:g}" for v in dict.fromkeys(robot.torque_limits))
-    return (f"{method} maximizes a measure taken from the origin, not around the task force: the best "
-            f"configuration of its {starts} start(s) has inscribed radius {m['min_inscribed_radius']:.1f} N and "
-            f"capacity along f {m['min_capacity']:.1f} N < |f| + r = {need + rad:.1f} N, so the {rad:g} N ball "
-            f"around the {need:.1f} N force sticks out (our model: {limits} Nm limits, the "
-            f"{robot.tool_force_mass:g} kg tool in the force)")
-
-
-def _light_claims(light: Case, heavy: Case) -> list[Claim]:
-    ml = {m: metrics(r) for m, r in light.results.items()}
-    res = light.results
-    mu = {m: v["mean_manipulability"] for m, v in ml.items()}
-    axes = {m: min_axis(r) for m, r in res.items()}
-    teach = float(heavy.results["teaching"].metrics["manipulability"][0])
-    return [
-        Claim("5.4", "0.33 L: forte's manipulability is close to manipulability-only's (>= 0.9x)", "manipulability",
-              f"{mu['forte']:.4f} vs {mu['manipulability']:.4f}",
-              [solved(res, "forte", "manipulability"),
-               compare("forte's manipulability", mu["forte"], ">=", "0.9 x manipulability-only's",
-                       0.9 * mu["manipulability"], digits=4)]),
-        Claim("5.4", "0.33 L: rfp-radius still maximizes force capability (more than forte)", "capacity (N)",
-              f"rfp-radius {ml['rfp-radius']['mean_capacity']:.1f} vs forte {ml['forte']['mean_capacity']:.1f}",
-              [solved(res, "rfp-radius", "forte"),
-               compare("rfp-radius's capacity", ml["rfp-radius"]["mean_capacity"], ">", "forte's",
-                       ml["forte"]["mean_capacity"], " N")]),
-        *[Claim("5.4", f"0.33 L: {m} sacrifices velocity manipulability: thinner ellipsoid than forte's",
-                "smallest semi-axis of the velocity ellipsoid (m/s); manipulability",
-                f"{m} {axes[m]:.3f} vs forte {axes['forte']:.3f}; {mu[m]:.4f} vs {mu['forte']:.4f}",
-                [solved(res, m, "forte"),
-                 compare(f"{m}'s smallest semi-axis", axes[m], "<", "forte's", axes["forte"], " m/s", 3),
-                 compare(f"{m}'s manipulability", mu[m], "<", "forte's", mu["forte"], digits=4)],
-                why=f"the smallest semi-axes differ by {abs(axes[m] - axes['forte']):.4f} m/s "
-                f"({abs(axes[m] / axes['forte'] - 1):.1%}): the ellipsoid is not thinner; its manipulability (the "
-                "ellipsoid's volume) is lower, as the paper says")
-          for m in ("rfp-radius", "rfp-cone")],
-        # The paper's figure shows the one teaching configuration against each method's; "poor"
-        # is read against the methods that keep manipulability: forte at 0.33 L (at 2.7 L forte
-        # spends it on force by design, see the notes) and manipulability-only.
-        Claim("5.4", "the teaching point has poor manipulability (thinner ellipsoid and lower manipulability than "
-              "forte's at 0.33 L and manipulability-only's)", "smallest semi-axis (m/s); manipulability",
-              f"teaching {axes['teaching']:.3f} vs forte {axes['forte']:.3f} / manipulability-only "
-              f"{axes['manipulability']:.3f}; {teach:.4f} vs {mu['forte']:.4f} / {mu['manipulability']:.4f}",
-              [solved(res, "forte", "teaching", "manipulability"),
-               compare("teaching's smallest semi-axis", axes["teaching"], "<", "forte's", axes["forte"], " m/s", 3),
-               compare("teaching's manipulability", teach, "<", "forte's", mu["forte"], digits=4),
-               compare("teaching's manipulability", teach, "<", "manipulability-only's", mu["manipulability"],
-                       digits=4)]),
-    ]
-
-
-def hold_claims(cases: list[Case], unloaded: dict[str, dict[str, Any]]) -> list[Claim]:
-    """The claims of Section 5.4 (``cases``: 0.33 L then 2.7 L; ``unloaded``: 2.7 L plans without payload)."""
-    light, heavy = cases
-    return [*_heavy_claims(heavy, unloaded), *_light_claims(light, heavy)]
-
-
-def hold_notes(cases: list[Case], unloaded: dict[str, dict[str, Any]]) -> list[str]:
-    """Our observations (not claims of the paper), each with its numbers."""
-    light, heavy = cases
-    light_fail = [m for m in light.results if not all(r["success"] for r in runs(light.sims.get(m), light.mass))]
-    margins = ", ".join(f"{m} {metrics(r)['min_capacity_margin']:.1f}" for m, r in heavy.results.items())
-    return ["Hold plans have one waypoint: the min/mean columns are that waypoint's values.",
-            f"The 2.7 L configurations held with no payload: {unloaded_text(unloaded)}.",
-            f"0.33 L configurations with a failed (or no) simulated run: {', '.join(light_fail) or 'none'}"
-            + (f" (teaching: min d = {metrics(light.results['teaching'])['min_d']:.1f} N in planning)"
-               if "teaching" in light_fail else "") + ".",
-            f"2.7 L capacity − (|f| + r) per configuration (N): {margins}.",
-            "Manipulability at 2.7 L (forte spends it on force by design): "
-            + ", ".join(f"{m} {float(r.metrics['manipulability'][0]):.4f}" for m, r in heavy.results.items()) + ".",
-            "Optimized hold configurations are the best of "
-            f"{heavy.results['forte'].task.solver.hold_starts} seeded starts per method (solver option "
-            "`hold_starts`; the authors start once, from the taught point)."]

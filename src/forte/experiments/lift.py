@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from forte.experiments.baseline_weights import SWEEP_FACTORS, weight_sweep_report
 from forte.experiments.claims import Check, Claim, compare, every_run, runs, solved, some_run_fails, unloaded_succeeds
 from forte.experiments.common import (
     MANIP_DEF,
@@ -69,10 +70,13 @@ def plot_lift(cases: list[Case], directory: Path, fmt: str) -> str:
 
 
 def run_lift(out: str | Path, trials: int = 3, waypoints: int | None = None, seed: int = 0,
-             log: Log = quiet, fmt: str = "png") -> dict[str, Any]:
+             log: Log = quiet, fmt: str = "png",
+             weight_factors: tuple[float, ...] = SWEEP_FACTORS) -> dict[str, Any]:
     """Plan, simulate (nominal + ``trials`` seeded mass errors) and summarize Section 5.3 in ``out``.
 
     ``fmt`` is the figure format (png, pdf or svg).
+    ``weight_factors``: the RFP baselines' capability weight in the sweep of
+    :mod:`forte.experiments.baseline_weights`, as multiples of the authors' (empty: no sweep).
     """
     out, fmt = Path(out), check_format(fmt)
     cases = plan_payloads("lift", paper_methods("lift"), waypoints, log)
@@ -81,7 +85,8 @@ def run_lift(out: str | Path, trials: int = 3, waypoints: int | None = None, see
         simulate_cases(tmp, cases, trials, seed, log, hold=1.0)
         unloaded = unloaded_runs(tmp, cases[1], 1.0, log)
         exact = authors_weight_check(cases[1], log)
-        figure = plot_lift(cases, tmp, fmt)
+        sweep = weight_sweep_report(cases, tmp, weight_factors, trials, seed, 1.0, log, fmt, "5.3", "lifting")
+        figures = [plot_lift(cases, tmp, fmt), *sweep.figures]
         ref = next(iter(cases[0].results.values()))
         write_summary(tmp, "Section 5.3: lifting trajectory", [
             f"Task `examples/tasks/lift.yaml`, {ref.task.n} waypoints over {ref.t[-1]:.0f} s; payload 0.35 kg "
@@ -90,10 +95,10 @@ def run_lift(out: str | Path, trials: int = 3, waypoints: int | None = None, see
             "simulation counts only if it holds in every run.",
             "Capacity columns: RFP capacity along the planned force f; `min cap − |f|` < 0 means the nominal "
             "force is outside the residual force polytope."],
-            cases, lift_claims(cases, unloaded), [figure],
+            cases, [*lift_claims(cases, unloaded), *sweep.claims], figures,
             {"waypoints": ref.task.n, "trials": trials, "seed": seed, "mass_error": MASS_ERROR,
              "unloaded_2p7_plans": unloaded, "authors_weights_2p7": exact, "format": fmt},
-            [*lift_notes(cases, unloaded), _weights_note(cases[1], exact)])
+            [*lift_notes(cases, unloaded), _weights_note(cases[1], exact)], sweep.sections, sweep.extra)
 
     replace_directory(build, out)
     return json.loads((out / "summary.json").read_text())
@@ -124,7 +129,7 @@ def _sufficient_and_lifts(heavy: Case, mh: dict[str, dict[str, Any]], method: st
                  "payloads; with the authors' weights its "
                  f"capacity along f reaches {mh[method]['min_capacity']:.1f} N at the weakest waypoint, "
                  f"{-mh[method]['min_capacity_minus_force']:.1f} N short of |f| there; forte, whose J1 asks for "
-                 "the load, keeps it")
+                 "the load, keeps it (the weight sweep below shows where a larger weight gets it there)")
 
 
 def _heavy_claims(heavy: Case, unloaded: dict[str, dict[str, Any]]) -> list[Claim]:
@@ -189,10 +194,42 @@ def _light_claims(light: Case) -> list[Claim]:
     ]
 
 
+def _adaptive_claims(light: Case, heavy: Case) -> list[Claim]:
+    """forte against itself across the payloads, and against the others under the heavy one."""
+    ml = {m: metrics(r) for m, r in light.results.items()}
+    mh = {m: metrics(r) for m, r in heavy.results.items()}
+    others = [m for m in mh if m != "manipulability"]
+    best_other = max(others, key=lambda m: mh[m]["mean_manipulability"])
+    return [
+        Claim("5.3", "2.7 L: manipulability-only improves the kinematic flexibility (the highest manipulability)",
+              "mean manipulability", f"manipulability-only {mh['manipulability']['mean_manipulability']:.4f} vs "
+              f"the next ({best_other}) {mh[best_other]['mean_manipulability']:.4f}",
+              [solved(heavy.results, *mh), compare("manipulability-only's mean manipulability",
+                                                   mh["manipulability"]["mean_manipulability"], ">",
+                                                   f"{best_other}'s", mh[best_other]["mean_manipulability"],
+                                                   digits=4)]),
+        Claim("5.3", "forte adapts to the task force: more force capacity for the 2.7 L load, more manipulability "
+              "for the 0.33 L one", "mean capacity (N); mean manipulability, 2.7 L vs 0.33 L",
+              f"{mh['forte']['mean_capacity']:.1f} vs {ml['forte']['mean_capacity']:.1f}; "
+              f"{mh['forte']['mean_manipulability']:.4f} vs {ml['forte']['mean_manipulability']:.4f}",
+              [solved(heavy.results, "forte"), solved(light.results, "forte"),
+               compare("forte's mean capacity at 2.7 L", mh["forte"]["mean_capacity"], ">", "at 0.33 L",
+                       ml["forte"]["mean_capacity"], " N"),
+               compare("forte's mean manipulability at 0.33 L", ml["forte"]["mean_manipulability"], ">",
+                       "at 2.7 L", mh["forte"]["mean_manipulability"], digits=4)]),
+        Claim("5.3, 6", "2.7 L: forte matches the dedicated force-maximizing baselines (>= 0.8x their capacity)",
+              "mean capacity (N)", f"forte {mh['forte']['mean_capacity']:.1f} vs rfp-radius "
+              f"{mh['rfp-radius']['mean_capacity']:.1f}, rfp-cone {mh['rfp-cone']['mean_capacity']:.1f}",
+              [solved(heavy.results, "forte", "rfp-radius", "rfp-cone"),
+               *[compare("forte's mean capacity", mh["forte"]["mean_capacity"], ">=", f"0.8 x {m}'s",
+                         0.8 * mh[m]["mean_capacity"], " N") for m in ("rfp-radius", "rfp-cone")]]),
+    ]
+
+
 def lift_claims(cases: list[Case], unloaded: dict[str, dict[str, Any]]) -> list[Claim]:
     """The claims of Section 5.3 (``cases``: 0.33 L then 2.7 L; ``unloaded``: 2.7 L plans without payload)."""
     light, heavy = cases
-    return [*_heavy_claims(heavy, unloaded), *_light_claims(light)]
+    return [*_heavy_claims(heavy, unloaded), *_light_claims(light), *_adaptive_claims(light, heavy)]
 
 
 def _time(value: float | None) -> str:
