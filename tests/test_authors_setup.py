@@ -185,7 +185,7 @@ def test_velocity_nominal_and_base_velocity_terms(authors):
     assert stage_value(authors, "velocity", q0, q1=q1, dt=dt) == pytest.approx(
         0.5 * np.sum((q0[3:] - q1[3:]) ** 2) / dt**2, rel=1e-12)
     assert stage_value(authors, "base_velocity", q0, q1=q1, dt=dt) == pytest.approx(
-        0.5 * np.sum((q0[:3] - q1[:3]) ** 2) / dt**2, rel=1e-12)
+        0.5 * np.sum(np.array([1, 1, 0.5]) * (q0[:3] - q1[:3]) ** 2) / dt**2, rel=1e-12)
     assert stage_value(authors, "nominal", q0, nominal=nom) == pytest.approx(
         0.5 * np.sum((q0[3:] - nom[3:]) ** 2), rel=1e-12)
 

@@ -167,3 +167,17 @@ def test_bad_collision_settings_give_one_line_naming_the_field(tmp_path, weights
         load_task(path)
     text = str(err.value)
     assert message in text and str(path) in text and "\n" not in text
+
+
+def test_base_velocity_uses_the_metric_linearly_and_wraps_yaw(robot):
+    _, f = stage_function(robot, name="base_velocity")
+    q1 = np.r_[0.30, -0.20, 3.10, robot.home_arm]
+    q0 = np.r_[0.38, -0.14, -3.12, robot.home_arm + 0.1]  # yaw steps across +-pi
+    dt = 0.25
+    d_yaw = -3.12 - 3.10 + 2 * np.pi  # the short way round: +0.0632 rad
+    expected = 0.5 * (1.0 * 0.08**2 + 1.0 * 0.06**2 + 0.5 * d_yaw**2) / dt**2
+    assert f(q0, q1, dt)[0][0] == pytest.approx(expected, rel=1e-12)
+    # away from the wrap: 0.5 * (dx^2 + dy^2 + 0.5 dyaw^2) / dt^2, the arm ignored
+    q0b = np.r_[0.1, 0.2, 0.3, robot.home_arm - 0.2]
+    q1b = np.r_[0.0, 0.0, 0.0, robot.home_arm]
+    assert f(q0b, q1b, 0.5)[0][0] == pytest.approx(0.5 * (0.01 + 0.04 + 0.5 * 0.09) / 0.25, rel=1e-12)

@@ -85,7 +85,8 @@ class CostWeights:
         base_spectral: ``w_5``.
         velocity: arm velocity term ``1/2 ||q_a,k - q_a,k-1||^2 / dt_k^2``.
         nominal: arm nominal term ``1/2 ||q_a,k - q_a,nom,k||^2``.
-        base_velocity: base velocity term ``1/2 ||q_b,k - q_b,k-1||^2 / dt_k^2``.
+        base_velocity: base velocity term ``1/2 sum_i m_i (q_b,k - q_b,k-1)_i^2 / dt_k^2`` with
+            ``m = smoothness_base`` used linearly and the yaw difference wrapped (the authors').
         collision: collision term; its geometry is ``collision_model``.
         manipulability_lambda: ``lambda`` of the regularized manipulability.
         manipulability_eps: ``eps_m`` in ``1 / max(mu, eps_m)``.

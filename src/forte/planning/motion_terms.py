@@ -80,13 +80,29 @@ class Velocity(CostTerm):
 
 @register_term
 @dataclass(frozen=True)
-class BaseVelocity(Velocity):
-    """Base velocity term ``1/2 ||q_b,k - q_b,k-1||^2 / dt_k^2`` over (x, y, yaw)."""
+class BaseVelocity(CostTerm):
+    """Base velocity term ``1/2 sum_i m_i (q_b,k - q_b,k-1)_i^2 / dt_k^2`` over (x, y, yaw).
+
+    Not in the paper's text: the authors' code, where it is their base smoothness divided by
+    ``dt^2``, the metric ``m`` (``smoothness_base``, default (1, 1, 0.5)) used linearly and the
+    yaw difference wrapped to (-pi, pi] (``atan2(sin, cos)``). forte's base smoothness (J4, the
+    paper's ``1/2 ||W_s dq||^2``, ``W_s`` squared) and J5 are constant quadratics on the raw
+    yaw; the wrap changes nothing while ``|yaw_k - yaw_k-1| < pi`` (the base yaw velocity limit
+    keeps it below 0.4 rad per 0.25 s step).
+    """
 
     name: ClassVar[str] = "base_velocity"
+    metric: tuple[float, float, float] = (1.0, 1.0, 0.5)
 
-    def coordinates(self, s: Stage) -> slice:
-        return slice(0, N_BASE)
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> BaseVelocity:
+        return cls(tuple(weights.smoothness_base))
+
+    def stage(self, s: Stage) -> ca.SX:
+        d = s.q0[:N_BASE] - s.q1[:N_BASE]
+        d_yaw = ca.atan2(ca.sin(d[2]), ca.cos(d[2]))
+        m = self.metric
+        return 0.5 * (m[0] * d[0] ** 2 + m[1] * d[1] ** 2 + m[2] * d_yaw**2) / s.dt0**2
 
 
 @register_term
