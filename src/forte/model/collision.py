@@ -61,10 +61,11 @@ class SpherePairs(NamedTuple):
 
 
 #: The authors' spheres (their experiments' configuration, ``optimizer_collision_*_spheres``): a
-#: basket on the end effector (one sphere of 0.15 m 0.1 m along the end effector's z axis, three
-#: of 0.18 m at 0.3 m: on the axis and 0.15 m off it either side along the x = y diagonal) against
-#: the MOCA base (0.52 m at 0.35 m above the footprint; 0.15 m at (0.2, 0, 0.8) m, in front of
-#: the arm's mount). No sphere on the arm links: the arm itself is not checked.
+#: basket on the end effector (radius 0.15 m centred 0.1 m along the end effector's z axis; three
+#: of 0.18 m at 0.3 m, one on the axis and two 0.15 m off it along the x = y diagonal) against the
+#: MOCA base (0.52 m centred 0.35 m above the footprint) and the arm's shoulder (0.15 m at
+#: (0.2, 0, 0.8) m, around the Panda's first links: its mount is at (0.2575, 0, 0.52) m). No
+#: spheres on the moving arm links: the arm itself is not checked.
 AUTHORS_SPHERES = SpherePairs(
     basket=(CollisionSphere("ee", (0.0, 0.0, 0.1), 0.15), CollisionSphere("ee", (0.0, 0.0, 0.3), 0.18),
             CollisionSphere("ee", (0.106, 0.106, 0.3), 0.18), CollisionSphere("ee", (-0.106, -0.106, 0.3), 0.18)),
