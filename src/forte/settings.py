@@ -67,6 +67,9 @@ class CapabilityParameters:
         _require(_finite(self.knee) and self.knee >= 0, "knee", "a finite number >= 0", self.knee)
 
 
+#: Values of ``CostWeights.collision_model`` (see :class:`forte.planning.motion_terms.Collision`).
+COLLISION_MODELS = ("authors", "box")
+
 #: Values of ``CostWeights.dct_form`` (see :func:`forte.planning.spectral.spectral_form`).
 DCT_FORMS = ("auto", "exact", "dense", "banded")
 
@@ -88,8 +91,9 @@ class CostWeights:
         base_spectral: ``w_5``.
         velocity: arm velocity term ``1/2 ||q_a,k - q_a,k-1||^2 / dt_k^2``.
         nominal: arm nominal term ``1/2 ||q_a,k - q_a,nom,k||^2``.
-        base_velocity: base velocity term ``1/2 ||q_b,k - q_b,k-1||^2 / dt_k^2``.
-        collision: collision term (spheres on the arm against the base box and the floor).
+        base_velocity: base velocity term ``1/2 sum_i m_i (q_b,k - q_b,k-1)_i^2 / dt_k^2`` with
+            ``m = smoothness_base`` used linearly and the yaw difference wrapped (the authors').
+        collision: collision term; its geometry is ``collision_model``.
         manipulability_lambda: ``lambda`` of the regularized manipulability.
         manipulability_eps: ``eps_m`` in ``1 / max(mu, eps_m)``.
         joint_margin: ``delta_i`` (rad), the safety margin of J3 (one value for every joint),
@@ -100,7 +104,13 @@ class CostWeights:
         joint_eps: ``eps_h``.
         manipulability_yaw: ``mu`` from the 3 x (1 + n) Jacobian with the base-yaw column (the
             authors' code) instead of the 3 x n arm Jacobian (the paper's text, default).
-        collision_radius: radius of the collision spheres (m).
+        collision_model: ``authors`` (default): the authors' spheres on the end effector against
+            spheres on the base (:data:`forte.model.collision.AUTHORS_SPHERES`), each pair
+            penalized by ``max(0, collision_safe_distance - clearance)^2``; ``box``: forte's
+            earlier estimate, spheres of ``collision_radius`` on the arm joints against a box
+            around the base and the floor.
+        collision_safe_distance: clearance (m) below which the ``authors`` model penalizes a pair.
+        collision_radius: radius (m) of the arm spheres of the ``box`` model.
         smoothness_base, smoothness_arm: diagonal of ``W_s`` for (x, y, yaw) and the arm joints.
         dct_cutoff: frequencies ``l >= ceil(cutoff N)`` form the high-frequency set ``H``.
         dct_axis: ``eta_xi`` for x, y, yaw.
@@ -144,6 +154,8 @@ class CostWeights:
     dct_ramp: bool = True
     dct_form: str = "auto"
     dct_reference_waypoints: int = 41
+    collision_model: str = "authors"
+    collision_safe_distance: float = 0.08
     collision_radius: float = 0.08
     capability_params: CapabilityParameters = field(default_factory=lambda: CapabilityParameters(alpha=0.9))
 
@@ -169,6 +181,10 @@ class CostWeights:
                 raise InvalidInputError(f"{name}: expected a finite number > 0, got {value}")
         if not (_finite(self.dct_cutoff) and 0.0 < self.dct_cutoff < 1.0):
             raise InvalidInputError(f"dct_cutoff: expected 0 < cutoff < 1, got {self.dct_cutoff}")
+        _require(self.collision_model in COLLISION_MODELS, "collision_model", f"one of {', '.join(COLLISION_MODELS)}",
+                 self.collision_model)
+        _require(_finite(self.collision_safe_distance) and self.collision_safe_distance >= 0,
+                 "collision_safe_distance", "a finite number >= 0", self.collision_safe_distance)
         _require(self.dct_form in DCT_FORMS, "dct_form", f"one of {', '.join(DCT_FORMS)}", self.dct_form)
         _require(isinstance(self.dct_reference_waypoints, int) and not isinstance(self.dct_reference_waypoints, bool)
                  and self.dct_reference_waypoints >= 2, "dct_reference_waypoints", "an integer >= 2",
@@ -205,7 +221,8 @@ _HOLD_DOF = tuple(v / 9.0 for v in (0, 1, 1, 9, 0, 1, 1, 1, 0, 0))
 #: - ``authors-trajectory``: the authors' lift/continuous set exactly as their public code runs
 #:   it (capability 1, manipulability 1, joint limit 8,
 #:   arm smoothness 8, velocity 10, nominal 0.05, base smoothness 8, base velocity 0.5,
-#:   spectral 8 with cutoff 0.1 and the ramped gamma of power 2, collision 1, alpha 0.9);
+#:   spectral 8 with cutoff 0.1 and the ramped gamma of power 2, collision 1 (their spheres,
+#:   safe distance 0.08 m), alpha 0.9);
 #: - ``authors-hold`` (the default for holding): capability 2, manipulability 1, joint limit 1
 #:   with DoF weights [0,1,1,9,0,1,1,1,0,0]/9, no regularization, no J5, alpha 0.7, the
 #:   exponent cap off (``max_exponent`` 700, the float64 range);

@@ -22,9 +22,11 @@ Built-in terms (``name``: weight field of :class:`~forte.settings.CostWeights`):
 - ``smoothness`` / ``base_smoothness`` (w4): ``sum_k 1/2 ||W_s (q_k - q_{k-1})||^2`` over the arm /
   the base coordinates;
 - ``base_spectral`` (w5): ``1/2 sum_xi eta_xi sum_{l in H} gamma_l bhat_{xi,l}^2``;
-- ``velocity`` / ``base_velocity``: ``1/2 ||q_k - q_{k-1}||^2 / dt_k^2`` over the arm / the base;
+- ``velocity``: ``1/2 ||q_a,k - q_a,k-1||^2 / dt_k^2`` over the arm;
+- ``base_velocity``: ``1/2 sum_i m_i (q_b,k - q_b,k-1)_i^2 / dt_k^2``, ``m = (1, 1, 0.5)``, yaw wrapped;
 - ``nominal``: ``1/2 ||q_a,k - q_a,nom,k||^2`` (the task's nominal trajectory);
-- ``collision``: spheres on the arm against the base box and the floor.
+- ``collision``: ``sum max(0, s - clearance)^2`` over pairs of spheres on the end effector and on
+  the base (the authors'; ``collision_model: box``: arm spheres against a base box and the floor).
 
 The terms beyond the paper's J1..J5 (velocity, nominal, collision, the per-DoF joint weights,
 the ramped spectral weights) are the authors' (the authors' public code).

@@ -13,6 +13,7 @@ import casadi as ca
 import numpy as np
 from scipy import sparse
 
+from forte.model.collision import AUTHORS_SPHERES, CollisionSphere, SpherePairs
 from forte.model.robot import N_BASE
 from forte.planning.costs import CostTerm, LiftedQuadratic, Stage, register_term
 from forte.planning.spectral import SpectralForm, dct_penalty, spectral_form
@@ -79,13 +80,29 @@ class Velocity(CostTerm):
 
 @register_term
 @dataclass(frozen=True)
-class BaseVelocity(Velocity):
-    """Base velocity term ``1/2 ||q_b,k - q_b,k-1||^2 / dt_k^2`` over (x, y, yaw)."""
+class BaseVelocity(CostTerm):
+    """Base velocity term ``1/2 sum_i m_i (q_b,k - q_b,k-1)_i^2 / dt_k^2`` over (x, y, yaw).
+
+    Not in the paper's text: the authors' code, where it is their base smoothness divided by
+    ``dt^2``, the metric ``m`` (``smoothness_base``, default (1, 1, 0.5)) used linearly and the
+    yaw difference wrapped to (-pi, pi] (``atan2(sin, cos)``). forte's base smoothness (J4, the
+    paper's ``1/2 ||W_s dq||^2``, ``W_s`` squared) and J5 are constant quadratics on the raw
+    yaw; the wrap changes nothing while ``|yaw_k - yaw_k-1| < pi`` (the base yaw velocity limit
+    keeps it below 0.4 rad per 0.25 s step).
+    """
 
     name: ClassVar[str] = "base_velocity"
+    metric: tuple[float, float, float] = (1.0, 1.0, 0.5)
 
-    def coordinates(self, s: Stage) -> slice:
-        return slice(0, N_BASE)
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> BaseVelocity:
+        return cls(tuple(weights.smoothness_base))
+
+    def stage(self, s: Stage) -> ca.SX:
+        d = s.q0[:N_BASE] - s.q1[:N_BASE]
+        d_yaw = ca.atan2(ca.sin(d[2]), ca.cos(d[2]))
+        m = self.metric
+        return 0.5 * (m[0] * d[0] ** 2 + m[1] * d[1] ** 2 + m[2] * d_yaw**2) / s.dt0**2
 
 
 @register_term
@@ -102,22 +119,67 @@ class Nominal(CostTerm):
         return 0.5 * ca.sumsqr(s.q0[N_BASE:] - s.nominal[N_BASE:])
 
 
-#: Collision model of the built-in robot: the base as a box in the base frame (m) and the arm
-#: points that carry spheres (joint origins 3, 4, 5, 7 and the end effector: 6 shares 5's; 1-2 sit on the
-#: mount). An estimate: the MOCA base is not in the authors' optimizer URDF.
+@register_term
+@dataclass(frozen=True)
+class Collision(CostTerm):
+    """The authors' collision term (``collision_model: authors``, the default):
+
+    ``sum_{a in basket} sum_{b in body} max(0, s - c_ab)^2``,  ``c_ab = ||p_a - p_b|| - (r_a + r_b)``
+
+    over the sphere pairs of :data:`forte.model.collision.AUTHORS_SPHERES` (basket spheres on
+    the end effector, body spheres on the base), ``s`` the safe distance (0.08 m), in m^2. Not in
+    the paper's text; defined by the authors' code, whose experiments weigh it 1 (0.1 for the
+    cone baseline). The centres are the forward kinematics of their frames; the distance is
+    taken in the base frame, equal to the world distance since both sets share the base's
+    rigid motion. ``||.||`` is guarded by ``1e-12`` m^2 under the root (as theirs). Zero while
+    every pair keeps ``s`` of clearance.
+    """
+
+    name: ClassVar[str] = "collision"
+    spheres: SpherePairs = AUTHORS_SPHERES
+    safe_distance: float = 0.08
+
+    def __post_init__(self) -> None:
+        SpherePairs(*self.spheres).check()
+
+    @classmethod
+    def from_weights(cls, weights: CostWeights) -> CostTerm:
+        if weights.collision_model == "box":
+            return BoxCollision(weights.collision_radius)
+        return cls(AUTHORS_SPHERES, weights.collision_safe_distance)
+
+    @staticmethod
+    def centres(s: Stage, spheres: tuple[CollisionSphere, ...]) -> list[ca.SX]:
+        """Sphere centres in the base frame."""
+        R_ee, p_ee = s.twin.arm_ee_pose(s.q0[N_BASE:])
+        return [p_ee + R_ee @ ca.DM(sp.centre) if sp.frame == "ee" else ca.DM(sp.centre) for sp in spheres]
+
+    def stage(self, s: Stage) -> ca.SX:
+        basket, body = self.spheres
+        cost = ca.SX(0)
+        for a, p_a in zip(basket, self.centres(s, basket), strict=True):
+            for b, p_b in zip(body, self.centres(s, body), strict=True):
+                clearance = ca.sqrt(ca.sumsqr(p_a - p_b) + 1e-12) - (a.radius + b.radius)
+                cost += ca.fmax(0, self.safe_distance - clearance) ** 2
+        return cost
+
+
+#: The ``box`` collision model's base box in the base frame (m) and the arm joints that carry
+#: spheres (origins of joints 3, 4, 5, 7 and the end effector: 6 shares 5's; 1-2 sit on the mount).
+#: forte's estimate before the authors' model: the MOCA base is not in the authors' optimizer URDF.
 BASE_BOX: tuple[tuple[float, float, float], tuple[float, float, float]] = ((-0.35, -0.28, 0.0), (0.30, 0.28, 0.50))
 COLLISION_JOINTS: tuple[int, ...] = (2, 3, 4, 6)
 
 
-@register_term
 @dataclass(frozen=True)
-class Collision(CostTerm):
-    """Collision term: ``sum_s max(0, 1 - d_box,s / rho)^2 + max(0, 1 - z_s / rho)^2``.
+class BoxCollision(CostTerm):
+    """The ``box`` collision model: ``sum_s max(0, 1 - d_box,s / rho)^2 + max(0, 1 - z_s / rho)^2``.
 
-    Spheres of radius ``rho`` (0.08 m, the authors') at the origins of arm joints 3, 4, 5, 7 and at
-    the end effector; ``d_box`` is the distance from a centre to the base box :data:`BASE_BOX`
-    (0 inside), ``z`` the height above the floor. Zero when every sphere clears both; each
-    penetrating sphere adds up to 2. ``sqrt`` is guarded by ``1e-10`` m^2 (a 1e-5 m offset).
+    Spheres of radius ``rho`` (``collision_radius``, 0.08 m) at the origins of arm joints 3, 4,
+    5, 7 and at the end effector; ``d_box`` is the distance from a centre to the base box
+    :data:`BASE_BOX` (0 inside), ``z`` the height above the floor. Zero when every sphere clears
+    both; each penetrating sphere adds up to 2 (dimensionless). ``sqrt`` is guarded by
+    ``1e-10`` m^2. Served under the name ``collision`` by :meth:`Collision.from_weights`.
     """
 
     name: ClassVar[str] = "collision"
@@ -126,7 +188,7 @@ class Collision(CostTerm):
     joints: tuple[int, ...] = COLLISION_JOINTS
 
     @classmethod
-    def from_weights(cls, weights: CostWeights) -> Collision:
+    def from_weights(cls, weights: CostWeights) -> BoxCollision:
         return cls(weights.collision_radius)
 
     def centres(self, s: Stage) -> list[ca.SX]:
