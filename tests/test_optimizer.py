@@ -203,7 +203,7 @@ def test_more_hold_starts_never_give_a_worse_objective():
     from forte.planning.planner import plan
     from forte.planning.tasks import load_task
 
-    task = load_task(Path(__file__).resolve().parents[1] / "examples" / "tasks" / "hold.yaml", mass=0.35)
+    task = load_task(Path(__file__).resolve().parents[1] / "examples" / "tasks" / "hold.yaml")  # 2.7 kg
     single = plan(replace(task, solver=replace(task.solver, hold_starts=1)), "forte")
     multi = plan(task, "forte")
     assert single.success and multi.success and "starts" not in single.solver
@@ -211,7 +211,7 @@ def test_more_hold_starts_never_give_a_worse_objective():
     assert multi.solver["objective"] <= single.solver["objective"] + 1e-9
     starts = multi.solver["starts"]
     assert multi.solver["objective"] == starts["objectives"][starts["chosen"]]
-    # the documented gain: from the taught point alone forte stops in a worse basin
+    # the documented gain: at 2.7 kg, from the taught point alone forte stops in a worse basin
     assert starts["chosen"] != 0 and multi.solver["objective"] < single.solver["objective"] - 0.1
     # reported effort covers every start
     assert multi.solver["iterations"] == starts["iterations"] >= starts["chosen_iterations"]
