@@ -316,3 +316,24 @@ def test_the_sweep_starts_from_the_authors_weight_of_each_set():
         assert tuned.capability == 123.0
         # the method's other tuning on that set is kept (the cone's joint-limit weight 2 on trajectories)
         assert tuned.joint_limits == (2.0 if preset != "authors-hold" else weights.joint_limits)
+
+
+def test_the_hold_ball_is_judged_on_the_polytope_the_paper_draws():
+    """``drawn_margin``: the ball's signed distance to P_r itself (alpha = 1, gravity residual at the held
+    configuration), by hand from the Jacobian and Pinocchio's RNEA at rest."""
+    from pathlib import Path
+
+    from forte.experiments.hold_claims import drawn_margin
+    from forte.planning.planner import plan
+    from forte.planning.tasks import load_task
+
+    task = load_task(Path(__file__).resolve().parents[1] / "examples" / "tasks" / "hold.yaml")
+    res = plan(task, "teaching")
+    q = res.q[0]
+    J, g = task.robot.arm_jacobian(q), task.robot.rnea(q[3:], np.zeros(7), np.zeros(7))
+    tm, f, r = task.robot.torque_limits, res.force.f[0], float(res.force.r[0])
+    norms = np.linalg.norm(J, axis=0)
+    by_hand = min(np.min((tm - g - J.T @ f) / norms), np.min((tm + g + J.T @ f) / norms)) - r
+    assert drawn_margin(res) == pytest.approx(by_hand, abs=1e-9)
+    # alpha < 1 only shrinks the polytope: the metric's d is below the drawn one
+    assert float(res.metrics["d"][0]) < drawn_margin(res)

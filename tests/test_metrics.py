@@ -149,7 +149,7 @@ def test_surrogate_knee_puts_the_smoothing_band_inside_the_polytope():
     pull = 0.6 * 3.0 / rho
     for knee, inside in ((0.0, False), (3.0, True)):
         params = CapabilityParameters(knee=knee, eps_normal=1e-12)
-        best = minimize_scalar(lambda d: _one_facet_surrogate(d, params) + pull * d, bounds=(-1, 1),
+        best = minimize_scalar(lambda d, p=params: _one_facet_surrogate(d, p) + pull * d, bounds=(-1, 1),
                                method="bounded", options={"xatol": 1e-10}).x
         assert bool(best >= 0) == inside
         assert abs(best) <= (knee + 1) * rho / params.beta
