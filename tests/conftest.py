@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from forte.model.robot import MobileManipulator, default_robot
+from forte.model.robot import MobileManipulator, default_robot, example_robot_data_dir
 
 
 @pytest.fixture(scope="session")
@@ -31,3 +31,21 @@ def random_configuration(robot: MobileManipulator, rng: np.random.Generator) -> 
     lo = np.maximum(robot.lower, -np.pi)
     hi = np.minimum(robot.upper, np.pi)
     return np.concatenate([base, rng.uniform(lo, hi)])
+
+
+def authors_ee_in_base(q_arm: np.ndarray) -> np.ndarray:
+    """The authors' end effector in the base frame, independent of forte's model: Pinocchio on the
+    plain example-robot-data URDF, then their mount (0.2575, 0, 0.52) m, the flange, the hand's
+    -45 deg about z and 0.10 m along z."""
+    import pinocchio as pin
+
+    full = pin.buildModelFromUrdf(str(example_robot_data_dir() / "panda_description/urdf/panda.urdf"))
+    data = full.createData()
+    pin.framesForwardKinematics(full, data, np.r_[q_arm, 0.0, 0.0])
+    flange = data.oMf[full.getFrameId("panda_link8")].homogeneous
+    hand = np.eye(4)
+    hand[:3, :3] = pin.rpy.rpyToMatrix(0, 0, -np.pi / 4)
+    hand[2, 3] = 0.10
+    mount = np.eye(4)
+    mount[:3, 3] = (0.2575, 0.0, 0.52)
+    return mount @ flange @ hand

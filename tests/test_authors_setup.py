@@ -8,6 +8,7 @@ import casadi as ca
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import authors_ee_in_base
 
 from forte.capability.polytope import cone_directions
 from forte.model.robot import default_robot, example_robot_data_dir
@@ -42,20 +43,10 @@ def stage_value(robot, name, q, q1=None, q2=None, dt=0.25, f=(0.0, 0.0, 40.0), r
 
 
 def test_authors_end_effector_is_flange_hand_plus_10_cm(authors):
-    urdf = example_robot_data_dir() / "panda_description/urdf/panda.urdf"
-    full = pin.buildModelFromUrdf(str(urdf))
-    data = full.createData()
     rng = np.random.default_rng(3)
     for _ in range(5):
         q = np.r_[rng.normal(size=3) * 0.3, rng.uniform(authors.lower, authors.upper)]
-        pin.framesForwardKinematics(full, data, np.r_[q[3:], 0.0, 0.0])
-        flange = data.oMf[full.getFrameId("panda_link8")].homogeneous
-        hand = np.eye(4)
-        hand[:3, :3] = pin.rpy.rpyToMatrix(0, 0, -np.pi / 4)
-        hand[2, 3] = 0.10
-        mount = np.eye(4)
-        mount[:3, 3] = (0.2575, 0.0, 0.52)
-        expected = authors.base_transform(q[:3]) @ mount @ flange @ hand
+        expected = authors.base_transform(q[:3]) @ authors_ee_in_base(q[3:])
         np.testing.assert_allclose(authors.ee_pose(q), expected, atol=1e-12)
 
 

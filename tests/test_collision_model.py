@@ -9,13 +9,12 @@ from pathlib import Path
 
 import casadi as ca
 import numpy as np
-import pinocchio as pin
 import pytest
 import yaml
+from conftest import authors_ee_in_base
 
 from forte.exceptions import InvalidInputError, TaskFileError
 from forte.model.collision import AUTHORS_SPHERES
-from forte.model.robot import example_robot_data_dir
 from forte.model.twin import CasadiTwin
 from forte.planning.costs import Stage, make_terms
 from forte.planning.motion_terms import BoxCollision, Collision
@@ -45,18 +44,8 @@ def stage_function(robot, weights=CostWeights(), name="collision"):
 
 
 def ee_world(q):
-    """World pose of the authors' end effector: Pinocchio on the plain URDF, then base, mount,
-    flange, the hand's -45 deg about z and 0.10 m along z (independent of forte's model)."""
-    full = pin.buildModelFromUrdf(str(example_robot_data_dir() / "panda_description/urdf/panda.urdf"))
-    data = full.createData()
-    pin.framesForwardKinematics(full, data, np.r_[q[3:], 0.0, 0.0])
-    flange = data.oMf[full.getFrameId("panda_link8")].homogeneous
-    hand = np.eye(4)
-    hand[:3, :3] = pin.rpy.rpyToMatrix(0, 0, -np.pi / 4)
-    hand[2, 3] = 0.10
-    mount = np.eye(4)
-    mount[:3, 3] = (0.2575, 0.0, 0.52)
-    return base_world(q) @ mount @ flange @ hand
+    """World pose of the authors' end effector (independent of forte's model)."""
+    return base_world(q) @ authors_ee_in_base(q[3:])
 
 
 def base_world(q):

@@ -16,7 +16,7 @@ import numpy as np
 
 from forte import progress
 from forte.execution.run import simulate_plan
-from forte.experiments.claims import Claim, claims_section, fmt_num
+from forte.experiments.claims import Claim, claims_section, compare, fmt_num, solved
 from forte.io.figures import pyplot
 from forte.io.outputs import GENERATOR
 from forte.io.plandir import FORMAT_VERSION, TRAJECTORY_FILE, plan_summary, write_plan
@@ -114,6 +114,16 @@ def metrics(res: Plan) -> dict[str, Any]:
         "first_time_below_force": first_time(res.t, cap < mag),
         "first_time_below_band": first_time(res.t, cap < mag + r),
     }
+
+
+def manipulability_leads(section: str, claim: str, heavy: Case) -> Claim:
+    """``claim``: manipulability-only has the highest (mean) manipulability of ``heavy``'s methods."""
+    mu = {m: metrics(r)["mean_manipulability"] for m, r in heavy.results.items()}
+    other = max((m for m in mu if m != "manipulability"), key=mu.__getitem__)
+    return Claim(section, claim, "mean manipulability", f"manipulability-only {mu['manipulability']:.4f} vs the next "
+                 f"({other}) {mu[other]:.4f}",
+                 [solved(heavy.results, *mu), compare("manipulability-only's mean manipulability", mu["manipulability"],
+                                                      ">", f"{other}'s", mu[other], digits=4)])
 
 
 def first_time(t: np.ndarray, mask: np.ndarray) -> float | None:
