@@ -337,3 +337,24 @@ def test_the_hold_ball_is_judged_on_the_polytope_the_paper_draws():
     assert drawn_margin(res) == pytest.approx(by_hand, abs=1e-9)
     # alpha < 1 only shrinks the polytope: the metric's d is below the drawn one
     assert float(res.metrics["d"][0]) < drawn_margin(res)
+
+
+def test_projected_minor_axis_is_the_narrowest_width_of_the_shadow():
+    """The xy / xz projection's minor semi-axis equals the smallest half-width of the shadow of
+    {J qdot : |qdot| <= 1} over in-plane directions u, the support function max u.J qdot = |J^T u|
+    (sampled over the angle), and a hand example."""
+    from forte.experiments.hold_claims import projected_minor
+
+    rng = np.random.default_rng(5)
+    J = rng.normal(size=(3, 7)) * [[0.9], [0.5], [0.3]]
+    res = SimpleNamespace(q=np.zeros((1, 10)), task=SimpleNamespace(robot=SimpleNamespace(arm_jacobian=lambda q: J)))
+    theta = np.linspace(0, np.pi, 20001)
+    for plane, (a, b) in (("xy", (0, 1)), ("xz", (0, 2))):
+        u = np.zeros((3, theta.size))
+        u[a], u[b] = np.cos(theta), np.sin(theta)
+        widths = np.linalg.norm(J.T @ u, axis=0)
+        assert projected_minor(res, plane) == pytest.approx(widths.min(), rel=1e-6)
+    diag = np.zeros((3, 7))
+    diag[0, 0], diag[1, 1], diag[2, 2] = 0.9, 0.4, 0.2
+    res.task.robot.arm_jacobian = lambda q: diag
+    assert projected_minor(res, "xy") == pytest.approx(0.4) and projected_minor(res, "xz") == pytest.approx(0.2)
