@@ -278,21 +278,20 @@ def test_no_weight_gives_a_baseline_forte_s_balance_is_judged_per_weight():
     ok = sim(True, True, True)
     # enough force (capacity >= |f| + r = 36.5 N, every run ok) only where manipulability drops
     rows = [(60.0, 30.0, 0.19, sim(False, False)), (600.0, 40.0, 0.16, ok)]
-    shift, balance = weight_claims(sweep_points({"rfp-radius": rows, "rfp-cone": rows}), forte_light, "5.3", "2.7 L")
+    shift, balance = weight_claims(sweep_points({"rfp-radius": rows, "rfp-cone": rows}), forte_light, "5.3")
     assert shift.reproduced and balance.reproduced
     assert "sufficient from weight 600, where its 0.33 L manipulability is 0.1600" in balance.ours
     # a weight with both breaks the claim and is named
     both = [*rows, (1800.0, 45.0, 0.21, ok)]
-    _, balance = weight_claims(sweep_points({"rfp-radius": both, "rfp-cone": rows}), forte_light, "5.3", "2.7 L")
+    _, balance = weight_claims(sweep_points({"rfp-radius": both, "rfp-cone": rows}), forte_light, "5.3")
     assert not balance.reproduced and "both at weight 1800" in balance.cause
     # a failed trial is not enough force, whatever the plan's capacity
     trial_fails = [(60.0, 30.0, 0.19, sim(False)), (600.0, 45.0, 0.21, sim(True, True, False))]
-    _, balance = weight_claims(sweep_points({"rfp-radius": trial_fails, "rfp-cone": rows}), forte_light, "5.3",
-                               "2.7 L")
+    _, balance = weight_claims(sweep_points({"rfp-radius": trial_fails, "rfp-cone": rows}), forte_light, "5.3")
     assert balance.reproduced and "rfp-radius: never sufficient" in balance.ours
     # no rise in capacity: the weights do not shift the curves
     flat = [(60.0, 40.0, 0.16, ok), (600.0, 40.0, 0.16, ok)]
-    shift, _ = weight_claims(sweep_points({"rfp-radius": flat, "rfp-cone": rows}), forte_light, "5.3", "2.7 L")
+    shift, _ = weight_claims(sweep_points({"rfp-radius": flat, "rfp-cone": rows}), forte_light, "5.3")
     assert not shift.reproduced and "rfp-radius's mean capacity at weight 600" in shift.cause
 
 
@@ -302,7 +301,7 @@ def test_a_failed_sweep_plan_is_no_evidence():
     points = sweep_points({"rfp-radius": [(60.0, 30.0, 0.19, ok)], "rfp-cone": [(60.0, 30.0, 0.19, ok)]})
     points.append(SweepPoint("rfp-cone", 600.0, fake_plan("rfp-cone", 20.0, mag=3.4),
                              fake_plan("rfp-cone", 60.0, success=False), ok))
-    for claim in weight_claims(points, fake_plan("forte", 20.0, mag=3.4), "5.4", "2.7 L"):
+    for claim in weight_claims(points, fake_plan("forte", 20.0, mag=3.4), "5.4"):
         assert not claim.reproduced and "rfp-cone@600: Maximum_Iterations_Exceeded" in claim.cause
 
 

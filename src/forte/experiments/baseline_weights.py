@@ -49,7 +49,7 @@ class SweepPoint(NamedTuple):
 
     @property
     def sufficient(self) -> bool:
-        """Enough force for the heavy load: solved, capacity >= |f| + r throughout, every run lifts."""
+        """Enough force for the heavy load: solved, capacity >= |f| + r throughout, every run succeeds."""
         done = runs(self.heavy_sim, None)
         return (self.heavy.success and metrics(self.heavy)["min_capacity_margin"] >= 0
                 and bool(done) and all(r["success"] for r in done))
@@ -109,7 +109,7 @@ def sweep_table(points: list[SweepPoint], forte_light: Plan) -> list[str]:
     return lines
 
 
-def weight_claims(points: list[SweepPoint], forte_light: Plan, section: str, heavy_word: str) -> list[Claim]:
+def weight_claims(points: list[SweepPoint], forte_light: Plan, section: str) -> list[Claim]:
     """The two statements of the module docstring, judged on the sweep (one claim each, both baselines)."""
     mu_forte = metrics(forte_light)["mean_manipulability"]
     shift_checks, balance_checks, shift_text, balance_text = [], [], [], []
@@ -124,8 +124,8 @@ def weight_claims(points: list[SweepPoint], forte_light: Plan, section: str, hea
         evidence = ("never sufficient in the sweep" if not enough else "sufficient from weight "
                     f"{enough[0].weight:g}, where its 0.33 L manipulability is "
                     f"{metrics(enough[0].light)['mean_manipulability']:.4f}")
-        balance_checks.append(Check(f"{method} has no weight with enough force under the {heavy_word} load and "
-                                    "forte's manipulability under the light one", not both,
+        balance_checks.append(Check(f"{method} has no weight with enough force under the 2.7 L load and "
+                                    "forte's manipulability under the 0.33 L one", not both,
                                     evidence + (f"; both at weight {both[0].weight:g}" if both else "")))
         balance_text.append(f"{method}: {evidence}")
     solved_all = Check("every sweep plan solved", all(p.light.success and p.heavy.success for p in points),
@@ -186,24 +186,23 @@ class SweepReport(NamedTuple):
 
 
 def weight_sweep_report(cases: list[Case], tmp: Path, factors: tuple[float, ...], trials: int, seed: int,
-                        hold: float, log: Log, fmt: str, section: str, name: str) -> SweepReport:
+                        hold: float, log: Log, fmt: str, section: str, experiment: str) -> SweepReport:
     """Run the sweep (``factors`` of the authors' weight; none: skip it) and build its summary parts.
 
-    ``section`` is the paper's section of the claims, ``name`` the experiment ("lifting", "holding"),
-    which also names the figure (``lift_weights``, ``hold_weights``).
+    ``section`` is the paper's section of the claims; ``experiment`` ("lift", "hold") names the
+    figure, ``EXPERIMENT_weights``.
     """
     if not factors:
         return SweepReport([], [], [], {})
     points = sweep_baselines(cases, tmp, factors, trials, seed, hold, log)
     forte_light, forte_heavy = (c.results["forte"] for c in cases)
-    stem = {"lifting": "lift_weights", "holding": "hold_weights"}.get(name, f"{name}_weights")
-    figure = plot_weights(points, forte_light, forte_heavy, tmp, fmt, stem,
-                          f"Section {section}, {name}: the RFP baselines at other capability weights")
+    figure = plot_weights(points, forte_light, forte_heavy, tmp, fmt, f"{experiment}_weights",
+                          f"Section {section} ({experiment}): the RFP baselines at other capability weights")
     preset = next(iter(cases[1].results.values())).task.weights.preset
     text = ["## RFP baselines at other capability weights", "",
             f"Only the RFP baselines' capability weight changes: their weight on `{preset}` times "
             + ", ".join(f"{f:g}" for f in factors) + "; every other weight stays the authors'. 'Simulation' is the "
             "2.7 L plan, run like the main table's (nominal + the same number of seeded mass-error trials).", "",
             *sweep_table(points, forte_light), ""]
-    return SweepReport([figure], weight_claims(points, forte_light, section, "2.7 L"), text,
+    return SweepReport([figure], weight_claims(points, forte_light, section), text,
                        {"baseline_weights": {"factors": list(factors), "points": weight_summary(points)}})

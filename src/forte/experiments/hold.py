@@ -237,8 +237,7 @@ def run_hold(out: str | Path, trials: int = 3, waypoints: int | None = None, see
     def build(tmp: Path) -> None:
         simulate_cases(tmp, cases, trials, seed, log, hold=HOLD_SECONDS)
         unloaded = unloaded_runs(tmp, cases[1], HOLD_SECONDS, log)
-        sweep = weight_sweep_report(cases, tmp, weight_factors, trials, seed, HOLD_SECONDS, log, fmt, "5.4",
-                                    "holding")
+        sweep = weight_sweep_report(cases, tmp, weight_factors, trials, seed, HOLD_SECONDS, log, fmt, "5.4", "hold")
         figures = [plot_hold_metrics(cases, tmp, fmt), plot_hold_polytopes(cases, tmp, fmt),
                    plot_hold_ellipses(cases, tmp, fmt), *sweep.figures]
         write_summary(tmp, "Section 5.4: single-point holding", [

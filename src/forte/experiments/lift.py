@@ -86,7 +86,7 @@ def run_lift(out: str | Path, trials: int = 3, waypoints: int | None = None, see
         simulate_cases(tmp, cases, trials, seed, log, hold=1.0)
         unloaded = unloaded_runs(tmp, cases[1], 1.0, log)
         exact = authors_weight_check(cases[1], log)
-        sweep = weight_sweep_report(cases, tmp, weight_factors, trials, seed, 1.0, log, fmt, "5.3", "lifting")
+        sweep = weight_sweep_report(cases, tmp, weight_factors, trials, seed, 1.0, log, fmt, "5.3", "lift")
         figures = [plot_lift(cases, tmp, fmt), *sweep.figures]
         ref = next(iter(cases[0].results.values()))
         write_summary(tmp, "Section 5.3: lifting trajectory", [
