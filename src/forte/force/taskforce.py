@@ -15,7 +15,7 @@ import numpy as np
 
 from forte.exceptions import InvalidInputError
 from forte.model.robot import STANDARD_GRAVITY
-from forte.model.trajectory import backward_differences
+from forte.model.trajectory import backward_differences, quintic_blend
 from forte.validation import FloatArray, as_array, as_positive, check_times
 
 #: The paper's task-force uncertainty radius (N).
@@ -74,6 +74,42 @@ def payload_force(
     _, acc = backward_differences(pos, times, "positions")
     g = np.array([0.0, 0.0, -gravity])
     return TaskForce(times, m * (acc - g), _radii(radius, times.size))
+
+
+#: Which desired force a payload task uses (task field ``force_model``): ``paper`` (the text,
+#: :func:`payload_force`) or ``authors`` (the authors' lift code, :func:`authors_force`).
+FORCE_MODELS: tuple[str, ...] = ("paper", "authors")
+
+#: The authors' blend time of the desired force (s; their ``desired_force_ramp_time_sec``).
+AUTHORS_FORCE_RAMP_S = 1.0
+
+
+def authors_force(
+    t: Any,
+    mass: Any,
+    radius: Any = DEFAULT_RADIUS,
+    gravity: float = STANDARD_GRAVITY,
+    ramp: float = AUTHORS_FORCE_RAMP_S,
+    elapsed: float = 0.0,
+) -> TaskForce:
+    """The authors' desired force: the static load blended in from zero.
+
+    ``f_k = s((t_k - t_1 + elapsed) / T) m g e_z`` with ``s(x) = 10 x^3 - 15 x^4 + 6 x^5`` on
+    ``x`` clipped to [0, 1], ``T = ramp`` and ``e_z`` up. Their lift samples carry no
+    acceleration, so the force is ``m g`` (no ``m p''`` term), and it is blended in from the
+    force published before the run (zero) over ``T`` = 1 s; the radii are not blended.
+    ``ramp = 0`` gives the static force with no blend (their single-point holding).
+    ``elapsed`` is the blend time already passed at ``t_1`` (a receding-horizon shift).
+    """
+    m = as_positive(mass, "mass")
+    times = check_times(t)
+    T = as_positive(ramp, "ramp", allow_zero=True)
+    scale = np.ones(times.size)
+    if T > 0:
+        scale = quintic_blend(np.clip((times - times[0] + float(elapsed)) / T, 0.0, 1.0))
+    f = np.zeros((times.size, 3))
+    f[:, 2] = scale * m * gravity
+    return TaskForce(times, f, _radii(radius, times.size))
 
 
 def given_force(t: Any, forces: Any, radius: Any = DEFAULT_RADIUS) -> TaskForce:
