@@ -162,8 +162,10 @@ def plan_document(plan: Plan) -> dict[str, Any]:
                 "kinematic_limits": asdict(task.limits)}
     doc |= {"robot": plan.robot.describe(), "payload": plan.payload.to_dict()}
     if plan.force is not None:
-        doc["force"] = {"t": plan.force.t, "f": plan.force.f, "r": plan.force.r,
-                        "given_profile": task is not None and task.force_profile is not None}
+        given = task is not None and task.force_profile is not None
+        # the task's force_model (paper | authors); None for a given profile or a plan made by hand
+        doc["force"] = {"t": plan.force.t, "f": plan.force.f, "r": plan.force.r, "given_profile": given,
+                        "model": None if task is None or given else task.force_model}
     if task is not None:
         doc["q_init"] = task.q_init
         doc["controller"] = task.controller

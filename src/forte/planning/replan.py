@@ -117,6 +117,7 @@ class Replanner:
         ``q_now`` (the measured configuration) becomes the new first waypoint (default: the
         planned one at the new start); ``mass``, when given, is the payload's new mass. The new
         first waypoint starts at rest, as every plan does (the backward differences need it).
+        With ``force_model: authors`` the force blend goes on from where it was (no restart).
         """
         return self._run(lambda: self._shifted(steps, q_now, mass))
 
@@ -145,7 +146,9 @@ class Replanner:
         targets = shift_rows(self.task.targets, steps)
         guess = shift_rows(self.last.q, steps)
         guess[0] = guess[0] if q_now is None else self.task.robot.check_configuration(q_now, "q_now")
-        task = replace(self.task, targets=targets, q_init=guess[0].copy())
+        # the new first waypoint is t[steps] of the old horizon: the authors' force blend goes on
+        elapsed = self.task.force_ramp_elapsed + float(self.task.t[steps] - self.task.t[0])
+        task = replace(self.task, targets=targets, q_init=guess[0].copy(), force_ramp_elapsed=elapsed)
         if mass is not None:
             task = task.with_payload(task.payload.with_mass(mass, source="replan"))
         force = self.force if self.task.force_profile is not None else task.force()

@@ -20,9 +20,12 @@ import yaml
 from forte.exceptions import ForteError, TaskFileError
 from forte.force.payload import Payload
 from forte.force.taskforce import (
+    AUTHORS_FORCE_RAMP_S,
     DEFAULT_RADIUS,
+    FORCE_MODELS,
     RADIUS_RULES,
     TaskForce,
+    authors_force,
     given_force,
     mass_range_radius,
     payload_force,
@@ -98,6 +101,11 @@ class Task:
     #: (:func:`forte.force.taskforce.mass_range_radius`, never below ``radius``; a mass given
     #: without a range keeps ``radius``).
     radius_rule: str = "fixed"
+    #: ``paper``: ``(m + m_tool)(p'' - g)`` from t = 0; ``authors``: their lift's static
+    #: ``(m + m_tool) g`` blended in over 1 s (a hold task: no blend), see :meth:`force`.
+    force_model: str = "paper"
+    #: Time of the ``authors`` blend already passed at ``t[0]`` (advanced by a horizon shift).
+    force_ramp_elapsed: float = 0.0
 
     @property
     def n(self) -> int:
@@ -134,10 +142,14 @@ class Task:
         return replace(self, payload=payload)
 
     def force(self, mass: float | None = None) -> TaskForce:
-        """Desired forces: the given profile, or ``(m + m_tool) (p'' - g)`` along the path.
+        """Desired forces: the given profile, or the payload's force along the path.
 
-        ``m`` is the payload mass (given or estimated), ``m_tool`` the robot's
-        ``tool_force_mass`` (the authors' end-effector load, 1.146 kg on the built-in robot).
+        ``force_model: paper`` gives ``(m + m_tool) (p'' - g)``
+        (:func:`~forte.force.taskforce.payload_force`); ``authors`` gives ``(m + m_tool) g`` up,
+        blended in over :data:`~forte.force.taskforce.AUTHORS_FORCE_RAMP_S` on a trajectory and
+        in full on a hold task (:func:`~forte.force.taskforce.authors_force`). ``m`` is the
+        payload mass (given or estimated), ``m_tool`` the robot's ``tool_force_mass`` (the
+        authors' end-effector load, 1.146 kg on the built-in robot).
         """
         if self.force_profile is not None:
             return self.force_profile
@@ -148,7 +160,11 @@ class Task:
                 "or a payload description/image for the estimator"
             )
         total = m + self.robot.tool_force_mass
-        force = payload_force(self.t, self.targets[:, :3, 3], total, self.radius, self.robot.gravity)
+        if self.force_model == "authors":
+            ramp = AUTHORS_FORCE_RAMP_S if self.mode == "trajectory" else 0.0
+            force = authors_force(self.t, total, self.radius, self.robot.gravity, ramp, self.force_ramp_elapsed)
+        else:
+            force = payload_force(self.t, self.targets[:, :3, 3], total, self.radius, self.robot.gravity)
         if self.radius_rule == "mass-range" and mass is None and self.payload.mass_range is not None:
             force = mass_range_radius(force, total, m, self.payload.mass_range, self.radius)
         return force
@@ -259,7 +275,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     """Validate an already-parsed task (see :func:`load_task`)."""
     reader = Reader(data, path)
     reader.unknown({"name", "robot", "mode", "initial_configuration", "path", "pose", "payload", "force",
-                    "uncertainty_radius", "uncertainty_rule", "weights", "torque_limits", "solver",
+                    "uncertainty_radius", "uncertainty_rule", "force_model", "weights", "torque_limits", "solver",
                     "teaching_configuration", "limits", "controller", "require_capacity"})
     base = path.parent if path else Path.cwd()
     robot = robot_section(reader, base)
@@ -282,6 +298,9 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     radius_rule = reader.get("uncertainty_rule", "fixed")
     if radius_rule not in RADIUS_RULES:
         raise reader.error("uncertainty_rule", f"expected one of {', '.join(RADIUS_RULES)}, got {radius_rule!r}")
+    force_model = reader.get("force_model", "paper")
+    if force_model not in FORCE_MODELS:
+        raise reader.error("force_model", f"expected one of {', '.join(FORCE_MODELS)}, got {force_model!r}")
     teaching = None
     if reader.has("teaching_configuration"):
         teaching = reader.vector("teaching_configuration", robot.nq)
@@ -306,6 +325,8 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     force_at = _force_profile(reader, t, radius)
     if force_at is None and payload is None:
         raise reader.error("payload", "give a payload (mass, or description/image) or a force profile")
+    if force_at is not None and reader.has("force_model"):
+        raise reader.error("force_model", "sets a payload's force; this task gives its force profile directly")
     weights = dataclass_from(reader, "weights", CostWeights, _weight_preset(reader, mode))
     solver = dataclass_from(reader, "solver", SolverOptions, SolverOptions())
     limits = dataclass_from(reader, "limits", KinematicLimits, KinematicLimits())
@@ -325,7 +346,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                 force_profile=None if force_at is None else force_at(t), weights=weights, solver=solver,
                 teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
                 targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots,
-                radius_rule=radius_rule)
+                radius_rule=radius_rule, force_model=force_model)
 
 
 def _weight_preset(reader: Reader, mode: str) -> CostWeights:
