@@ -264,6 +264,29 @@ def test_the_cli_offers_the_figure_formats_the_runners_accept():
         common.check_format("jpg")
 
 
+def test_no_weight_sweep_reaches_the_runner_and_is_refused_where_there_is_none(tmp_path, monkeypatch, capsys):
+    import forte.experiments as experiments
+
+    seen = {}
+
+    def fake_run(out, **kwargs):  # records what the CLI passes; the real runs are in test_experiments
+        seen.update(kwargs)
+        out.mkdir(parents=True)
+        (out / "summary.md").write_text("# stub\n")
+
+    monkeypatch.setattr(experiments, "run_lift", fake_run, raising=False)
+    parser = argparse.ArgumentParser()
+    cli_experiment.register(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["experiment", "lift", "--out", str(tmp_path / "l"), "--no-weight-sweep", "--quiet"])
+    assert args.func(args) == 0 and seen["weight_factors"] == ()
+    seen.clear()
+    args = parser.parse_args(["experiment", "lift", "--out", str(tmp_path / "m"), "--quiet"])
+    assert args.func(args) == 0 and "weight_factors" not in seen  # the runner's default sweep
+    args = parser.parse_args(["experiment", "continuous", "--out", str(tmp_path / "c"), "--no-weight-sweep"])
+    assert args.func(args) == 2
+    assert "only lift and hold" in capsys.readouterr().err and not (tmp_path / "c").exists()
+
+
 # -- the RFP baselines at other capability weights -------------------------------------------
 def sweep_points(points: dict[str, list[tuple[float, float, float, dict]]]) -> list:
     """SweepPoints from (weight, heavy capacity, light manipulability, heavy simulation) per method."""
