@@ -53,6 +53,10 @@ def test_lift_runs_end_to_end_with_simulation(tmp_path):
     assert [(p["method"], p["weight"]) for p in sweep["points"]] == [
         ("rfp-radius", 60.0), ("rfp-radius", 1800.0), ("rfp-cone", 60.0), ("rfp-cone", 1800.0)]
     assert all(p["heavy_simulation"]["trials"]["count"] == 1 for p in sweep["points"])
+    # the authors' weight is the main table's plan and runs, not a second copy
+    for p in sweep["points"][::2]:
+        main = doc["cases"]["2.7 L"]["methods"][p["method"]]
+        assert p["heavy_simulation"] == main["simulation"] and p["heavy"] == main["plan"]
     assert "## RFP baselines at other capability weights" in (out / "summary.md").read_text()
     for case in doc["cases"].values():
         assert set(case["methods"]) == {"forte", "manipulability", "rfp-radius", "rfp-cone", "quintic"}

@@ -73,7 +73,8 @@ def sweep_baselines(cases: list[Case], tmp: Path, factors: tuple[float, ...], tr
                     hold: float, log: Log) -> list[SweepPoint]:
     """Plan every method of :data:`SWEPT` at its authors' weight times each factor, for both payloads.
 
-    ``cases`` are the experiment's (light, heavy); their tasks are reused. Heavy plans are written to
+    ``cases`` are the experiment's (light, heavy); their tasks are reused, and so are their plans and
+    simulations at the authors' weight (factor 1). Other heavy plans are written to
     ``tmp/weights/METHOD-WEIGHT`` and simulated (nominal + ``trials`` seeded mass errors).
     """
     light, heavy = cases
@@ -82,7 +83,11 @@ def sweep_baselines(cases: list[Case], tmp: Path, factors: tuple[float, ...], tr
     rng = np.random.default_rng(seed + 1)
     points = []
     for method in SWEPT:
-        for weight in sweep_weights(method, heavy_task.weights, factors):
+        for factor, weight in zip(factors, sweep_weights(method, heavy_task.weights, factors), strict=True):
+            if factor == 1.0 and method in light.results and method in heavy.sims:
+                points.append(SweepPoint(method, weight, light.results[method], heavy.results[method],
+                                         heavy.sims[method]))
+                continue
             spec = with_capability_weight(method, weight, heavy_task.weights.preset)
             lp, hp = plan(light_task, spec), plan(heavy_task, spec)
             d = write_plan(hp, tmp / "weights" / f"{method}-{weight:g}", figures=False)
