@@ -380,3 +380,33 @@ def test_projected_minor_axis_is_the_narrowest_width_of_the_shadow():
     diag[0, 0], diag[1, 1], diag[2, 2] = 0.9, 0.4, 0.2
     res.task.robot.arm_jacobian = lambda q: diag
     assert projected_minor(res, "xy") == pytest.approx(0.4) and projected_minor(res, "xz") == pytest.approx(0.2)
+
+
+def test_trials_default_to_the_paper_s_counts(tmp_path, monkeypatch):
+    """Without --trials the CLI passes none, so each runner's default (the paper's count) applies."""
+    import inspect
+
+    import forte.experiments as experiments
+    from forte.experiments.continuous import run_continuous
+    from forte.experiments.hold import run_hold
+    from forte.experiments.lift import run_lift
+
+    assert inspect.signature(run_continuous).parameters["trials"].default == 6  # Table: "6 per method"
+    assert inspect.signature(run_lift).parameters["trials"].default == 3  # "the mean over three trials"
+    assert inspect.signature(run_hold).parameters["trials"].default == 3
+    seen = {}
+
+    def fake_run(out, **kwargs):
+        seen.update(kwargs)
+        out.mkdir(parents=True)
+        (out / "summary.md").write_text("# stub\n")
+
+    monkeypatch.setattr(experiments, "run_continuous", fake_run, raising=False)
+    parser = argparse.ArgumentParser()
+    cli_experiment.register(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["experiment", "continuous", "--out", str(tmp_path / "a"), "--quiet"])
+    assert args.func(args) == 0 and "trials" not in seen
+    args = parser.parse_args(["experiment", "continuous", "--out", str(tmp_path / "b"), "--quiet", "--trials", "2"])
+    assert args.func(args) == 0 and seen["trials"] == 2
+    args = parser.parse_args(["experiment", "continuous", "--out", str(tmp_path / "c"), "--trials", "-1"])
+    assert args.func(args) == 2
