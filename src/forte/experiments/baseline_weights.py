@@ -170,8 +170,11 @@ def plot_weights(points: list[SweepPoint], forte_light: Plan, forte_heavy: Plan,
     ax_c.axhline(metrics(forte_heavy)["min_capacity_margin"], color=color, ls="--", label=f"{label} (fixed weights)")
     ax_m.axhline(metrics(forte_light)["mean_manipulability"], color=color, ls="--", label=f"{label} (fixed weights)")
     ax_c.axhline(0.0, color="black", lw=0.8)
+    swept = sorted({p.weight for p in points})
     for ax in (ax_c, ax_m):
         ax.set_xscale("log")
+        ax.minorticks_off()  # ticks at the swept weights only (log minor labels overlap)
+        ax.set_xticks(swept, [f"{w:g}" for w in swept])
         ax.set_xlabel("RFP baseline's capability weight (authors' value = first point)")
         ax.grid(alpha=0.3)
     ax_c.set_ylabel("2.7 L: min capacity − (|f| + r) (N)")
