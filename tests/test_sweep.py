@@ -237,6 +237,51 @@ def test_ray_gives_the_same_table_as_the_pool(pool_run, tmp_path, capsys):
     assert start["backend"] == "ray:local"
 
 
+def _descendants(pid: int) -> set[int]:
+    """Every process below ``pid`` (Ray's workers are children of its raylet, not of the driver)."""
+    found, todo = set(), [pid]
+    while todo:
+        for child in _children(todo.pop()) - found:
+            found.add(child)
+            todo.append(child)
+    return found
+
+
+@pytest.mark.slow
+def test_a_ray_worker_that_dies_is_one_line_error(tmp_path, monkeypatch):
+    """SIGKILL to the Ray worker running a group, with no retries left: the one-line error of a
+    dead worker (``forte sweep`` exits 2 on it and resumes later, as with the pool)."""
+    pytest.importorskip("ray")
+    import threading
+
+    from forte.exceptions import ForteError
+    from forte.experiments.sweep import executors
+
+    monkeypatch.setattr(executors, "RAY_TASK_RETRIES", 0)  # read when the remote function is made
+    groups = plan_groups(read_sweep(write_sweep(tmp_path)))
+    killed: list[int] = []
+
+    def kill_the_worker() -> None:
+        deadline = time.monotonic() + 120
+        while not killed and time.monotonic() < deadline:
+            busy = [p for p in _descendants(os.getpid()) if _cmdline(p).startswith("ray::run_group")]
+            if busy:
+                os.kill(busy[0], signal.SIGKILL)
+                killed.append(busy[0])
+            time.sleep(0.02)
+
+    killer = threading.Thread(target=kill_the_worker, daemon=True)
+    done = []
+    with pytest.raises(ForteError) as err, executors.ray_session("local", 1):  # signals: main thread
+        killer.start()
+        done.extend(executors.ray_results(groups))
+    killer.join(timeout=10)
+    assert killed and not done
+    message = str(err.value)
+    assert message.startswith("a sweep worker died (") and "\n" not in message and "run the same command" in message
+    assert message.startswith("a sweep worker died (WorkerCrashedError: "), message
+
+
 def _children(pid: int) -> set[int]:
     try:
         text = Path(f"/proc/{pid}/task/{pid}/children").read_text()

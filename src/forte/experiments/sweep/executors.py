@@ -188,18 +188,22 @@ def ray_session(address: str | None, workers: int) -> Iterator[None]:
         ray.shutdown()
 
 
+#: How often Ray re-runs a group whose worker process died before it gives up (Ray's default).
+RAY_TASK_RETRIES = 3
+
+
 def ray_results(groups: Sequence[PlanGroup]) -> Iterator[list[CellResult]]:
     """Run ``groups`` as Ray tasks of one CPU each (inside :func:`ray_session`); yield each group's
     results when it finishes. Leaving the iterator early cancels the others.
 
-    Ray retries a task whose worker died (its default three times); a failure left after that (a
+    Ray retries a task whose worker died (:data:`RAY_TASK_RETRIES` times); a failure left after that (a
     worker crash, a lost node, out of memory) raises :func:`worker_died`. An exception raised in
     :func:`run_group` itself (``RayTaskError``: a bug) propagates as it is.
     """
     import ray
     from ray.exceptions import RayError, RayTaskError
 
-    remote = ray.remote(num_cpus=1, runtime_env={"env_vars": THREAD_ENV})(run_group)
+    remote = ray.remote(num_cpus=1, max_retries=RAY_TASK_RETRIES, runtime_env={"env_vars": THREAD_ENV})(run_group)
     pending = [remote.remote(g) for g in groups]
     try:
         while pending:
