@@ -264,22 +264,29 @@ def test_the_cli_offers_the_figure_formats_the_runners_accept():
         common.check_format("jpg")
 
 
-def test_no_weight_sweep_reaches_the_runner_and_is_refused_where_there_is_none(tmp_path, monkeypatch, capsys):
+def recording_cli(monkeypatch, runner: str) -> tuple[argparse.ArgumentParser, dict]:
+    """The ``forte experiment`` parser with ``runner`` replaced by a stub that records the keyword
+    arguments the CLI passes (the real runs are in test_experiments)."""
     import forte.experiments as experiments
 
-    seen = {}
+    seen: dict = {}
 
-    def fake_run(out, **kwargs):  # records what the CLI passes; the real runs are in test_experiments
+    def fake_run(out, **kwargs):
+        seen.clear()
         seen.update(kwargs)
         out.mkdir(parents=True)
         (out / "summary.md").write_text("# stub\n")
 
-    monkeypatch.setattr(experiments, "run_lift", fake_run, raising=False)
+    monkeypatch.setattr(experiments, runner, fake_run, raising=False)
     parser = argparse.ArgumentParser()
     cli_experiment.register(parser.add_subparsers(dest="command"))
+    return parser, seen
+
+
+def test_no_weight_sweep_reaches_the_runner_and_is_refused_where_there_is_none(tmp_path, monkeypatch, capsys):
+    parser, seen = recording_cli(monkeypatch, "run_lift")
     args = parser.parse_args(["experiment", "lift", "--out", str(tmp_path / "l"), "--no-weight-sweep", "--quiet"])
     assert args.func(args) == 0 and seen["weight_factors"] == ()
-    seen.clear()
     args = parser.parse_args(["experiment", "lift", "--out", str(tmp_path / "m"), "--quiet"])
     assert args.func(args) == 0 and "weight_factors" not in seen  # the runner's default sweep
     args = parser.parse_args(["experiment", "continuous", "--out", str(tmp_path / "c"), "--no-weight-sweep"])
@@ -386,7 +393,6 @@ def test_trials_default_to_the_paper_s_counts(tmp_path, monkeypatch):
     """Without --trials the CLI passes none, so each runner's default (the paper's count) applies."""
     import inspect
 
-    import forte.experiments as experiments
     from forte.experiments.continuous import run_continuous
     from forte.experiments.hold import run_hold
     from forte.experiments.lift import run_lift
@@ -394,16 +400,7 @@ def test_trials_default_to_the_paper_s_counts(tmp_path, monkeypatch):
     assert inspect.signature(run_continuous).parameters["trials"].default == 6  # Table: "6 per method"
     assert inspect.signature(run_lift).parameters["trials"].default == 3  # "the mean over three trials"
     assert inspect.signature(run_hold).parameters["trials"].default == 3
-    seen = {}
-
-    def fake_run(out, **kwargs):
-        seen.update(kwargs)
-        out.mkdir(parents=True)
-        (out / "summary.md").write_text("# stub\n")
-
-    monkeypatch.setattr(experiments, "run_continuous", fake_run, raising=False)
-    parser = argparse.ArgumentParser()
-    cli_experiment.register(parser.add_subparsers(dest="command"))
+    parser, seen = recording_cli(monkeypatch, "run_continuous")
     args = parser.parse_args(["experiment", "continuous", "--out", str(tmp_path / "a"), "--quiet"])
     assert args.func(args) == 0 and "trials" not in seen
     args = parser.parse_args(["experiment", "continuous", "--out", str(tmp_path / "b"), "--quiet", "--trials", "2"])
