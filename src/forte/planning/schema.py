@@ -39,6 +39,13 @@ class Reader:
     def get(self, name: str, default: Any = None) -> Any:
         return self.data.get(name, default)
 
+    def choice(self, name: str, allowed: tuple[str, ...], default: str) -> str:
+        """The value of ``name`` (``default`` when absent), one of ``allowed``."""
+        value = self.get(name, default)
+        if value not in allowed:
+            raise self.error(name, f"expected one of {', '.join(allowed)}, got {value!r}")
+        return value
+
     def sub(self, name: str) -> Reader:
         return Reader(self.data[name], self.path, f"{self.key(name)}.")
 

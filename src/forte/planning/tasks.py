@@ -279,9 +279,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                     "teaching_configuration", "limits", "controller", "require_capacity"})
     base = path.parent if path else Path.cwd()
     robot = robot_section(reader, base)
-    mode = reader.get("mode", "trajectory")
-    if mode not in MODES:
-        raise reader.error("mode", f"expected one of {', '.join(MODES)}, got {mode!r}")
+    mode = reader.choice("mode", MODES, "trajectory")
     q_init = robot.home()
     knots = None
     if mode == "trajectory" and reader.has("path") and isinstance(reader.get("path"), dict) \
@@ -295,12 +293,8 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
             raise reader.error("initial_configuration", "differs from the first taught configuration "
                                "(path.configurations[0].q); leave it out")
     radius = reader.number("uncertainty_radius", DEFAULT_RADIUS, nonnegative=True, maximum=1e6, unit=" N")
-    radius_rule = reader.get("uncertainty_rule", "fixed")
-    if radius_rule not in RADIUS_RULES:
-        raise reader.error("uncertainty_rule", f"expected one of {', '.join(RADIUS_RULES)}, got {radius_rule!r}")
-    force_model = reader.get("force_model", "paper")
-    if force_model not in FORCE_MODELS:
-        raise reader.error("force_model", f"expected one of {', '.join(FORCE_MODELS)}, got {force_model!r}")
+    radius_rule = reader.choice("uncertainty_rule", RADIUS_RULES, "fixed")
+    force_model = reader.choice("force_model", FORCE_MODELS, "paper")
     teaching = None
     if reader.has("teaching_configuration"):
         teaching = reader.vector("teaching_configuration", robot.nq)
