@@ -112,6 +112,23 @@ def test_baselines_are_defined_as_the_authors_run_them():
     assert METHODS["rfp-radius"].resolve_weights(hold) == hold
 
 
+def test_hold_as_run_is_the_trajectory_set_with_the_single_point_s_terms_only():
+    """``authors-hold-as-run``: the trajectory set (and each baseline's trajectory weights) with every
+    regularization weight 0, as the authors' node runs a single point on a trajectory-mode optimizer."""
+    from forte.planning.methods import REGULARIZATION
+
+    traj, as_run = WEIGHT_SETS["authors-trajectory"], WEIGHT_SETS["authors-hold-as-run"]
+    assert replace(as_run, preset=traj.preset, **{f: getattr(traj, f) for f in REGULARIZATION}) == traj
+    assert all(getattr(as_run, f) == 0 for f in REGULARIZATION) and as_run.alpha == 0.9
+    for name in ("forte", "manipulability", "rfp-radius", "rfp-cone", "static-polytope"):
+        tuned, on_traj = METHODS[name].resolve_weights(as_run), METHODS[name].resolve_weights(traj)
+        assert all(getattr(tuned, f) == 0 for f in REGULARIZATION), name
+        assert replace(tuned, preset=traj.preset, **{f: getattr(on_traj, f) for f in REGULARIZATION}) == on_traj, name
+    assert METHODS["rfp-radius"].resolve_weights(as_run).capability == 60
+    assert (METHODS["rfp-cone"].resolve_weights(as_run).capability, METHODS["rfp-cone"].resolve_weights(as_run)
+            .joint_limits) == (60, 2)
+
+
 def test_rfp_radius_is_the_clamped_alpha_scaled_centred_radius(authors):
     q = authors.home()
     J = authors.arm_jacobian(q)

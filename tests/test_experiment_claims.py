@@ -294,6 +294,22 @@ def test_no_weight_sweep_reaches_the_runner_and_is_refused_where_there_is_none(t
     assert "only lift and hold" in capsys.readouterr().err and not (tmp_path / "c").exists()
 
 
+def test_weights_reach_the_runner_and_a_bad_set_is_one_line(tmp_path, monkeypatch, capsys):
+    parser, seen = recording_cli(monkeypatch, "run_hold")
+    args = parser.parse_args(["experiment", "hold", "--out", str(tmp_path / "h"), "--weights", "authors-hold-as-run",
+                              "--quiet"])
+    assert args.func(args) == 0 and seen["weights"] == "authors-hold-as-run"
+    args = parser.parse_args(["experiment", "hold", "--out", str(tmp_path / "i"), "--quiet"])
+    assert args.func(args) == 0 and "weights" not in seen  # the task file's set
+    for name, value, expected in (("hold", "authors-hld", "expected one of"), ("continuous", "authors-trajectory",
+                                                                               "only lift and hold")):
+        out = tmp_path / f"bad-{name}"
+        args = parser.parse_args(["experiment", name, "--out", str(out), "--weights", value])
+        assert args.func(args) == 2
+        err = capsys.readouterr().err
+        assert expected in err and err.count("\n") == 1 and not out.exists()
+
+
 # -- the RFP baselines at other capability weights -------------------------------------------
 def sweep_points(points: dict[str, list[tuple[float, float, float, dict]]]) -> list:
     """SweepPoints from (weight, heavy capacity, light manipulability, heavy simulation) per method."""

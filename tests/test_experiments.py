@@ -99,6 +99,14 @@ def test_hold_function_is_deterministic_in_its_seeded_trials(tmp_path):
     assert all(2.7 * 0.9 <= x <= 2.7 * 1.1 for row in masses for x in row)
 
 
+def test_hold_with_another_weight_set_says_which_it_used(tmp_path):
+    doc = run_hold(tmp_path / "h", trials=0, weight_factors=(), weights="authors-hold-as-run")
+    assert doc["settings"]["weight_set"] == "authors-hold-as-run"
+    assert "Weight set: `authors-hold-as-run` (alpha 0.9)" in (tmp_path / "h" / "summary.md").read_text()
+    cone = json.loads((tmp_path / "h" / "2.7kg" / "rfp-cone" / "plan.json").read_text())
+    assert cone["solver"]["term_weights"]["rfp_cone"] == 60.0
+
+
 @pytest.mark.slow
 def test_issue_claim_quintic_fails_and_forte_succeeds_with_2p7_litres(tmp_path):
     task = load_task(LIFT, mass=2.7)

@@ -40,6 +40,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-weight-sweep", dest="weight_sweep", action="store_false",
                    help="lift, hold: skip the RFP baselines at 3, 10 and 30 times their capability weight (faster; "
                    "drops that table, its figure and its two claims)")
+    p.add_argument("--weights", metavar="PRESET",
+                   help="lift, hold: plan with this named weight set instead of the task file's (e.g. "
+                   "authors-trajectory for the authors' exact lift set, authors-hold-as-run for holding with "
+                   "the trajectory weights, see the README); the summary names the set it used")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     p.set_defaults(func=run_experiment)
 
@@ -60,6 +64,17 @@ def run_experiment(args: argparse.Namespace) -> int:
         print(f"forte: error: --no-weight-sweep: only lift and hold run the weight sweep, not {args.name}",
               file=sys.stderr)
         return 2
+    weights = getattr(args, "weights", None)
+    if weights is not None:
+        from forte.settings import WEIGHT_SETS
+
+        if args.name not in ("lift", "hold"):
+            print(f"forte: error: --weights: only lift and hold take a weight set, not {args.name}", file=sys.stderr)
+            return 2
+        if weights not in WEIGHT_SETS:
+            print(f"forte: error: --weights: expected one of {', '.join(WEIGHT_SETS)}, got {weights!r}",
+                  file=sys.stderr)
+            return 2
     out = args.out or Path("runs") / "experiments" / args.name
 
     check_output(out)  # before minutes of planning: never replace what forte did not write
@@ -76,6 +91,8 @@ def run_experiment(args: argparse.Namespace) -> int:
         kwargs["seed"] = args.seed
     if not getattr(args, "weight_sweep", True):
         kwargs["weight_factors"] = ()
+    if weights is not None:
+        kwargs["weights"] = weights
     check_output(out)  # before any work: never run for minutes and then refuse
     with output_lock(out):
         check_output(out)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +24,7 @@ from forte.io.reports import jsonable, package_versions
 from forte.planning.methods import METHODS, method_names
 from forte.planning.planner import Plan, plan
 from forte.planning.tasks import load_task
+from forte.settings import weight_set
 
 TASKS_DIR = Path(__file__).resolve().parents[3] / "examples" / "tasks"
 #: Payloads of Sections 5.3/5.4: label -> mass in kg (a 0.33 L can in the basket ~ 0.35 kg).
@@ -89,11 +90,18 @@ def plan_methods(task: Any, methods: tuple[str, ...], log: Log, tag: str) -> dic
     return out
 
 
-def plan_payloads(name: str, methods: tuple[str, ...], waypoints: int | None, log: Log) -> list[Case]:
-    """Plan every method for both payloads of :data:`PAYLOADS` (the build step simulates them)."""
+def plan_payloads(name: str, methods: tuple[str, ...], waypoints: int | None, log: Log,
+                  weights: str | None = None) -> list[Case]:
+    """Plan every method for both payloads of :data:`PAYLOADS` (the build step simulates them).
+
+    ``weights``: a :data:`~forte.settings.WEIGHT_SETS` name replacing the task file's weight set
+    (each method still applies its own tuning for that set).
+    """
     cases = []
     for label, mass in PAYLOADS.items():
         task = load_task(task_path(name), mass=mass, waypoints=waypoints)
+        if weights is not None:
+            task = replace(task, weights=weight_set(weights))
         log(f"{name} {label} ({mass} kg): {task.n} waypoint(s)")
         cases.append(Case(label, mass, plan_methods(task, methods, log, label)))
     return cases
@@ -232,7 +240,14 @@ def write_summary(directory: Path, title: str, intro: list[str], cases: list[Cas
     """``summary.json`` and ``summary.md``: per-case tables, the paper's claims, our notes, figures.
 
     ``sections`` are markdown lines placed after the per-case tables; ``extra`` adds keys to the JSON.
+    The intro ends with the weight set the plans used (also ``settings.weight_set``).
     """
+    first = next((r for c in cases for r in c.results.values()), None)
+    if first is not None:
+        weights = first.task.weights
+        settings = {**settings, "weight_set": weights.preset}
+        intro = [*intro, f"Weight set: `{weights.preset}` (alpha {weights.alpha:g}); each baseline applies its "
+                 "own changes to it (`forte.planning.methods`)."]
     doc = {
         "generator": GENERATOR, "format_version": FORMAT_VERSION,
         "experiment": title,

@@ -223,16 +223,18 @@ def plot_hold_ellipses(cases: list[Case], directory: Path, fmt: str) -> str:
 # -- run -------------------------------------------------------------------------------------
 def run_hold(out: str | Path, trials: int = 3, waypoints: int | None = None, seed: int = 0,
              log: Log = quiet, fmt: str = "png",
-             weight_factors: tuple[float, ...] = SWEEP_FACTORS) -> dict[str, Any]:
+             weight_factors: tuple[float, ...] = SWEEP_FACTORS, weights: str | None = None) -> dict[str, Any]:
     """Plan, simulate (nominal + ``trials`` seeded mass errors) and summarize Section 5.4 in ``out``.
 
     ``waypoints`` is accepted for a uniform interface (a hold task has one waypoint); ``fmt`` is
     the figure format (png, pdf or svg).
     ``weight_factors``: the RFP baselines' capability weight in the sweep of
     :mod:`forte.experiments.baseline_weights`, as multiples of the authors' (empty: no sweep).
+    ``weights``: a weight set replacing the task file's (default: the task file's,
+    ``authors-hold``); the summary names the set it used.
     """
     out, fmt = Path(out), check_format(fmt)
-    cases = plan_payloads("hold", paper_methods("hold"), waypoints, log)
+    cases = plan_payloads("hold", paper_methods("hold"), waypoints, log, weights)
 
     def build(tmp: Path) -> None:
         simulate_cases(tmp, cases, trials, seed, log, hold=HOLD_SECONDS)

@@ -194,8 +194,10 @@ FORTE_TERMS = ("capability", "manipulability", "joint_limits", *REGULARIZATION)
 
 
 def _on_trajectory_sets(changes: Mapping[str, Any]) -> dict[str, Mapping[str, Any]]:
-    """A baseline's changes to the authors' trajectory set, for every set built on it."""
-    return {name: changes for name in AUTHORS_TRAJECTORY_SETS}
+    """A baseline's changes to the authors' trajectory set, for every set built on it, and (the
+    changes that are not regularization weights: a single point has none) to ``authors-hold-as-run``."""
+    as_run = {k: v for k, v in changes.items() if k not in REGULARIZATION}
+    return {name: changes for name in AUTHORS_TRAJECTORY_SETS} | {"authors-hold-as-run": as_run}
 
 
 _MANIP_DOF = tuple(v / 10 for v in (0, 2, 1, 10, 5, 1, 2, 1, 0, 0))
