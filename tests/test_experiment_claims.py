@@ -405,6 +405,25 @@ def test_projected_minor_axis_is_the_narrowest_width_of_the_shadow():
     assert projected_minor(res, "xy") == pytest.approx(0.4) and projected_minor(res, "xz") == pytest.approx(0.2)
 
 
+def test_the_drawn_ellipsoid_adds_the_base_yaw_column():
+    """``with_yaw``: the projection of the 3 x 8 ellipsoid (base yaw, then the arm), its Jacobian here
+    by central differences of the end-effector position."""
+    from forte.experiments.hold_claims import projected_minor
+    from forte.model.robot import default_robot
+
+    robot = default_robot()
+    q = np.r_[0.3, -0.2, 0.4, 0.119, 0.925, -0.130, -0.620, 0.097, 1.560, 0.823]
+    h = 1e-6
+    cols = [(robot.ee_position(q + h * e) - robot.ee_position(q - h * e)) / (2 * h) for e in np.eye(10)[2:]]
+    J8 = np.column_stack(cols)
+    res = SimpleNamespace(q=q[None, :], task=SimpleNamespace(robot=robot))
+    expected = np.sqrt(np.linalg.eigvalsh((J8 @ J8.T)[:2, :2])[0])
+    assert projected_minor(res, "xy", with_yaw=True) == pytest.approx(expected, rel=1e-6)
+    arm = J8[:, 1:]  # without the yaw column: the 3 x 7 arm ellipsoid's shadow
+    assert projected_minor(res, "xy") == pytest.approx(np.sqrt(np.linalg.eigvalsh((arm @ arm.T)[:2, :2])[0]), rel=1e-6)
+    assert J8[2, 0] == pytest.approx(0.0, abs=1e-8)  # the base's yaw moves the end effector horizontally only
+
+
 def test_trials_default_to_the_paper_s_counts(tmp_path, monkeypatch):
     """Without --trials the CLI passes none, so each runner's default (the paper's count) applies."""
     import inspect
