@@ -66,14 +66,16 @@ def run_experiment(args: argparse.Namespace) -> int:
         return 2
     weights = getattr(args, "weights", None)
     if weights is not None:
-        from forte.settings import WEIGHT_SETS
+        from forte.exceptions import InvalidInputError
+        from forte.settings import weight_set
 
         if args.name not in ("lift", "hold"):
             print(f"forte: error: --weights: only lift and hold take a weight set, not {args.name}", file=sys.stderr)
             return 2
-        if weights not in WEIGHT_SETS:
-            print(f"forte: error: --weights: expected one of {', '.join(WEIGHT_SETS)}, got {weights!r}",
-                  file=sys.stderr)
+        try:
+            weight_set(weights)
+        except InvalidInputError as exc:
+            print(f"forte: error: --weights: {exc}", file=sys.stderr)
             return 2
     out = args.out or Path("runs") / "experiments" / args.name
 
