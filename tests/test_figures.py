@@ -216,7 +216,7 @@ def test_no_process_to_be_had_draws_here(tmp_path: Path, monkeypatch: pytest.Mon
     assert figure_processes.FigureWorker(quintic.robot).pid == -1
     assert _open_fds() == before  # its pipes were closed
     with figure_processes.figure_worker(quintic.robot, fork=True) as worker:
-        assert worker is None and figure_processes.take_worker(quintic.robot) is None
+        assert worker is None and figure_processes.take_worker() is None
         with figure_format("svg"):
             plan_figures(quintic, tmp_path)
     assert _open_fds() == before

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from forte.exceptions import InvalidInputError
-from forte.planning.optimizer import shift_rows
+from forte.planning.layout import shift_rows
 from forte.planning.planner import plan, start_guess
 from forte.planning.replan import Replanner, converged
 from forte.planning.tasks import load_task

@@ -39,7 +39,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from forte.capability.polytope import ZERO_NORMAL
+from forte.capability.polytope import ZERO_NORMAL, trajectory_rfp
 from forte.settings import CapabilityParameters
 from forte.validation import FloatArray
 
@@ -155,6 +155,13 @@ def yoshikawa(J: Any) -> FloatArray:
     """Yoshikawa's measure ``sqrt(det(J J^T))``."""
     J = np.asarray(J, dtype=float)
     return np.sqrt(np.maximum(np.linalg.det(J @ np.swapaxes(J, -1, -2)), 0.0))
+
+
+def min_margin(robot: Any, q: Any, t: Any, f: Any, r: Any, alpha: float) -> float:
+    """``min_k d_k``: the exact capability margin of the configurations ``q`` (N x nq) at the times
+    ``t``, the force ball (``f``, ``r``) against the alpha-scaled dynamic RFP of every waypoint."""
+    rfp = trajectory_rfp(robot, q, t, alpha=alpha)
+    return float(np.min(capability_margin(rfp.A, rfp.b, np.asarray(f, dtype=float), np.asarray(r, dtype=float))))
 
 
 def ellipsoid_axes(J: Any) -> tuple[FloatArray, FloatArray]:

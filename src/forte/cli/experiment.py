@@ -16,6 +16,8 @@ EXPERIMENTS: dict[str, tuple[str, str]] = {
 #: Figure formats (the same as :data:`forte.experiments.common.FORMATS`, kept here so that
 #: ``forte --help`` does not import the planner).
 FORMATS = ("png", "pdf", "svg")
+#: The experiments that run the RFP baselines' weight sweep and take --weights.
+WEIGHTED: tuple[str, ...] = ("lift", "hold")
 #: Upper bound of --trials (documented).
 MAX_TRIALS = 1000
 
@@ -60,7 +62,7 @@ def run_experiment(args: argparse.Namespace) -> int:
     if args.waypoints is not None and not 2 <= args.waypoints <= MAX_WAYPOINTS:
         print(f"forte: error: --waypoints: expected 2 to {MAX_WAYPOINTS}, got {args.waypoints}", file=sys.stderr)
         return 2
-    if not getattr(args, "weight_sweep", True) and args.name not in ("lift", "hold"):
+    if not getattr(args, "weight_sweep", True) and args.name not in WEIGHTED:
         print(f"forte: error: --no-weight-sweep: only lift and hold run the weight sweep, not {args.name}",
               file=sys.stderr)
         return 2
@@ -69,7 +71,7 @@ def run_experiment(args: argparse.Namespace) -> int:
         from forte.exceptions import InvalidInputError
         from forte.settings import weight_set
 
-        if args.name not in ("lift", "hold"):
+        if args.name not in WEIGHTED:
             print(f"forte: error: --weights: only lift and hold take a weight set, not {args.name}", file=sys.stderr)
             return 2
         try:

@@ -9,8 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from forte.capability.metrics import capability_margin
-from forte.capability.polytope import trajectory_rfp
+from forte.capability.metrics import ellipsoid_axes, min_margin
 from forte.experiments.claims import Claim, compare, every_run, runs, solved, unloaded_succeeds
 from forte.experiments.common import Case, manipulability_leads, metrics, sim_text, unloaded_text
 from forte.planning.planner import Plan
@@ -54,8 +53,7 @@ def drawn_margin(res: Plan) -> float:
     The authors' figures draw the residual force polytope with unscaled margins (alpha = 1) and the
     ball of radius r around f; alpha only enters the planner's metric d.
     """
-    rfp = trajectory_rfp(res.task.robot, res.q, res.t, alpha=1.0)
-    return float(np.min(capability_margin(rfp.A, rfp.b, res.force.f, res.force.r)))
+    return min_margin(res.task.robot, res.q, res.t, res.force.f, res.force.r, alpha=1.0)
 
 
 def _ball_claim(heavy: Case, method: str, m: dict[str, Any]) -> Claim:
@@ -158,7 +156,7 @@ def _light_claims(light: Case, heavy: Case) -> list[Claim]:
 
 def semi_axes(res: Plan) -> np.ndarray:
     """Semi-axes of the velocity-manipulability ellipsoid at the held configuration, largest first (m/s)."""
-    return np.linalg.svd(res.task.robot.arm_jacobian(res.q[0]), compute_uv=False)
+    return ellipsoid_axes(res.task.robot.arm_jacobian(res.q[0]))[0]
 
 
 def _adaptive_claims(light: Case, heavy: Case) -> list[Claim]:

@@ -212,8 +212,8 @@ def figure_worker(robot: Any, fork: bool | None = None) -> Iterator[FigureWorker
             worker.close()
 
 
-def take_worker(robot: Any) -> FigureWorker | None:
-    """The unused worker of this block for ``robot`` (then used), or None."""
+def take_worker() -> FigureWorker | None:
+    """The unused worker of this block (then used), or None; :meth:`FigureWorker.draw` checks the robot."""
     worker = _WORKER.get()
     if worker is None or worker.used or worker.pid <= 0:
         return None

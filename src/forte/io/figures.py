@@ -306,7 +306,7 @@ def plan_figures(plan: Plan, directory: Path) -> None:
     figure worker when one waits (:func:`forte.io.figure_processes.figure_worker`), else here,
     two groups in two processes where :func:`~forte.io.figure_processes.run_split` can fork
     (about 0.3 s of CPU time each)."""
-    worker = take_worker(plan.robot)
+    worker = take_worker()
     if worker is not None and worker.draw(plan, directory, _FORMAT.get()):
         return
     run_split([

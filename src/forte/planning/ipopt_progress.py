@@ -71,13 +71,11 @@ class IpoptProgress(ca.Callback):
 def margin_of(robot: Any, n: int, t: np.ndarray, f: Any, r: Any, alpha: float) -> Callable[[np.ndarray], float]:
     """``x -> min_k d_k``, the exact capability margin of an iterate ``x`` (its first ``n nq``
     entries: the configurations) for the times ``t``, forces ``f`` and radii ``r``."""
-    from forte.capability.metrics import capability_margin
-    from forte.capability.polytope import trajectory_rfp
+    from forte.capability.metrics import min_margin
 
     f, r = np.asarray(f, dtype=float), np.asarray(r, dtype=float)
     times = t if n > 1 else np.zeros(1)
 
     def margin(x: np.ndarray) -> float:
-        rfp = trajectory_rfp(robot, x[: n * robot.nq].reshape(n, robot.nq), times, alpha=alpha)
-        return float(np.min(capability_margin(rfp.A, rfp.b, f, r)))
+        return min_margin(robot, x[: n * robot.nq].reshape(n, robot.nq), times, f, r, alpha)
     return margin

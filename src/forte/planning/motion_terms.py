@@ -70,11 +70,8 @@ class Velocity(CostTerm):
 
     name: ClassVar[str] = "velocity"
 
-    def coordinates(self, s: Stage) -> slice:
-        return slice(N_BASE, s.robot.nq)
-
     def stage(self, s: Stage) -> ca.SX:
-        i = self.coordinates(s)
+        i = slice(N_BASE, s.robot.nq)
         return 0.5 * ca.sumsqr(s.q0[i] - s.q1[i]) / s.dt0**2
 
 
@@ -145,7 +142,7 @@ class Collision(CostTerm):
     @classmethod
     def from_weights(cls, weights: CostWeights) -> CostTerm:
         if weights.collision_model == "box":
-            return BoxCollision(weights.collision_radius)
+            return BoxCollision.from_weights(weights)
         return cls(AUTHORS_SPHERES, weights.collision_safe_distance)
 
     @staticmethod
@@ -157,8 +154,9 @@ class Collision(CostTerm):
     def stage(self, s: Stage) -> ca.SX:
         basket, body = self.spheres
         cost = ca.SX(0)
+        body_centres = self.centres(s, body)
         for a, p_a in zip(basket, self.centres(s, basket), strict=True):
-            for b, p_b in zip(body, self.centres(s, body), strict=True):
+            for b, p_b in zip(body, body_centres, strict=True):
                 clearance = ca.sqrt(ca.sumsqr(p_a - p_b) + 1e-12) - (a.radius + b.radius)
                 cost += ca.fmax(0, self.safe_distance - clearance) ** 2
         return cost

@@ -45,8 +45,6 @@ from forte.planning.methods import Method, get_method, method_names
 from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights, KinematicLimits, SolverOptions
 from forte.validation import FloatArray
 
-shift_rows = layout.shift_rows  # the re-planner's import
-
 
 @dataclass
 class SolverResult:

@@ -46,8 +46,9 @@ import numpy as np
 from forte.exceptions import InvalidInputError
 from forte.force.taskforce import TaskForce
 from forte.planning.blas import single_threaded_blas
+from forte.planning.layout import shift_rows
 from forte.planning.methods import get_method
-from forte.planning.optimizer import SolverResult, TrajectoryOptimizer, shift_rows
+from forte.planning.optimizer import SolverResult, TrajectoryOptimizer
 from forte.planning.planner import Plan, evaluate, resolve_payload, start_guess
 from forte.planning.tasks import Task
 from forte.validation import FloatArray
