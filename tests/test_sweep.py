@@ -282,6 +282,34 @@ def test_a_ray_worker_that_dies_is_one_line_error(tmp_path, monkeypatch):
     assert message.startswith("a sweep worker died (WorkerCrashedError: "), message
 
 
+@pytest.mark.slow
+def test_leaving_early_cancels_the_tasks_only_in_the_caller_s_session(tmp_path, monkeypatch):
+    """In forte's own session ray.shutdown() stops the tasks left (no force-cancel before it, which
+    races Ray's bookkeeping); in a session the caller started and keeps, the tasks left are cancelled."""
+    ray = pytest.importorskip("ray")
+    import contextlib
+
+    from forte.experiments.sweep import executors
+
+    groups = plan_groups(read_sweep(write_sweep(tmp_path)))
+    assert len(groups) > 1
+    cancelled: list = []
+    monkeypatch.setattr(ray, "cancel", lambda ref, **kwargs: cancelled.append(ref))
+
+    def first_then_leave() -> None:
+        with executors.backend("local", 1) as execute, contextlib.closing(execute(groups)) as results:
+            assert next(results)
+
+    first_then_leave()  # forte's own local instance
+    assert cancelled == [] and not ray.is_initialized()
+    ray.init(address="local", num_cpus=1, include_dashboard=False, log_to_driver=False, logging_level="ERROR")
+    try:
+        first_then_leave()  # the caller's session, left running
+        assert len(cancelled) == len(groups) - 1 and ray.is_initialized()
+    finally:
+        ray.shutdown()
+
+
 def _children(pid: int) -> set[int]:
     try:
         text = Path(f"/proc/{pid}/task/{pid}/children").read_text()

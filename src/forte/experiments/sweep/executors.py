@@ -151,17 +151,18 @@ def _check_reachable(address: str) -> None:
 
 
 @contextlib.contextmanager
-def ray_session(address: str | None, workers: int) -> Iterator[None]:
+def ray_session(address: str | None, workers: int) -> Iterator[bool]:
     """Connect to Ray for the block: ``address`` ``None`` or ``"local"`` starts a local instance with
     ``workers`` CPUs, anything else is the address of a cluster (``auto``, ``HOST:PORT`` or
     ``ray://HOST:PORT``; its nodes need forte installed). A session the caller started
-    (``ray.init``) is used as it is and left running.
+    (``ray.init``) is used as it is and left running. Yields whether the block owns the session
+    (then ``ray.shutdown()`` at its end stops every task it left).
     """
     check_ray()
     import ray
 
     if ray.is_initialized():
-        yield
+        yield False
         return
     options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "logging_level": "ERROR"}
     if address not in (None, LOCAL):
@@ -183,7 +184,7 @@ def ray_session(address: str | None, workers: int) -> Iterator[None]:
             if handler is not None:  # None: a handler not installed from Python, cannot be put back
                 signal.signal(sig, handler)
     try:
-        yield
+        yield True
     finally:
         ray.shutdown()
 
@@ -192,9 +193,13 @@ def ray_session(address: str | None, workers: int) -> Iterator[None]:
 RAY_TASK_RETRIES = 3
 
 
-def ray_results(groups: Sequence[PlanGroup]) -> Iterator[list[CellResult]]:
+def ray_results(groups: Sequence[PlanGroup], cancel: bool = True) -> Iterator[list[CellResult]]:
     """Run ``groups`` as Ray tasks of one CPU each (inside :func:`ray_session`); yield each group's
-    results when it finishes. Leaving the iterator early cancels the others.
+    results when it finishes. Leaving the iterator early cancels the others if ``cancel``: in a
+    session the caller keeps running. In a session of its own :func:`backend` leaves that to
+    ``ray.shutdown()``: force-cancelling tasks just before it races Ray's bookkeeping (a reply for a
+    task Ray had already cancelled as queued aborts the driver, "Tried to complete task that was
+    not pending", seen on SIGTERM in this project's tests with Ray 2.60).
 
     Ray retries a task whose worker died (:data:`RAY_TASK_RETRIES` times); a failure left after that (a
     worker crash, a lost node, out of memory) raises :func:`worker_died`. An exception raised in
@@ -216,7 +221,7 @@ def ray_results(groups: Sequence[PlanGroup]) -> Iterator[list[CellResult]]:
                 raise worker_died(f"{type(exc).__name__}: {' '.join(str(exc).split())[:200]}") from None
             yield result
     finally:
-        for ref in pending:
+        for ref in pending if cancel else ():
             with contextlib.suppress(Exception):
                 ray.cancel(ref, force=True)
 
@@ -230,5 +235,5 @@ def backend(ray: str | None, workers: int) -> Iterator[Execute]:
     if ray is None:
         yield lambda groups: pool_results(groups, workers)
         return
-    with ray_session(ray, workers):
-        yield ray_results
+    with ray_session(ray, workers) as owned:
+        yield lambda groups: ray_results(groups, cancel=not owned)
