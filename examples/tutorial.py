@@ -25,8 +25,9 @@ q = robot.home()
 rfp = forte.residual_force_polytope(robot, q)  # static pose: the nominal torque is gravity's
 print(f"RFP at home: {len(rfp.vertices)} vertices, {rfp.capacity_along([0, 0, 1]):.1f} N available straight up")
 
-# 2. Holding a 2.7 kg payload still needs f = m (0 - g) = 26.5 N up; the uncertainty ball has r = 10 N.
-task_force = forte.payload_force([0.0], [robot.ee_position(q)], mass=2.7)
+# 2. Holding a 2.7 kg payload still needs f = (m + m_tool) (0 - g) = 37.7 N up: the robot's 1.146 kg
+#    end-effector load counts too, as in every planned task; the uncertainty ball has r = 10 N.
+task_force = forte.payload_force([0.0], [robot.ee_position(q)], mass=2.7 + robot.tool_force_mass)
 alpha = forte.CapabilityParameters().alpha  # the metric shrinks the residual torque interval by alpha
 shrunk = forte.residual_force_polytope(robot, q, alpha=alpha)
 d = forte.capability_margin(shrunk.H, shrunk.d, task_force.f[0], task_force.r[0])

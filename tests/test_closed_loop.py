@@ -18,7 +18,7 @@ LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift-path.y
 @pytest.fixture(scope="module")
 def light_plan(tmp_path_factory):
     out = tmp_path_factory.mktemp("closed") / "light"
-    assert main(["plan", str(LIFT), "--mass", "0.35", "--waypoints", "25", "--out", str(out), "--quiet",
+    assert main(["plan", str(LIFT), "--mass", "0.35", "--out", str(out), "--quiet",
                  "--no-figures"]) == 0
     return out
 

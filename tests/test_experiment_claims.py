@@ -41,8 +41,12 @@ def fake_plan(method: str, cap: float, mu: float = 0.2, mag: float = 26.5, r: fl
     """A plan with constant metrics: capacity along f, manipulability, |f|, r and d."""
     n = len(t)
     full = np.full(n, 1.0)
+    label = "feasible" if success else "solver-failed"
+    verdict = SimpleNamespace(label=label, failed=() if success else ("solver",),
+                              brief=lambda: "" if success else "solver (Maximum_Iterations_Exceeded)")
     return SimpleNamespace(
-        method=method, t=t, success=success, status="Solve_Succeeded" if success else "Maximum_Iterations_Exceeded",
+        method=method, t=t, solved=success, feasible=success, label=label, verdict=verdict,
+        status="Solve_Succeeded" if success else "Maximum_Iterations_Exceeded",
         solver={}, force=SimpleNamespace(magnitude=mag * full, r=r * full),
         metrics={"directional_capacity": cap * full, "capacity_margin": (cap - mag - r) * full, "d": d * full,
                  "manipulability": mu * full, "max_torque_ratio": 0.5 * full,

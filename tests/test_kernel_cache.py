@@ -114,6 +114,7 @@ def test_truncated_cache_is_no_sigbus_end_to_end(tmp_path):
     env = {**os.environ, "FORTE_CACHE": str(cache), "PYTHONPATH": str(REPO / "src")}
     proc = subprocess.run([sys.executable, "-m", "forte.cli", "plan", str(HOLD),
                            "--method", "manipulability", "--mass", "1", "--no-figures", "--quiet",
+                           "--allow-infeasible", "--no-bound",
                            "--out", str(tmp_path / "out")], env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert "rebuilding" in proc.stderr and "Traceback" not in proc.stderr

@@ -206,7 +206,7 @@ def test_more_hold_starts_never_give_a_worse_objective():
     task = load_task(Path(__file__).resolve().parents[1] / "examples" / "tasks" / "hold.yaml")  # 2.7 kg
     single = plan(replace(task, solver=replace(task.solver, hold_starts=1)), "forte")
     multi = plan(task, "forte")
-    assert single.success and multi.success and "starts" not in single.solver
+    assert single.solved and multi.solved and "starts" not in single.solver
     assert multi.solver["starts"]["count"] == task.solver.hold_starts
     assert multi.solver["objective"] <= single.solver["objective"] + 1e-9
     starts = multi.solver["starts"]

@@ -51,7 +51,7 @@ def test_new_term_and_method_plan_through_the_registries(toy_method, tmp_path):
     task = load_task(LIFT, waypoints=12)
     assert "toy" in methods_for(task) and "toy" in method_names(optimized=True)
     toy = plan(task, "toy")
-    assert toy.success, toy.status
+    assert toy.solved, toy.status
     terms = toy.solver["cost_terms"]
     assert set(terms) == {*METHODS["forte"].terms, "base_distance"}
     # the compiled term equals the formula evaluated on the plan

@@ -32,9 +32,9 @@ def test_replan_equals_a_cold_solve_of_the_same_problem(task):
     planner = Replanner(task)
     for mass in (3.3, 0.5, 2.0):
         warm = planner.replan(mass=mass)
-        assert warm.plan.success and warm.warm and warm.plan.status == "Solve_Succeeded"
+        assert warm.plan.solved and warm.warm and warm.plan.status == "Solve_Succeeded"
         cold = plan(task.with_payload(task.payload.with_mass(mass)), "forte")
-        assert cold.success
+        assert cold.solved
         np.testing.assert_allclose(warm.plan.q, cold.q, atol=1e-5)  # both to IPOPT's tolerance
         np.testing.assert_allclose(warm.plan.metrics["d"], cold.metrics["d"], atol=1e-3)
     assert planner.task.payload.mass == 2.0 and planner.task.payload.source == "replan"
@@ -44,7 +44,7 @@ def test_replan_equals_a_cold_solve_of_the_same_problem(task):
 def test_a_shifted_replan_equals_a_cold_solve_of_the_shifted_problem(task):
     planner = Replanner(task)
     result = planner.shift(3, mass=1.0)
-    assert result.plan.success and result.warm
+    assert result.plan.solved and result.warm
     t, force, nominal = planner.task, planner.force, planner.nominal
     np.testing.assert_allclose(nominal, shift_rows(task.nominal(), 3))  # the nominal moves with the horizon
     cold = planner.optimizer.solve(t.t, t.targets, force.f, force.r, t.q_init, start_guess(t, nominal), nominal)
@@ -56,7 +56,7 @@ def test_shift_moves_the_horizon_and_holds_the_last_target(task):
     planner = Replanner(task)
     before = planner.last.q.copy()
     result = planner.shift(2)
-    assert result.plan.success
+    assert result.plan.solved
     np.testing.assert_allclose(result.plan.q[0], before[2], atol=1e-12)  # the new start is the planned one
     np.testing.assert_allclose(planner.task.targets[-1], planner.task.targets[-3])  # the tail holds
     for qk, Tk in zip(result.plan.q, planner.task.targets, strict=True):
@@ -72,7 +72,7 @@ def test_a_replan_that_does_not_converge_is_never_a_success(task):
     planner.optimizer.solver = planner.optimizer._nlpsol(crippled)
     planner.optimizer._warm_solver = planner.optimizer._nlpsol(crippled | {"calc_lam_x": True})
     result = planner.replan(mass=3.5)
-    assert not result.plan.success and not result.warm  # the warm try failed, then the cold retry
+    assert not result.plan.solved and not result.warm  # the warm try failed, then the cold retry
     np.testing.assert_array_equal(planner.last.q, good)  # the last good solution is kept
     assert planner.task.payload.mass == task.payload.mass
 
@@ -82,7 +82,7 @@ def test_a_failed_warm_try_falls_back_to_a_cold_solve(task):
     planner.optimizer._warm_solver = planner.optimizer._nlpsol(
         planner.optimizer._nlp_options | {"ipopt.max_iter": 1, "calc_lam_x": True})
     result = planner.replan(mass=2.2)
-    assert result.plan.success and not result.warm
+    assert result.plan.solved and not result.warm
 
 
 def test_a_replan_stopped_at_ipopts_acceptable_level_is_not_a_success(task):
@@ -96,7 +96,7 @@ def test_a_replan_stopped_at_ipopts_acceptable_level_is_not_a_success(task):
     planner.optimizer._warm_solver = planner.optimizer._nlpsol(loose)
     result = planner.replan(mass=1.0)
     assert result.plan.status == "Solved_To_Acceptable_Level"
-    assert not result.plan.success and not result.warm
+    assert not result.plan.solved and not result.warm
     np.testing.assert_array_equal(planner.last.q, good)
 
 
@@ -150,5 +150,5 @@ def test_new_targets_of_a_pose_path_task_re_derive_its_nominal():
     targets[1:, 2, 3] += 0.02  # the path 2 cm higher after its start
     result = replanner.replan(targets=targets)
     cold = plan(replace(path_task, targets=targets), "forte")
-    assert result.plan.success and cold.success
+    assert result.plan.solved and cold.solved
     np.testing.assert_allclose(result.plan.q, cold.q, atol=1e-5)

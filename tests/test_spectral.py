@@ -225,7 +225,7 @@ def test_a_replanner_with_lifted_variables_shifts_its_horizon():
     planner = Replanner(task)
     assert planner.optimizer._lift.shape[0] > 0
     result = planner.shift(2)
-    assert result.plan.success and result.warm
+    assert result.plan.solved and result.warm
 
 
 @pytest.mark.slow
@@ -236,12 +236,12 @@ def test_lift_plans_do_not_move_where_the_form_is_exact(method):
     task = load_task(LIFT)
     dense = plan(replace(task, weights=replace(task.weights, dct_form="dense")), method)
     default = plan(task, method)
-    assert dense.success and default.success
+    assert dense.solved and default.solved
     np.testing.assert_allclose(default.q, dense.q, atol=1e-9)
     flat = replace(task.weights, dct_power=0.0)
     lifted = plan(replace(task, weights=flat), method)
     flat_dense = plan(replace(task, weights=replace(flat, dct_form="dense")), method)
-    assert lifted.success and flat_dense.success
+    assert lifted.solved and flat_dense.solved
     if "base_spectral" in lifted.solver["quadratic_forms"]:
         assert lifted.solver["quadratic_forms"]["base_spectral"] == "lifted"
     np.testing.assert_allclose(lifted.q, flat_dense.q, atol=1e-6)
@@ -255,7 +255,7 @@ def test_the_banded_alternative_plans_the_authors_lift_like_the_formula():
     task = load_task(LIFT, waypoints=100)
     banded = plan(task, "forte")
     dense = plan(replace(task, weights=replace(task.weights, dct_form="dense")), "forte")
-    assert banded.solver["quadratic_forms"]["base_spectral"] == "banded" and banded.success and dense.success
+    assert banded.solver["quadratic_forms"]["base_spectral"] == "banded" and banded.solved and dense.solved
     assert np.abs(banded.q - dense.q).max() < 1e-3
     j5 = banded.solver["cost_terms"]["base_spectral"], dense.solver["cost_terms"]["base_spectral"]
     assert j5[0] == pytest.approx(j5[1], rel=0.05)

@@ -55,7 +55,9 @@ def run_demo(args: argparse.Namespace) -> int:
     plus, minus = residual_margins(tau, robot.torque_limits)
     A1, b1 = halfspaces(J, plus, minus, alpha=1.0)
     A, b = halfspaces(J, plus, minus, alpha=params.alpha)
-    task = payload_force([0.0], [robot.ee_position(q)], args.mass, args.radius, robot.gravity)
+    # the required force carries the robot's end-effector load too, as a planned task's does
+    load = args.mass + robot.tool_force_mass
+    task = payload_force([0.0], [robot.ee_position(q)], load, args.radius, robot.gravity)
     f, r = task.f[0], task.r[0]
     d = float(capability_margin(A, b, f, r))
     c = float(capability_penalty(d, normalization(f, r), params.kappa, params.max_exponent))
@@ -67,6 +69,7 @@ def run_demo(args: argparse.Namespace) -> int:
         "nominal_torque": tau.tolist(),
         "torque_limits": robot.torque_limits.tolist(),
         "desired_force": f.tolist(),
+        "tool_force_mass": robot.tool_force_mass,
         "radius": float(r),
         "alpha": params.alpha,
         "margin_d": d,
@@ -86,7 +89,8 @@ def run_demo(args: argparse.Namespace) -> int:
     print(f"residual force polytope (alpha = 1): {len(verts)} vertices, "
           f"inscribed radius {report['inscribed_radius']:.1f} N, "
           f"capacity straight up {report['directional_capacity_up']:.1f} N")
-    print(f"payload {args.mass} kg -> desired force {f} N, ball radius {args.radius} N")
+    print(f"payload {args.mass} kg + end-effector load {robot.tool_force_mass:g} kg -> desired force {f} N, "
+          f"ball radius {args.radius} N")
     verdict = "inside" if d >= 0 else "NOT inside"
     print(f"margin d = {d:.2f} N (alpha = {params.alpha}): the force ball is {verdict} the RFP; "
           f"penalty c = {c:.3f}")

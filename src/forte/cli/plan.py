@@ -15,10 +15,12 @@ from forte.io.figures import figure_format
 from forte.io.outputs import check_output, output_lock, replace_directory
 from forte.io.plandir import plan_summary, write_plan
 from forte.io.reports import write_comparison
+from forte.planning.bounds import PayloadBound, replanned_bound
 from forte.planning.methods import method_names
-from forte.planning.planner import Plan, methods_for, plan, resolve_payload
-from forte.planning.sanity import check_force_capacity, describe_negative, negative_margins
+from forte.planning.planner import Plan, compare, methods_for, plan, resolve_payload
+from forte.planning.sanity import check_force_capacity
 from forte.planning.tasks import load_task
+from forte.planning.verdict import exit_code
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -33,6 +35,9 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model", default="gpt-4o", help="VLM model name (default gpt-4o)")
     p.add_argument("--api-key-env", default="OPENAI_API_KEY", help="environment variable holding the API key")
     p.add_argument("--no-cache", action="store_true", help="ask the VLM server every time (no answer cache)")
+    p.add_argument("--allow-infeasible", action="store_true",
+                   help="exit 0 even when a plan is not feasible (exploration); the verdict is still printed "
+                   "and recorded")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -42,9 +47,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     _common(p)
     p.add_argument("--method", default="forte", choices=method_names(), help="planning method (default forte)")
     p.add_argument("--out", type=Path, help="output directory (default runs/<task>-<method>)")
-    p.add_argument("--require-capacity", action="store_true",
-                   help="fail (exit 1) when the force ball leaves the RFP (d < 0) at some waypoint; the task "
-                   "field require_capacity: true does the same")
+    p.add_argument("--require-capacity", action="store_true", help=argparse.SUPPRESS)  # always on since verdicts
+    p.add_argument("--no-bound", action="store_true",
+                   help="when the plan lacks capacity, skip the search for the largest payload forte can carry")
     p.set_defaults(func=run_plan)
     c = sub.add_parser("compare", help="plan a task with every method and compare them",
                        description="Run every method that applies to the task and write one directory per "
@@ -74,16 +79,42 @@ def _describe(res: Plan) -> str:
     s = plan_summary(res)
     solve = res.solver.get("solve_time_s")
     timing = f", solved in {solve:.2f} s ({res.solver.get('iterations')} it.)" if solve is not None else ""
-    return (f"{res.method}: {res.status}{timing}; min d = {s['min_d']:.2f} N, min capacity - (|f| + r) = "
-            f"{s['min_capacity_margin']:.2f} N, mean manipulability = {s['mean_manipulability']:.4f}")
+    return (f"{res.method}: {res.label} ({res.status}{timing}); min d = {s['min_d']:.2f} N, min capacity - "
+            f"(|f| + r) = {s['min_capacity_margin']:.2f} N, mean manipulability = {s['mean_manipulability']:.4f}")
 
 
-def _capacity_shortfall(res: Plan) -> str:
-    """'' when the force ball stays in the RFP at every waypoint, else where it leaves it."""
-    if not res.metrics:
+def _with_bound(args: argparse.Namespace, res: Plan) -> Plan:
+    """The plan with forte's re-planned payload bound in its verdict, when the capacity or torque
+    requirement failed on a payload task (one solve per bisection step; ``--no-bound`` skips)."""
+    bound = res.verdict.payload_bound if res.verdict is not None else None
+    if bound is None or args.no_bound or res.task is None:
+        return res
+    _say(args, f"{res.method} is not feasible at {bound['asked_kg']:g} kg: finding the largest payload forte can "
+               "carry on this path (--no-bound skips) ...")
+    found = replanned_bound(res.task, "forte")
+    bound = bound | {"replanned_kg": found.replanned_kg, "replanned_method": found.method}
+    return replace(res, verdict=res.verdict._replace(payload_bound=bound))
+
+
+def _bound_text(res: Plan) -> str:
+    bound = res.verdict.payload_bound if res.verdict is not None else None
+    if not bound:
         return ""
-    info = negative_margins(res.metrics)
-    return "" if info["sufficient"] else describe_negative(info, len(res.t))
+    fixed = bound["fixed_motion_kg"]
+    text = (f"; this plan's motion carries at most {fixed:.2f} kg" if fixed is not None
+            else "; this plan's motion fails even without payload")
+    if "replanned_kg" in bound:
+        text += "; " + PayloadBound(bound["replanned_method"], bound["asked_kg"], bound["replanned_kg"]).sentence()
+    return text
+
+
+def _verdict_line(res: Plan, where: Path | None, allowed: bool) -> str:
+    """The one line a plan that is not feasible gets on standard error."""
+    kind = "warning" if allowed else "error"
+    reason = res.verdict.reason() if res.verdict is not None else f"{res.label} ({res.status})"
+    report = f"; report in {where}/plan.json" if where is not None else ""
+    kept = " (exit 0: --allow-infeasible)" if allowed else ""
+    return f"forte: {kind}: {res.method}: {reason}{_bound_text(res)}{report}{kept}"
 
 
 def run_plan(args: argparse.Namespace) -> int:
@@ -98,23 +129,13 @@ def run_plan(args: argparse.Namespace) -> int:
         # the figures' process imports matplotlib on the other core while this one plans
         with contextlib.nullcontext() if args.no_figures else figure_worker(task.robot):
             _say(args, f"planning {task.name} ({task.mode}, {task.n} waypoints) with {args.method} ...")
-            res = plan(task, args.method)
-            required = args.require_capacity or getattr(task, "require_capacity", False)
-            short = _capacity_shortfall(res)
-            if short and required and res.success:  # a failure by the user's rule: status and file names say so
-                res = replace(res, success=False, status="insufficient_capacity")
+            res = _with_bound(args, plan(task, args.method))
             with figure_format(args.format):
                 where = write_plan(res, out, figures=not args.no_figures)
     _say(args, _describe(res))
-    if short:
-        print(f"forte: {'error' if required else 'warning'}: {res.method}: {short}"
-              + (f"; report in {where}/plan.json" if required else ""), file=sys.stderr)
-        if required:
-            return 1
-    if not res.success:
-        print(f"forte: error: optimization failed ({res.status}); report in {where}/plan.json, "
-              "no trajectory.csv written", file=sys.stderr)
-        return 1
+    if not res.feasible:
+        print(_verdict_line(res, where, args.allow_infeasible), file=sys.stderr)
+        return exit_code([res], args.allow_infeasible)
     _say(args, f"wrote {where} in {time.perf_counter() - start:.2f} s")
     return 0
 
@@ -132,30 +153,25 @@ def _compare(args: argparse.Namespace, task: Any, out: Path) -> int:
     task = resolve_payload(task, _estimator_options(args))  # one estimate for every method
     check_force_capacity(task)
     methods = methods_for(task)
-    results: list[Plan] = []
-    for i, method in enumerate(methods, 1):
-        _say(args, f"[{i}/{len(methods)}] {method} ...")
-        res = plan(task, method)
-        results.append(res)
-        _say(args, "      " + _describe(res))
-        short = _capacity_shortfall(res)
-        if short:
-            print(f"forte: warning: {method}: {short}", file=sys.stderr)
+
+    def progress(i: int, res: Plan) -> None:
+        _say(args, f"[{i}/{len(methods)}] " + _describe(res))
+
+    results = compare(task, methods, on_plan=progress)
 
     def build(tmp: Path) -> None:
         for res in results:
             write_plan(res, tmp / res.method, figures=not args.no_figures)
         write_comparison(results, tmp)  # comparison.png is part of a comparison, figures or not
 
-    if not any(r.success for r in results) and (out / "summary.csv").exists():
+    if not any(r.feasible for r in results) and (out / "summary.csv").exists():
         out = out.with_name(out.name + ".failed")  # never replace an earlier comparison with a total failure
     with figure_format(args.format):
         replace_directory(build, out)
     if not args.quiet:
         print((out / "summary.md").read_text())
     _say(args, f"wrote {out}")
-    failed = [r.method for r in results if not r.success]
-    if failed:
-        print(f"forte: error: optimization failed for {', '.join(failed)}", file=sys.stderr)
-        return 1
-    return 0
+    for res in results:
+        if not res.feasible:
+            print(_verdict_line(res, None, args.allow_infeasible), file=sys.stderr)
+    return exit_code(results, args.allow_infeasible)

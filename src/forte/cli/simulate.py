@@ -131,6 +131,10 @@ def run(args: argparse.Namespace) -> int:
             replan=_replan_options(args), reference=args.reference,
         )
     s = result.summary
+    if not args.quiet and s.get("plan_verdict") not in (None, "feasible"):
+        failed = ", ".join(s.get("plan_verdict_failed") or ())
+        print(f"note: the plan's verdict is {s['plan_verdict']}" + (f" ({failed})" if failed else "")
+              + "; simulating it anyway", file=sys.stderr)
     if result.success:
         if not args.quiet:
             print(f"success: {s['duration']:.2f} s simulated in {s['wall_time_s']:.2f} s, max end-effector "

@@ -126,10 +126,11 @@ class ReplanLoop:
             return  # the motion is over: nothing left to re-plan
         result = self.replanner.shift(j - self.offset, mass=m) if j > self.offset else self.replanner.replan(mass=m)
         entry = {"t": t, "mass": m, "planned_mass": planned, "waypoint": j, "latency_s": result.latency_s,
-                 "iterations": result.iterations, "warm": result.warm, "success": result.plan.success,
+                 "iterations": result.iterations, "warm": result.warm, "success": result.plan.solved,
+                 "verdict": result.plan.label,
                  "min_d": float(np.min(result.plan.metrics["d"]))}
         self.log.append(entry)
-        if not result.plan.success:
+        if not result.plan.solved:
             return  # keep following the last good plan
         self.offset = j
         self._splice(k, j, result.plan.q, result.plan.force.f)

@@ -45,10 +45,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from forte.exceptions import InvalidInputError
 from forte.model.robot import N_BASE, MobileManipulator
+from forte.model.trajectory import clamped_spline
 from forte.validation import FloatArray, as_array, as_vector, check_times
 
 #: Franka's joint-impedance example gains (Nm/rad, Nm s/rad): stiff shoulder, soft wrist.
@@ -196,17 +196,7 @@ def interpolate_plan(
     qp = as_array(q_plan, "q", (tp.size, None)).copy()
     ts = as_array(times, "times", (None,))
     qp[:, 2] = np.unwrap(qp[:, 2])
-    if tp.size == 1:
-        q = np.repeat(qp, ts.size, axis=0)
-        dq = np.zeros_like(q)
-        ddq = np.zeros_like(q)
-    else:
-        spline = CubicSpline(tp, qp, axis=0, bc_type="clamped")
-        tc = np.clip(ts, tp[0], tp[-1])
-        inside = ((ts >= tp[0]) & (ts <= tp[-1]))[:, None]
-        q = spline(tc)
-        dq = np.where(inside, spline(tc, 1), 0.0)
-        ddq = np.where(inside, spline(tc, 2), 0.0)
+    q, dq, ddq = clamped_spline(tp, qp, ts)
     return Reference(ts, q, dq, ddq, interpolate_force(ts, force_t, force))
 
 

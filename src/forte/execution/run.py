@@ -354,6 +354,8 @@ def _run_facts(plan: Plan, plan_dir: Path, sim: SimModel, gains: ControlGains) -
     q_a0 = plan.q[0, N_BASE:]
     return {
         "plan_dir": str(plan_dir.resolve()), "plan_method": plan.method, "plan_status": plan.status,
+        "plan_verdict": plan.label,
+        "plan_verdict_failed": list(plan.verdict.failed) if plan.verdict is not None else None,
         "plan_mass": plan.payload.mass, "force_feedforward": gains.force_feedforward, "armature": sim.armature.tolist(),
         "gains": describe_gains(gains),
         "sampled_loop_radius_start": sampled_loop_radius_at(sim.robot, gains, q_a0, sim.armature, sim.timestep),

@@ -51,7 +51,7 @@ class SweepPoint(NamedTuple):
     def sufficient(self) -> bool:
         """Enough force for the heavy load: solved, capacity >= |f| + r throughout, every run succeeds."""
         done = runs(self.heavy_sim, None)
-        return (self.heavy.success and metrics(self.heavy)["min_capacity_margin"] >= 0
+        return (self.heavy.solved and metrics(self.heavy)["min_capacity_margin"] >= 0
                 and bool(done) and all(r["success"] for r in done))
 
 
@@ -133,9 +133,9 @@ def weight_claims(points: list[SweepPoint], forte_light: Plan, section: str) -> 
                                     "forte's manipulability under the 0.33 L one", not both,
                                     evidence + (f"; both at weight {both[0].weight:g}" if both else "")))
         balance_text.append(f"{method}: {evidence}")
-    solved_all = Check("every sweep plan solved", all(p.light.success and p.heavy.success for p in points),
+    solved_all = Check("every sweep plan solved", all(p.light.solved and p.heavy.solved for p in points),
                        ", ".join(f"{p.method}@{p.weight:g}: {p.heavy.status}" for p in points
-                                 if not (p.light.success and p.heavy.success)) or "all solved")
+                                 if not (p.light.solved and p.heavy.solved)) or "all solved")
     return [
         Claim(section, "changing the optimization weights shifts the level of the RFP baselines' capacity curves",
               "2.7 L mean capacity along f (N) at capability weight × " + ", ".join(

@@ -109,7 +109,7 @@ def compare(left: str, value: float, op: str, right: str, bound: float, unit: st
 def solved(results: dict[str, Plan], *methods: str) -> Check:
     """The plans of ``methods`` are solutions (a failed solve's metrics are its last iterate's)."""
     missing = [m for m in methods if m not in results]
-    failed = [m for m in methods if m in results and not results[m].success]
+    failed = [m for m in methods if m in results and not results[m].solved]
     evidence = "; ".join([*(f"{m}: {results[m].status}" for m in failed), *(f"{m}: not planned" for m in missing)])
     return Check(f"{', '.join(methods)} planned successfully", not (failed or missing), evidence or "all solved")
 
@@ -136,9 +136,12 @@ def _no_runs(sim: dict[str, Any] | None) -> str:
 
 
 def every_run(case: Case, method: str, success: bool = True) -> Check:
-    """``method`` succeeds (or, with ``success=False``, fails) in every simulated run of ``case``."""
+    """``method`` succeeds (or, with ``success=False``, fails) in every simulated run of ``case``.
+
+    A success also needs the plan's verdict to be ``feasible`` (:mod:`forte.planning.verdict`): a
+    run that happens to get through with a plan short of its requirements is not counted."""
     verb = "succeeds" if success else "fails"
-    what = f"{method} {verb} in every run (nominal + mass-error trials)"
+    what = f"{method} {verb} in every run (nominal + mass-error trials)" + (" with a feasible plan" if success else "")
     done = runs(case.sims.get(method), case.mass)
     if not done:
         return Check(what, False, _no_runs(case.sims.get(method)))
@@ -146,7 +149,11 @@ def every_run(case: Case, method: str, success: bool = True) -> Check:
     evidence = f"{len(done) - len(odd)}/{len(done)} runs {'ok' if success else 'failed'}"
     if odd:
         evidence += "; " + "; ".join(run_text(r) for r in odd)
-    return Check(what, not odd, evidence)
+    res = case.results.get(method)
+    infeasible = success and res is not None and not res.feasible
+    if infeasible:
+        evidence += f"; plan {res.label} ({res.verdict.brief() if res.verdict is not None else 'not judged'})"
+    return Check(what, not odd and not infeasible, evidence)
 
 
 def some_run_fails(case: Case, method: str) -> Check:

@@ -111,7 +111,8 @@ def metrics(res: Plan) -> dict[str, Any]:
     """Planning quantities the paper discusses (per plan)."""
     cap, mag, r = res.metrics["directional_capacity"], res.force.magnitude, res.force.r
     return {
-        "status": "success" if res.success else "failure",
+        "status": res.label,
+        "verdict_failed": ", ".join(res.verdict.failed) if res.verdict is not None else "",
         "solver_status": res.status,
         "solve_time_s": float(res.solver.get("solve_time_s", 0.0)),
         **plan_summary(res),
@@ -299,6 +300,15 @@ def band(ax: Any, res: Plan) -> None:
 #: Line styles and markers that keep overlapping curves of different methods apart.
 DASHES = ("-", (0, (5, 2)), (0, (1, 1.5)), (0, (6, 2, 1, 2)), (0, (3, 3)), (0, (8, 3)))
 MARKERS = ("o", "s", "^", "D", "v", "P")
+
+
+def verdict_tag(res: Plan) -> str:
+    """A legend suffix for a plan that is not feasible: its verdict and what failed (a failed
+    solve's curve is its last iterate)."""
+    if res.feasible:
+        return ""
+    failed = ", ".join(res.verdict.failed) if res.verdict is not None else ""
+    return f" ({res.label}{': ' + failed if failed else ''})"
 
 
 def method_line(ax: Any, t: np.ndarray, y: np.ndarray, method: str, index: int, tag: str = "") -> None:

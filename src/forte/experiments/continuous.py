@@ -31,6 +31,7 @@ from forte.experiments.common import (
     sim_text,
     simulate_runs,
     task_path,
+    verdict_tag,
     write_summary,
 )
 from forte.io.figures import pyplot
@@ -48,7 +49,7 @@ def plot_continuous(results: dict[str, Plan], directory: Path, fmt: str) -> str:
     fig, (ax_c, ax_m) = plt.subplots(2, 1, figsize=(8, 5.6), sharex=True, layout="constrained")
     band(ax_c, next(iter(results.values())))
     for i, (method, res) in enumerate(results.items()):
-        tag = "" if res.success else " (solver failed: last iterate)"
+        tag = verdict_tag(res)
         method_line(ax_c, res.t, res.metrics["directional_capacity"], method, i, tag)
         method_line(ax_m, res.t, res.metrics["manipulability"], method, i)
     ax_c.set_ylabel("RFP capacity along f (N)")
@@ -175,6 +176,6 @@ def continuous_notes(results: dict[str, Plan]) -> list[str]:
         + ". Where a plan is marked failure its curves are the solver's last iterate and its claims fail.",
         f"Min capacity − (|f| + r) along the trajectory (N): {margins}.",
         f"Peak demand |f| + r = {mag[k] + r[k]:.0f} N at t = {ours.t[k]:.1f} s; the best planned capacity there is "
-        f"{cap[best][k]:.0f} N ({best}{'' if results[best].success else ', last iterate of a failed solve'}), "
+        f"{cap[best][k]:.0f} N ({best}{'' if results[best].solved else ', last iterate of a failed solve'}), "
         f"which {covered} it.",
     ]

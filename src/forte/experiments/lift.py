@@ -36,6 +36,7 @@ from forte.experiments.common import (
     simulate_cases,
     unloaded_runs,
     unloaded_text,
+    verdict_tag,
     write_summary,
 )
 from forte.io.figures import pyplot
@@ -52,7 +53,7 @@ def plot_lift(cases: list[Case], directory: Path, fmt: str) -> str:
         ax_c, ax_m = axes[0, col], axes[1, col]
         band(ax_c, next(iter(case.results.values())))
         for i, (method, res) in enumerate(case.results.items()):
-            tag = "" if res.success else " (solver failed: last iterate)"
+            tag = verdict_tag(res)
             method_line(ax_c, res.t, res.metrics["directional_capacity"], method, i, tag)
             method_line(ax_m, res.t, res.metrics["manipulability"], method, i)
         ax_c.set_title(f"{case.label} beverage (payload {case.mass:g} kg)", fontsize=10)

@@ -85,7 +85,10 @@ def plot_capacity(results: list[Plan], path: Path) -> None:
     _force_band(ax, results[0])
     for res in results:
         color, label = style(res.method)
-        ax.plot(res.t, res.metrics["directional_capacity"], color=color, lw=1.6, label=f"capacity along f: {label}")
+        # a plan that is not feasible is drawn dashed and says so in the legend
+        verdict = "" if res.feasible or res.verdict is None else f" ({res.label})"
+        ax.plot(res.t, res.metrics["directional_capacity"], color=color, lw=1.6, ls="-" if not verdict else "--",
+                label=f"capacity along f: {label}{verdict}")
     ax.set_xlabel("time t (s)")
     ax.set_ylabel("force (N)")
     ax.grid(alpha=0.3)

@@ -39,6 +39,8 @@ from forte.io.outputs import (
 from forte.model.robot import MobileManipulator, robot_from_description
 from forte.model.trajectory import trajectory_header
 from forte.planning.planner import Plan
+from forte.planning.verdict import Verdict, judge
+from forte.settings import CapabilityParameters
 from forte.validation import (
     MAX_DURATION_S,
     MAX_FILE_BYTES,
@@ -56,7 +58,11 @@ PLAN_FILE = "plan.json"
 #: Top-level record of a directory of several plans (``forte compare``).
 COMPARISON_FILE = "comparison.json"
 #: Version of the plan.json schema; 1 is the unversioned layout of forte 0.1 (still read).
-FORMAT_VERSION = 2
+#: 3: ``status`` is the verdict's label (``feasible | infeasible | solver-failed``; 2 wrote
+#: ``success | failure`` for the solver alone) and ``verdict`` records every failed requirement.
+FORMAT_VERSION = 3
+#: ``status`` values of a directory that holds an executable plan (``success``: format 1-2).
+GOOD_STATUSES = ("feasible", "success")
 METRIC_COLUMNS = ("t", "fx", "fy", "fz", "radius", "d", "directional_capacity", "capacity_margin",
                   "inscribed_radius", "manipulability", "max_torque_ratio", "max_torque_ratio_with_force")
 
@@ -72,9 +78,9 @@ def write_csv(path: Path, header: list[str], rows: np.ndarray) -> None:
 
 
 def holds_success(directory: Path) -> bool:
-    """True when ``directory`` holds a successful plan."""
+    """True when ``directory`` holds a feasible plan (or a successful one of format 1-2)."""
     try:
-        return json.loads((directory / PLAN_FILE).read_text()).get("status") == "success"
+        return json.loads((directory / PLAN_FILE).read_text()).get("status") in GOOD_STATUSES
     except (OSError, ValueError, AttributeError):
         return False
 
@@ -82,19 +88,19 @@ def holds_success(directory: Path) -> bool:
 def write_plan(plan: Plan, out: Path, figures: bool = True) -> Path:
     """Write a plan directory atomically; returns where it went (``out`` or ``out.failed``).
 
-    A failed plan never replaces a directory that holds a successful one: it goes to
-    ``DIR.failed``.
+    A plan that is not feasible (infeasible, or a failed solve) never replaces a directory that
+    holds a feasible one: it goes to ``DIR.failed``.
     """
     out = Path(out)
     with output_lock(out):
-        target = out.with_name(out.name + ".failed") if not plan.success and holds_success(out) else out
+        target = out.with_name(out.name + ".failed") if not plan.feasible and holds_success(out) else out
         replace_directory(lambda d: fill_plan_dir(plan, d, figures), target)
     return target
 
 
 def fill_plan_dir(plan: Plan, directory: Path, figures: bool = True) -> None:
     """Write the files of ``plan`` into the (new, empty) ``directory``."""
-    name = TRAJECTORY_FILE if plan.success else LAST_ITERATE_FILE
+    name = TRAJECTORY_FILE if plan.solved else LAST_ITERATE_FILE
     write_csv(directory / name, trajectory_header(plan.robot.n_arm), np.column_stack([plan.t, plan.q]))
     if plan.metrics:
         write_csv(directory / METRICS_FILE, list(METRIC_COLUMNS),
@@ -113,7 +119,9 @@ def write_plan_dir(plan_dir: str | Path, robot: MobileManipulator, t: Any, q: An
 
     ``force`` (N x 3, world frame) defaults to ``(m + m_tool) (a - g)`` of the end-effector
     waypoints (``m_tool``: the robot's ``tool_force_mass``) when ``mass`` is given
-    (:func:`forte.force.taskforce.payload_force`), else to zero.
+    (:func:`forte.force.taskforce.payload_force`), else to zero. The plan is judged like a
+    planned one (:func:`forte.planning.verdict.judge`, the default ``alpha`` and kinematic
+    limits), except tracking: there is no task path to follow.
     """
     times = check_times(t, "t")
     Q = as_array(q, "q", (times.size, robot.nq))
@@ -125,8 +133,9 @@ def write_plan_dir(plan_dir: str | Path, robot: MobileManipulator, t: Any, q: An
         f = np.zeros((times.size, 3)) if force is None else as_array(force, "force", (times.size, 3))
         tf = TaskForce(times, f, np.array(np.broadcast_to(np.asarray(radius, dtype=float), (times.size,))))
     payload = Payload(mass=float(mass), source="given") if mass else Payload(source="none")
+    verdict = judge(robot, times, Q, tf, CapabilityParameters().alpha)
     plan = Plan(method=method, robot=robot, t=times, q=Q, force=tf, payload=payload,
-                success=status == "success", status=status, solver=dict(extra or {}))
+                solved=status == "success", status=status, solver=dict(extra or {}), verdict=verdict)
     replace_directory(lambda d: fill_plan_dir(plan, d, figures=False), Path(plan_dir))
     return Path(plan_dir)
 
@@ -155,8 +164,9 @@ def plan_document(plan: Plan) -> dict[str, Any]:
     if task is not None:
         doc["task"] = {"name": task.name, "file": str(task.source) if task.source else None, "mode": task.mode,
                        "waypoints": task.n, "duration_s": float(task.t[-1] - task.t[0]), "definition": task.raw}
-    doc |= {"method": plan.method, "status": "success" if plan.success else "failure",
-            "solver_status": plan.status, "solver": plan.solver}
+    doc |= {"method": plan.method, "status": plan.label, "solver_status": plan.status, "solver": plan.solver}
+    if plan.verdict is not None:
+        doc["verdict"] = plan.verdict.to_json()
     if task is not None:
         doc |= {"weights": asdict(task.weights), "solver_options": asdict(task.solver),
                 "kinematic_limits": asdict(task.limits)}
@@ -174,8 +184,6 @@ def plan_document(plan: Plan) -> dict[str, Any]:
 
         doc["summary"] = plan_summary(plan)
         doc["capacity"] = negative_margins(plan.metrics)  # where the force ball leaves the RFP (d < 0)
-        doc["capacity"]["required"] = bool(getattr(task, "require_capacity", False) or
-                                           plan.status == "insufficient_capacity")
     doc["versions"] = package_versions()
     return jsonable(doc)
 
@@ -214,9 +222,19 @@ def read_plan_dir(plan_dir: str | Path) -> Plan:
     force = _read_force(plan_path, meta.get("force"))
     if force is not None and force.t.size > MAX_WAYPOINTS:
         raise TaskFileError(f"{plan_path}: field 'force.t': {force.t.size} samples; expected at most {MAX_WAYPOINTS}")
-    status = str(meta.get("status", "unknown"))
     return Plan(method=str(meta.get("method", "unknown")), robot=robot, t=t, q=q, force=force, payload=payload,
-                success=status == "success", status=status)
+                solved=True, status=str(meta.get("solver_status", meta.get("status", "unknown"))),
+                verdict=_read_verdict(plan_path, meta.get("verdict")))
+
+
+def _read_verdict(plan_path: Path, doc: Any) -> Verdict | None:
+    """The verdict recorded in plan.json (``None`` for a plan of format 1-2, written before verdicts)."""
+    if doc is None:
+        return None
+    try:
+        return Verdict.from_json(doc)
+    except (KeyError, TypeError, ValueError, AttributeError):
+        raise TaskFileError(f"{plan_path}: field 'verdict': expected the verdict object forte wrote") from None
 
 
 def read_controller(plan_dir: str | Path) -> dict[str, Any]:

@@ -52,7 +52,8 @@ def jsonable(value: Any) -> Any:
 def comparison_rows(results: list[Plan]) -> list[dict[str, Any]]:
     rows = []
     for res in results:
-        row: dict[str, Any] = {"method": res.method, "status": "success" if res.success else "failure"}
+        row: dict[str, Any] = {"method": res.method, "status": res.label,
+                               "reason": res.verdict.brief() if res.verdict is not None else ""}
         row.update(plan_summary(res))
         row["solve_time_s"] = res.solver.get("solve_time_s", 0.0)
         row["iterations"] = res.solver.get("iterations", 0)
@@ -71,11 +72,12 @@ def write_comparison(results: list[Plan], directory: Path, figures: bool = True)
     task = results[0].task
     load = "given force profile" if task.force_profile is not None else f"payload {task.payload.mass} kg"
     lines = [f"# {task.name}: comparison ({task.mode}, {task.n} waypoints, {load})", "",
-             "| method | status | min d (N) | min capacity − (\\|f\\| + r) (N) | mean manipulability | "
+             "| method | verdict | why | min d (N) | min capacity − (\\|f\\| + r) (N) | mean manipulability | "
              "max torque ratio (nominal / with force) | solve (s) |",
-             "|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r['method']} | {r['status']} | {r['min_d']:.2f} | {r['min_capacity_margin']:.2f} | "
+        lines.append(f"| {r['method']} | {r['status']} | {r['reason']} | {r['min_d']:.2f} | "
+                     f"{r['min_capacity_margin']:.2f} | "
                      f"{r['mean_manipulability']:.4f} | {r['max_torque_ratio']:.2f} / "
                      f"{r['max_torque_ratio_with_force']:.2f} | {r['solve_time_s']:.2f} |")
     (directory / "summary.md").write_text("\n".join(lines) + "\n")

@@ -14,6 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from scipy.interpolate import CubicSpline
 
 from forte.exceptions import InvalidInputError
 from forte.validation import FloatArray, as_array, check_times
@@ -63,3 +64,39 @@ def quintic_path(knot_times: Any, knots: Any, times: Any) -> FloatArray:
     s = np.clip((ts - kt[seg]) / (kt[seg + 1] - kt[seg]), 0.0, 1.0)
     w = quintic_blend(s)[:, None]
     return values[seg] + w * (values[seg + 1] - values[seg])
+
+
+def quintic_hermite(t_knots: Any, q: Any, v: Any, a: Any, times: Any) -> tuple[Any, Any, Any]:
+    """Piecewise quintic through ``(t_k, q_k)`` with velocity ``v_k`` and acceleration ``a_k`` at
+    every knot; returns position, velocity and acceleration at ``times`` (knots held outside)."""
+    tk = check_times(t_knots, "t")
+    ts = as_array(times, "times", (None,))
+    seg = np.clip(np.searchsorted(tk, ts, side="right") - 1, 0, tk.size - 2)
+    h = (tk[seg + 1] - tk[seg])[:, None]
+    s = (np.clip(ts, tk[0], tk[-1]) - tk[seg])[:, None] / h
+    p0, p1, v0, v1, a0, a1 = q[seg], q[seg + 1], v[seg] * h, v[seg + 1] * h, a[seg] * h**2, a[seg + 1] * h**2
+    # coefficients of p(s) = sum c_i s^i on s in [0, 1] (velocities and accelerations in s units)
+    c3 = 10 * (p1 - p0) - 6 * v0 - 4 * v1 - 1.5 * a0 + 0.5 * a1
+    c4 = -15 * (p1 - p0) + 8 * v0 + 7 * v1 + 1.5 * a0 - a1
+    c5 = 6 * (p1 - p0) - 3 * v0 - 3 * v1 - 0.5 * a0 + 0.5 * a1
+    pos = p0 + s * (v0 + s * (a0 / 2 + s * (c3 + s * (c4 + s * c5))))
+    vel = (v0 + s * (a0 + s * (3 * c3 + s * (4 * c4 + s * 5 * c5)))) / h
+    acc = (a0 + s * (6 * c3 + s * (12 * c4 + s * 20 * c5))) / h**2
+    outside = ((ts < tk[0]) | (ts > tk[-1]))[:, None]
+    return pos, np.where(outside, 0.0, vel), np.where(outside, 0.0, acc)
+
+
+def clamped_spline(t_knots: Any, q: Any, times: Any) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Clamped cubic spline through ``(t_k, q_k)`` (C2, zero velocity at both ends) sampled at
+    ``times``: position, velocity, acceleration; the first/last knot is held outside the knots'
+    range (velocity and acceleration 0). One knot: held everywhere."""
+    tk = check_times(t_knots, "t")
+    qk = as_array(q, "q", (tk.size, None))
+    ts = as_array(times, "times", (None,))
+    if tk.size == 1:
+        pos = np.repeat(qk, ts.size, axis=0)
+        return pos, np.zeros_like(pos), np.zeros_like(pos)
+    spline = CubicSpline(tk, qk, axis=0, bc_type="clamped")
+    tc = np.clip(ts, tk[0], tk[-1])
+    inside = ((ts >= tk[0]) & (ts <= tk[-1]))[:, None]
+    return spline(tc), np.where(inside, spline(tc, 1), 0.0), np.where(inside, spline(tc, 2), 0.0)

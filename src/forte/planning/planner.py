@@ -8,6 +8,7 @@ configurations directly (the quintic path + IK, the teaching configuration).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -19,10 +20,12 @@ from forte.exceptions import InvalidInputError, TaskFileError
 from forte.force.payload import Payload
 from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE, MobileManipulator
+from forte.model.trajectory import backward_differences
 from forte.planning.ik import initial_guess
 from forte.planning.methods import METHODS, Method, get_method, method_names
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer
 from forte.planning.tasks import Task
+from forte.planning.verdict import SOLVER_FAILED, Verdict, arm_acceleration_ratios, capacity_shortfall, judge_plan
 from forte.settings import CapabilityParameters
 from forte.validation import FloatArray
 
@@ -39,9 +42,12 @@ class Plan:
             without one).
         payload: the payload the force was computed for.
         metrics: exact per-waypoint metrics (:func:`evaluate`; empty when not computed).
-        success, status: whether the plan is usable, and the solver's or producer's status.
+        solved, status: whether the solver converged (always true for a plan that is not
+            optimized), and the solver's or producer's status.
         solver: solver facts (iterations, times, cost terms, ...).
         task: the task it solves (``None`` for a plan read from disk).
+        verdict: whether the plan can be executed (:mod:`forte.planning.verdict`; ``None`` when
+            not judged).
     """
 
     method: str
@@ -51,10 +57,29 @@ class Plan:
     force: TaskForce | None
     payload: Payload
     metrics: dict[str, FloatArray] = field(default_factory=dict)
-    success: bool = True
+    solved: bool = True
     status: str = "success"
     solver: dict[str, Any] = field(default_factory=dict)
     task: Task | None = None
+    verdict: Verdict | None = None
+
+    @property
+    def feasible(self) -> bool:
+        """The plan can be executed: its verdict is ``feasible``."""
+        return self.verdict is not None and self.verdict.feasible
+
+    @property
+    def success(self) -> bool:
+        """The same as :attr:`feasible` (a plan is a success only when it can be executed)."""
+        return self.feasible
+
+    @property
+    def label(self) -> str:
+        """The verdict's label (``feasible``, ``infeasible``, ``solver-failed``); ``unjudged``
+        when there is none (a plan written before verdicts)."""
+        if self.verdict is not None:
+            return self.verdict.label
+        return "unjudged" if self.solved else SOLVER_FAILED
 
     @property
     def estimate(self) -> dict[str, Any] | None:
@@ -99,8 +124,10 @@ def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: Task
 
 def resolve_payload(task: Task, estimator_options: dict[str, Any] | None = None) -> Task:
     """The task with its payload mass known: estimated when only a description/image is given."""
-    if task.force_profile is not None or not task.payload.needs_estimate:
+    if not task.payload.needs_estimate:
         return task
+    if task.force_profile is not None and not (task.payload.description or task.payload.image):
+        return task  # the profile alone: no payload to estimate
     if not (task.payload.description or task.payload.image):
         raise TaskFileError(f"{task.source}: payload: give a mass, a description or an image")
     from forte.force.estimate import estimate_payload
@@ -142,8 +169,10 @@ def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:
     return initial_guess(task)
 
 
-def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None) -> tuple[SolverResult, dict]:
-    """Solve the method's NLP (coarse-to-fine unless a guess is given); returns the result and facts."""
+def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None,
+              reported: TaskForce | None = None) -> tuple[SolverResult, dict]:
+    """Solve the method's NLP (coarse-to-fine unless a guess is given); returns the result and facts
+    (the cost terms evaluated with the ``reported`` force, default ``force``)."""
     nominal = task.nominal()
     q_guess = start_guess(task, nominal) if guess is None else guess
     options, info = task.solver, {}
@@ -161,7 +190,7 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         "status": sol.status, "success": sol.success, "iterations": sol.iterations,
         "objective": sol.objective, "constraint_violation": sol.constraint_violation,
         "build_time_s": sol.build_time, "solve_time_s": sol.solve_time, "kernels": sol.codegen,
-        "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, force.f, force.r),
+        "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, (reported or force).f, (reported or force).r),
         "term_weights": opt.term_weights(), "quadratic_forms": opt.quadratic_forms,
     }
     if "starts" in info:  # the work of every start, the chosen start's own figures under "starts"
@@ -199,16 +228,75 @@ def _best_of_starts(opt: TrajectoryOptimizer, task: Task, force: TaskForce, firs
     return results[best], facts
 
 
+#: Rounds of verdict-driven refinement (:func:`_refine`).
+REFINE_ROUNDS = 3
+#: What a refinement round adds to the shortfall it covers (N).
+REFINE_SLACK_N = 0.5
+
+
+def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info: dict[str, Any],
+            verdict: Verdict) -> tuple[SolverResult, dict[str, Any], Verdict]:
+    """Re-solve a converged plan whose verdict fails only where the NLP's discrete view of the
+    motion falls short of the executed one.
+
+    The NLP checks the force ball and the joint accelerations at the waypoints, on backward
+    differences; the verdict also checks the executed spline between them, whose torques and
+    accelerations differ (forte's 0.35 kg lift on the moca-like robot: arm accelerations within
+    the limits at every waypoint, 1.45 x a limit on the spline). Each round, solved again from the
+    current plan:
+
+    - ``capacity`` (methods whose objective uses the ball, the ``capability`` term): ``r_k`` grows
+      at the waypoints next to every failing sample by the shortfall there plus
+      :data:`REFINE_SLACK_N`;
+    - ``acceleration``: the NLP's limit of each arm joint that exceeds its limit on the spline by
+      the ratio ``x`` becomes ``min(limit, largest waypoint acceleration) / (1.05 x)``.
+
+    The metrics, the cost terms and the verdict keep the task's own radii and limits. At most
+    :data:`REFINE_ROUNDS` rounds; the first feasible plan is kept, else the original.
+    ``info["refinement"]`` records the rounds.
+    """
+    fixable = {"capacity", "acceleration"} if "capability" in spec.terms else {"acceleration"}
+    if not sol.success or not verdict.failed or not set(verdict.failed) <= fixable:
+        return sol, info, verdict
+    radius, acc = force.r.copy(), task.limits.resolve(task.robot)[1][N_BASE:].copy()
+    rounds, current, current_verdict = [], sol, verdict
+    for _ in range(REFINE_ROUNDS):
+        if "capacity" in current_verdict.failed:
+            short = capacity_shortfall(task, current.q, force)
+            radius = radius + np.where(short > 0, short + REFINE_SLACK_N, 0.0)
+        if "acceleration" in current_verdict.failed:
+            ratio = arm_acceleration_ratios(task, current.q)
+            # scale the joint's largest waypoint acceleration, so the tighter bound binds
+            peak = np.max(np.abs(backward_differences(current.q[:, N_BASE:], task.t)[1]), axis=0)
+            acc = np.where(ratio > 1.0, np.minimum(acc, peak) / (1.05 * ratio), acc)
+        trial_task = replace(task, limits=replace(task.limits, arm_acceleration=tuple(acc)))
+        trial, trial_info = _optimize(trial_task, spec, TaskForce(force.t, force.f, radius), current.q,
+                                      reported=force)
+        trial_verdict = judge_plan(task, trial.q, force, trial_info)
+        rounds.append({"max_added_radius_n": float(np.max(radius - force.r)), "arm_acceleration": acc.tolist(),
+                       "verdict": trial_verdict.label, "failed": list(trial_verdict.failed),
+                       "iterations": trial.iterations, "solve_time_s": trial.solve_time})
+        if trial_verdict.feasible:
+            trial_info["refinement"] = {"rounds": rounds, "radius": radius.tolist()}
+            return trial, trial_info, trial_verdict
+        if not trial.success or not set(trial_verdict.failed) <= fixable:
+            break
+        current, current_verdict = trial, trial_verdict
+    info["refinement"] = {"rounds": rounds, "kept": "original"}
+    return sol, info, verdict
+
+
 def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,
          guess: FloatArray | None = None) -> Plan:
-    """Plan ``task`` with ``method``; never raises for a solver failure (see ``Plan.success``).
+    """Plan ``task`` with ``method`` and judge it; never raises for a solver failure or an
+    infeasible plan (see ``Plan.verdict``).
 
     Example:
         >>> import forte
         >>> task = forte.load_task("examples/tasks/hold.yaml", mass=0.35)
         >>> result = forte.plan(task, "teaching")
-        >>> result.q.shape, result.success
-        ((1, 10), True)
+        >>> result.q.shape, result.verdict.label, result.verdict.failed  # the taught posture lacks capacity
+        ((1, 10), 'infeasible', ('capacity', 'torque'))
     """
     spec = get_method(method)
     if not spec.applies_to(task):
@@ -222,18 +310,24 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
     info: dict[str, Any] = {}
     if spec.optimized:
         sol, info = _optimize(task, spec, force, guess)
-        q, success, status = sol.q, sol.success, sol.status
+        verdict = judge_plan(task, sol.q, force, info)
+        sol, info, verdict = _refine(task, spec, force, sol, info, verdict)
+        q, solved, status = sol.q, sol.success, sol.status
     else:
-        q, success, status = spec.produce(task), True, spec.status
+        q, solved, status = spec.produce(task), True, spec.status
+        verdict = judge_plan(task, q, force)
     info["wall_time_s"] = time.perf_counter() - start
     metrics = evaluate(task.robot, q, task.t, force, task.weights.capability_params)
     return Plan(method=spec.name, robot=task.robot, t=task.t, q=q, force=force, payload=task.payload,
-                metrics=metrics, success=success, status=status, solver=info, task=task)
+                metrics=metrics, solved=solved, status=status, solver=info, task=task, verdict=verdict)
 
 
 def compare(task: Task, methods: tuple[str, ...] | None = None,
-            estimator_options: dict[str, Any] | None = None) -> list[Plan]:
+            estimator_options: dict[str, Any] | None = None,
+            on_plan: Callable[[int, Plan], None] | None = None) -> list[Plan]:
     """Plan ``task`` with every method that applies (or ``methods``); the payload is resolved once.
+    ``on_plan(i, plan)`` is called after the i-th plan (1-based), e.g. to show progress; every
+    plan carries its verdict.
 
     Example:
         >>> import forte
@@ -242,4 +336,9 @@ def compare(task: Task, methods: tuple[str, ...] | None = None,
         ['teaching']
     """
     task = resolve_payload(task, estimator_options)
-    return [plan(task, name) for name in (methods or methods_for(task))]
+    results = []
+    for i, name in enumerate(methods or methods_for(task), 1):
+        results.append(plan(task, name))
+        if on_plan is not None:
+            on_plan(i, results[-1])
+    return results

@@ -51,6 +51,7 @@ from forte.planning.methods import get_method
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer
 from forte.planning.planner import Plan, evaluate, resolve_payload, start_guess
 from forte.planning.tasks import Task
+from forte.planning.verdict import judge_plan
 from forte.validation import FloatArray
 
 #: IPOPT's status of a solve converged to its ``tol`` (its "acceptable level" exit is not).
@@ -149,12 +150,14 @@ class Replanner:
         guess[0] = guess[0] if q_now is None else self.task.robot.check_configuration(q_now, "q_now")
         # the new first waypoint is t[steps] of the old horizon: the authors' force blend goes on
         elapsed = self.task.force_ramp_elapsed + float(self.task.t[steps] - self.task.t[0])
-        task = replace(self.task, targets=targets, q_init=guess[0].copy(), force_ramp_elapsed=elapsed)
+        profile = self.task.force_profile
+        if profile is not None:  # a given profile moves with the horizon, like the path
+            profile = TaskForce(profile.t, shift_rows(profile.f, steps), shift_rows(profile.r, steps))
+        task = replace(self.task, targets=targets, q_init=guess[0].copy(), force_ramp_elapsed=elapsed,
+                       force_profile=profile)
         if mass is not None:
             task = task.with_payload(task.payload.with_mass(mass, source="replan"))
-        force = self.force if self.task.force_profile is not None else task.force()
-        if self.task.force_profile is not None:
-            force = TaskForce(self.force.t, shift_rows(self.force.f, steps), shift_rows(self.force.r, steps))
+        force = task.force()
         warm = self.optimizer.shifted_multipliers(self.last.lam_x, self.last.lam_g, steps)
         return Problem(task, force, shift_rows(self.nominal, steps), guess, warm)
 
@@ -175,10 +178,13 @@ class Replanner:
         if ok:
             self.task, self.force, self.nominal, self.last = pb.task, pb.force, pb.nominal, sol
         plan = Plan(method=self.method.name, robot=pb.task.robot, t=pb.task.t, q=sol.q, force=pb.force,
-                    payload=pb.task.payload, metrics=metrics, success=ok, status=sol.status,
-                    solver={"iterations": iterations, "warm": used_warm, "solve_time_s": solve_s}, task=pb.task)
+                    payload=pb.task.payload, metrics=metrics, solved=ok, status=sol.status,
+                    solver={"iterations": iterations, "warm": used_warm, "solve_time_s": solve_s,
+                            "status": sol.status, "constraint_violation": sol.constraint_violation}, task=pb.task)
         latency = time.perf_counter() - start
         plan.solver["latency_s"] = latency
+        # judged after the latency is taken, at the waypoints only (a few ms at N = 41): the loop's budget
+        plan.verdict = judge_plan(pb.task, sol.q, pb.force, plan.solver, per_interval=1)
         return ReplanResult(plan, latency, iterations, used_warm, solve_s)
 
     def _solve(self, task: Task, force: TaskForce, nominal: FloatArray, guess: FloatArray,

@@ -142,18 +142,22 @@ class Task:
         return replace(self, payload=payload)
 
     def force(self, mass: float | None = None) -> TaskForce:
-        """Desired forces: the given profile, or the payload's force along the path.
+        """Desired forces: the given profile, the payload's force along the path, or both.
 
-        ``force_model: paper`` gives ``(m + m_tool) (p'' - g)``
+        The one owner of the task force. ``force_model: paper`` gives ``(m + m_tool) (p'' - g)``
         (:func:`~forte.force.taskforce.payload_force`); ``authors`` gives ``(m + m_tool) g`` up,
         blended in over :data:`~forte.force.taskforce.AUTHORS_FORCE_RAMP_S` on a trajectory and
         in full on a hold task (:func:`~forte.force.taskforce.authors_force`). ``m`` is the
-        payload mass (given or estimated), ``m_tool`` the robot's ``tool_force_mass`` (the
-        authors' end-effector load, 1.146 kg on the built-in robot).
+        payload mass (``mass``, else given or estimated), ``m_tool`` the robot's
+        ``tool_force_mass`` (the authors' end-effector load, 1.146 kg on the built-in robot).
+        A task with a force profile uses the profile alone when it has no payload mass (the
+        paper's Section 5.2), and the profile plus the payload's force (with its radii) when it
+        has one: ``forte simulate`` carries that payload too.
         """
-        if self.force_profile is not None:
-            return self.force_profile
+        profile = self.force_profile
         m = mass if mass is not None else self.payload.mass
+        if profile is not None and m is None:
+            return profile
         if m is None:
             raise TaskFileError(
                 f"{self._where('payload.mass')}: no payload mass; give payload.mass, --mass KG, "
@@ -165,6 +169,8 @@ class Task:
             force = authors_force(self.t, total, self.radius, self.robot.gravity, ramp, self.force_ramp_elapsed)
         else:
             force = payload_force(self.t, self.targets[:, :3, 3], total, self.radius, self.robot.gravity)
+        if profile is not None:
+            return TaskForce(self.t, profile.f + force.f, profile.r)
         if self.radius_rule == "mass-range" and mass is None and self.payload.mass_range is not None:
             force = mass_range_radius(force, total, m, self.payload.mass_range, self.radius)
         return force

@@ -91,7 +91,7 @@ def run_group(group: PlanGroup) -> list[CellResult]:
     head = plan_columns(res)
     out = []
     with tempfile.TemporaryDirectory(prefix="forte-sweep-") as tmp:
-        plan_dir = write_plan(res, Path(tmp) / "plan", figures=False) if group.simulation and res.success else None
+        plan_dir = write_plan(res, Path(tmp) / "plan", figures=False) if group.simulation and res.solved else None
         for cell in group.cells:
             t0 = time.perf_counter()
             row = {**_identity(cell, group.n), **head,

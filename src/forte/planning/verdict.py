@@ -1,0 +1,229 @@
+"""The verdict of a plan: can it be executed?
+
+A plan is judged after the solve, on exact quantities (never the optimizer's smooth surrogates),
+at every waypoint and on a dense grid between them (:mod:`forte.planning.motion_samples`), against
+every requirement of :data:`forte.planning.requirements.REQUIREMENTS`:
+
+- ``feasible``: every requirement holds;
+- ``infeasible``: the solver converged (or the plan was not optimized) but some requirement fails;
+- ``solver-failed``: the solver did not converge (the last iterate is kept for inspection).
+
+Every entry point reads the same verdict: ``forte plan`` (exit 0 only when feasible),
+``forte compare``, sweeps, the experiments, ``forte simulate`` and :func:`forte.plan`.
+
+When the capacity or torque requirement fails, :func:`fixed_motion_bound` says what would work: the
+largest payload mass the same motion carries (bisection on the verdict's mass-dependent
+requirements, the force recomputed from the task for every mass); :mod:`forte.planning.bounds`
+re-plans for every mass.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from forte.force.taskforce import TaskForce
+from forte.model.robot import MobileManipulator
+from forte.planning.motion_samples import SAMPLES_PER_INTERVAL, MotionSamples, force_at, sample_motion
+from forte.planning.requirements import (
+    REQUIREMENTS,
+    Capacity,
+    Context,
+    JointAccelerations,
+    Requirement,
+    Violation,
+)
+from forte.settings import KinematicLimits
+from forte.validation import FloatArray
+
+#: The verdict labels.
+FEASIBLE, INFEASIBLE, SOLVER_FAILED = "feasible", "infeasible", "solver-failed"
+VERDICTS: tuple[str, ...] = (FEASIBLE, INFEASIBLE, SOLVER_FAILED)
+
+
+class Verdict(NamedTuple):
+    """Whether a plan can be executed, and every requirement it fails.
+
+    Attributes:
+        label: ``feasible``, ``infeasible`` or ``solver-failed``.
+        violations: the failed requirements, in the order of ``checked``.
+        checked: the names of the requirements judged.
+        samples_per_interval: density of the grid between waypoints.
+        payload_bound: what would work when the capacity or torque requirement fails
+            (``asked_kg``, ``fixed_motion_kg``: :func:`fixed_motion_bound`), else ``None``.
+    """
+
+    label: str
+    violations: tuple[Violation, ...]
+    checked: tuple[str, ...]
+    samples_per_interval: int
+    payload_bound: dict[str, Any] | None = None
+
+    @property
+    def feasible(self) -> bool:
+        return self.label == FEASIBLE
+
+    @property
+    def failed(self) -> tuple[str, ...]:
+        return tuple(v.requirement for v in self.violations)
+
+    def reason(self) -> str:
+        """One line: ``feasible``, or the first failed requirement and its detail."""
+        if not self.violations:
+            return FEASIBLE
+        first = self.violations[0]
+        more = f" (+{len(self.violations) - 1} more: {', '.join(self.failed[1:])})" if len(self.violations) > 1 else ""
+        return f"{self.label}: {first.requirement}: {first.detail}{more}"
+
+    def brief(self) -> str:
+        """The failed requirements with their worst values, e.g. ``capacity (17.8 N short), torque
+        (1.05 x limit)``; empty when feasible."""
+        def one(v: Violation) -> str:
+            if v.requirement == "solver":
+                return "solver (" + v.detail.split(";")[0].removeprefix("IPOPT stopped with ") + ")"
+            if v.requirement == "self_collision":
+                return "self-collision"
+            short = " short" if v.units == "N" else ""
+            return f"{v.requirement} ({v.worst:.3g} {v.units}{short})".replace(" )", ")")
+        return ", ".join(one(v) for v in self.violations)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"label": self.label, "failed": [v.to_json() for v in self.violations], "checked": list(self.checked),
+                "samples_per_interval": self.samples_per_interval, "payload_bound": self.payload_bound}
+
+    @classmethod
+    def from_json(cls, doc: dict[str, Any]) -> Verdict:
+        violations = tuple(Violation(v["requirement"], v["detail"], v["worst"], v["limit"], v["units"],
+                                     tuple(v["waypoints"]), v["first_time"]) for v in doc.get("failed", ()))
+        return cls(doc["label"], violations, tuple(doc.get("checked", ())),
+                   int(doc.get("samples_per_interval", SAMPLES_PER_INTERVAL)), doc.get("payload_bound"))
+
+
+def _label(violations: tuple[Violation, ...]) -> str:
+    if any(v.requirement == "solver" for v in violations):
+        return SOLVER_FAILED
+    return INFEASIBLE if violations else FEASIBLE
+
+
+def context(robot: MobileManipulator, samples: MotionSamples, force: TaskForce, alpha: float,
+            targets_at: Callable[[FloatArray], FloatArray] | None, limits: KinematicLimits | None,
+            solver: dict[str, Any], optimized: bool) -> Context:
+    """The :class:`~forte.planning.requirements.Context` of a sampled plan."""
+    vel, acc = (limits or KinematicLimits()).resolve(robot)
+    targets = None if targets_at is None else np.asarray(targets_at(samples.t), dtype=float)
+    return Context(robot, samples, force_at(force, samples.t), float(alpha), targets, vel, acc, solver, optimized)
+
+
+def judge_context(ctx: Context, requirements: tuple[Requirement, ...] = REQUIREMENTS,
+                  per_interval: int = SAMPLES_PER_INTERVAL) -> Verdict:
+    """Judge a prepared context on ``requirements``."""
+    found = tuple(v for v in (req.check(ctx) for req in requirements) if v is not None)
+    return Verdict(_label(found), found, tuple(r.name for r in requirements), per_interval)
+
+
+def judge(robot: MobileManipulator, t: Any, q: Any, force: TaskForce, alpha: float, *,
+          targets_at: Callable[[FloatArray], FloatArray] | None = None, limits: KinematicLimits | None = None,
+          solver: dict[str, Any] | None = None, optimized: bool = False,
+          per_interval: int = SAMPLES_PER_INTERVAL) -> Verdict:
+    """The verdict of the plan ``(t, q)`` for the task force ``force`` (see the module docstring).
+
+    Args:
+        targets_at: the task's end-effector poses as a function of time (tracking is judged
+            against it; ``None``: not judged).
+        limits: the kinematic limits (velocity, acceleration); default :class:`KinematicLimits`.
+        solver: the solver's facts (``status``, ``constraint_violation``) of an optimized plan.
+    """
+    samples = sample_motion(robot, t, q, per_interval)
+    ctx = context(robot, samples, force, alpha, targets_at, limits, solver or {}, optimized)
+    return judge_context(ctx, REQUIREMENTS, per_interval)
+
+
+#: Mass resolution (kg) of the payload bounds.
+MASS_RESOLUTION = 0.01
+#: The payload mass tried for "no payload" (a payload mass must be > 0).
+MIN_MASS = 1e-6
+
+
+def largest_mass(holds: Callable[[float], bool], upper: float, resolution: float = MASS_RESOLUTION) -> float | None:
+    """The largest mass in ``[0, upper]`` for which ``holds`` is true (``upper`` itself when it
+    holds there), by bisection to ``resolution`` (``None`` when it fails even without payload).
+    ``holds`` must be monotone: true up to some mass, false beyond (the force grows linearly with
+    the mass; a re-planned bound assumes the planner keeps that order)."""
+    if holds(float(upper)):
+        return float(upper)
+    if not holds(0.0):
+        return None
+    low, high = 0.0, float(upper)
+    while high - low > resolution:
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if holds(mid) else (low, mid)
+    return low
+
+
+def fixed_motion_bound(ctx: Context, force_of: Callable[[float], TaskForce], upper: float) -> float | None:
+    """The largest payload mass the plan's own motion carries: bisection on the capacity and torque
+    requirements with the task force of each mass (everything else does not depend on the mass)."""
+    mass_reqs = tuple(r for r in REQUIREMENTS if r.mass_dependent)
+
+    def holds(mass: float) -> bool:
+        trial = ctx._replace(force=force_at(force_of(mass), ctx.samples.t))
+        return all(r.check(trial) is None for r in mass_reqs)
+
+    return largest_mass(holds, upper)
+
+
+def exit_code(plans: Any, allow_infeasible: bool = False) -> int:
+    """The exit status of a run that produced ``plans``: 0 when every plan is feasible (or
+    ``allow_infeasible``, for exploration), else 1."""
+    return 0 if allow_infeasible or all(p.feasible for p in plans) else 1
+
+
+def _task_targets(task: Any) -> Callable[[FloatArray], FloatArray] | None:
+    """The task's end-effector poses as a function of time: its path, or its waypoint poses held."""
+    if task.targets_at is not None and task.mode == "trajectory":
+        return task.targets_at
+    if task.n == 1:
+        return lambda ts: np.repeat(task.targets[:1], len(ts), axis=0)
+    return None
+
+
+def capacity_shortfall(task: Any, q: Any, force: TaskForce, per_interval: int = SAMPLES_PER_INTERVAL) -> FloatArray:
+    """Per waypoint: the worst capacity shortfall (N, ``max(-d, |f| + r - capacity, 0)``) on the
+    samples of the intervals next to it (what a radius at that waypoint must cover)."""
+    samples = sample_motion(task.robot, task.t, q, per_interval)
+    ctx = context(task.robot, samples, force, task.weights.alpha, None, task.limits, {}, False)
+    minus_d, short = (m.value for m in Capacity().measures(ctx))
+    worst = np.maximum(np.maximum(minus_d, short), 0.0)
+    out = np.zeros(task.n)
+    for i in np.flatnonzero(worst > 0):
+        k = samples.segment_of(int(i))
+        out[k] = max(out[k], worst[i])
+        if k + 1 < task.n and samples.t[i] > task.t[k]:
+            out[k + 1] = max(out[k + 1], worst[i])
+    return out
+
+
+def arm_acceleration_ratios(task: Any, q: Any, per_interval: int = SAMPLES_PER_INTERVAL) -> FloatArray:
+    """Per arm joint: the worst ``|ddq_i| / a_max,i`` of the plan's samples (the task's limits)."""
+    samples = sample_motion(task.robot, task.t, q, per_interval)
+    vel, acc = task.limits.resolve(task.robot)
+    ctx = Context(task.robot, samples, None, 1.0, None, vel, acc, {}, False)  # type: ignore[arg-type]
+    return JointAccelerations.ratios(ctx)
+
+
+def judge_plan(task: Any, q: Any, force: TaskForce, solver: dict[str, Any] | None = None,
+               per_interval: int = SAMPLES_PER_INTERVAL) -> Verdict:
+    """The verdict of configurations ``q`` planned for ``task`` (``solver``: the facts of an
+    optimized plan, ``None`` for one that was not optimized), with the payload bound when the
+    capacity or torque requirement fails and the force comes from a payload mass."""
+    samples = sample_motion(task.robot, task.t, q, per_interval)
+    ctx = context(task.robot, samples, force, task.weights.alpha, _task_targets(task), task.limits,
+                  solver or {}, solver is not None)
+    verdict = judge_context(ctx, REQUIREMENTS, per_interval)
+    mass = task.payload.mass
+    if mass is None or not set(verdict.failed) & {r.name for r in REQUIREMENTS if r.mass_dependent}:
+        return verdict
+    bound = fixed_motion_bound(ctx, lambda m: task.force(mass=max(m, MIN_MASS)), mass)
+    return verdict._replace(payload_bound={"asked_kg": float(mass), "fixed_motion_kg": bound})
