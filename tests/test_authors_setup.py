@@ -16,7 +16,7 @@ from forte.model.twin import CasadiTwin
 from forte.planning.costs import COST_TERMS, Stage
 from forte.planning.methods import METHODS
 from forte.planning.motion_terms import BASE_BOX
-from forte.settings import WEIGHT_SETS, CostWeights
+from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights
 
 
 @pytest.fixture(scope="module")
@@ -79,9 +79,17 @@ def test_weight_sets_are_the_authors():
     np.testing.assert_allclose(h.joint_dof_weights, np.array([0, 1, 1, 9, 0, 1, 1, 1, 0, 0]) / 9)
     d = WEIGHT_SETS["paper-demo"]
     assert (d.capability, d.manipulability, d.joint_limits, d.smoothness, d.base_spectral) == (5, 2, 3, 10, 1)
-    # forte's default trajectory set departs from the authors' in the capability weight only
+    # the authors' code: J2 on the 3 x 8 Jacobian, the base smoothness metric used linearly
+    code = {"manipulability_yaw": True, "base_smoothness_linear": True}
+    for name in ("authors-trajectory", "authors-hold", "authors-hold-as-run"):
+        assert all(getattr(WEIGHT_SETS[name], k) is v for k, v in code.items()), name
+    # forte's default sets depart from the authors' in the capability weight (trajectories) and,
+    # where the paper's text and the authors' code differ, keep the text
     ours = WEIGHT_SETS["forte-trajectory"]
-    assert replace(ours, preset="authors-trajectory", capability=1.0) == w and ours.capability == 5
+    assert replace(ours, preset="authors-trajectory", capability=1.0, **code) == w and ours.capability == 5
+    assert not (ours.manipulability_yaw or ours.base_smoothness_linear)
+    assert replace(WEIGHT_SETS["forte-hold"], preset="authors-hold", **code) == h
+    assert DEFAULT_WEIGHT_SET == {"trajectory": "forte-trajectory", "hold": "forte-hold"}
 
 
 def test_baselines_keep_their_weights_on_forte_s_default_set():
@@ -89,7 +97,8 @@ def test_baselines_keep_their_weights_on_forte_s_default_set():
         method = METHODS[name]
         ours = method.resolve_weights(WEIGHT_SETS["forte-trajectory"])
         theirs = method.resolve_weights(WEIGHT_SETS["authors-trajectory"])
-        assert replace(ours, preset=theirs.preset, capability=theirs.capability) == theirs
+        assert replace(ours, preset=theirs.preset, capability=theirs.capability, manipulability_yaw=True,
+                       base_smoothness_linear=True) == theirs
         if name != "manipulability":  # its capability weight multiplies no term
             assert ours.capability == theirs.capability
 
@@ -206,6 +215,23 @@ def test_velocity_nominal_and_base_velocity_terms(authors):
         0.5 * np.sum((q0[3:] - nom[3:]) ** 2), rel=1e-12)
 
 
+def test_base_smoothness_squares_w_s_by_default_and_uses_the_metric_linearly_as_the_authors():
+    """The paper's text ``1/2 ||W_s dq_b||^2`` with ``W_s = diag(1, 1, 0.5)`` (yaw weight 0.25) by
+    default; the authors' code ``1/2 sum_i m_i dq_b,i^2`` with ``m = (1, 1, 0.5)`` (yaw 0.5)."""
+    from forte.planning.reference import smoothness_cost
+
+    rng = np.random.default_rng(11)
+    q = rng.normal(size=(6, 10)) * 0.1
+    q[:, 3:] = q[0, 3:]  # the arm at rest: the reference's J4 is its base part
+    dq = np.diff(q[:, :3], axis=0)
+    x = q.ravel()
+    for weights, m in ((CostWeights(), [1, 1, 0.25]), (CostWeights(base_smoothness_linear=True), [1, 1, 0.5])):
+        Q = COST_TERMS["base_smoothness"].from_weights(weights).matrix(7, 6)
+        expected = 0.5 * np.sum(np.array(m) * dq**2)
+        assert 0.5 * x @ Q @ x == pytest.approx(expected, rel=1e-12)
+        assert smoothness_cost(q, weights) == pytest.approx(expected, rel=1e-12)
+
+
 def test_manipulability_yaw_column_is_the_base_yaw_derivative(authors):
     q = authors.home() + np.r_[0.2, -0.1, 0.4, np.zeros(7)]
     Jw = authors.whole_body_jacobian(q)[:3, 2:]  # yaw column + arm columns (Pinocchio-based)
@@ -235,7 +261,8 @@ def test_box_collision_term_against_a_hand_computation(authors):
     assert stage_value(authors, "collision", q, weights=box) == pytest.approx(expected, rel=1e-9)
 
 
-@pytest.mark.parametrize("preset", ["forte-trajectory", "authors-trajectory", "authors-hold", "paper-demo"])
+@pytest.mark.parametrize("preset", ["forte-trajectory", "authors-trajectory", "forte-hold", "authors-hold",
+                                    "paper-demo"])
 def test_every_term_takes_its_weight_from_the_weight_set(preset: str) -> None:
     # Regression: velocity, nominal, base velocity, base smoothness and collision used to weigh 1
     # whatever the set said (10, 0.05, 0.5, 8 and 1 in the authors' trajectory set, 0 in holding).
@@ -244,6 +271,6 @@ def test_every_term_takes_its_weight_from_the_weight_set(preset: str) -> None:
     for name in method.terms:
         term = COST_TERMS[name].from_weights(weights)
         assert method.term_weight(term, weights) == getattr(weights, term.weight_field or name), name
-    if preset == "authors-hold":
+    if preset.endswith("-hold"):
         zero = {"velocity", "nominal", "base_velocity", "base_smoothness", "collision", "smoothness", "base_spectral"}
         assert all(method.term_weight(COST_TERMS[n].from_weights(weights), weights) == 0 for n in zero)

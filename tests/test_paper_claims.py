@@ -43,11 +43,12 @@ def test_forte_keeps_capacity_above_the_force_band_with_2p7_litres(heavy):
 
 def test_authors_exact_weights_fall_short_under_the_heavy_load():
     # Why forte's default departs from the authors' set (README, Weights): with capability 1 the
-    # same plan keeps capacity - (|f| + r) more than 10 N short.
+    # same plan keeps capacity - (|f| + r) more than 5 N short (8.2 N with the authors' 3 x 8
+    # manipulability; 10.9 N with the 3 x 7 one the set used before issue 27).
     task = load_task(LIFT, mass=2.8, waypoints=N)
     exact = plan(replace(task, weights=WEIGHT_SETS["authors-trajectory"]), "forte")
-    assert exact.solved
-    assert np.min(exact.metrics["directional_capacity"] - exact.force.magnitude - exact.force.r) < -10
+    assert exact.solved and not exact.feasible
+    assert np.min(exact.metrics["directional_capacity"] - exact.force.magnitude - exact.force.r) < -5
 
 
 def test_quintic_baseline_lacks_capacity_with_2p7_litres(heavy):

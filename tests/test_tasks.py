@@ -68,7 +68,7 @@ def test_continuous_example_follows_the_papers_formula():
 
 def test_hold_example_uses_the_teaching_pose():
     task = load_task(EXAMPLES / "hold.yaml")
-    assert task.mode == "hold" and task.n == 1 and task.weights.preset == "authors-hold"
+    assert task.mode == "hold" and task.n == 1 and task.weights.preset == "forte-hold"
     assert task.weights.alpha == 0.7
     np.testing.assert_allclose(task.targets[0], task.robot.ee_pose(task.teaching), atol=1e-12)
 

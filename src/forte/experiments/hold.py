@@ -231,7 +231,7 @@ def run_hold(out: str | Path, trials: int = 3, waypoints: int | None = None, see
     ``weight_factors``: the RFP baselines' capability weight in the sweep of
     :mod:`forte.experiments.baseline_weights`, as multiples of the authors' (empty: no sweep).
     ``weights``: a weight set replacing the task file's (default: the task file's,
-    ``authors-hold``); the summary names the set it used.
+    ``forte-hold``); the summary names the set it used.
     """
     out, fmt = Path(out), check_format(fmt)
     cases = plan_payloads("hold", paper_methods("hold"), waypoints, log, weights)

@@ -47,7 +47,7 @@ class InscribedRadius(CostTerm):
     ball centred at the origin inside the alpha-scaled dynamic RFP, clamped at 0; the task force
     is unused (the authors' public code, ``residual_force_polytope``). The minimum is
     smoothed (a lower bound within ``s log(2n) / beta``, ``s = max(|f| + r, eps)``);
-    :func:`forte.planning.reference.inscribed_radius_exact` is the exact value.
+    the exact value is :func:`forte.capability.polytope.inscribed_radius` of the alpha-scaled RFP, clamped at 0.
     """
 
     name: ClassVar[str] = "rfp_radius"

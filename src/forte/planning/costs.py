@@ -20,7 +20,8 @@ Built-in terms (``name``: weight field of :class:`~forte.settings.CostWeights`):
 - ``manipulability`` (w2): ``1 / max(mu_k, eps_m)``;
 - ``joint_limits`` (w3): ``sum_i w_i (e_i^2 + v_i^4)`` (arm), ``w_i (q_i - q_nom,i)^2`` (base);
 - ``smoothness`` / ``base_smoothness`` (w4): ``sum_k 1/2 ||W_s (q_k - q_{k-1})||^2`` over the arm /
-  the base coordinates;
+  the base coordinates (base: or ``1/2 sum_i m_i dq_i^2``, the metric used linearly, the
+  authors' code);
 - ``base_spectral`` (w5): ``1/2 sum_xi eta_xi sum_{l in H} gamma_l bhat_{xi,l}^2``;
 - ``velocity``: ``1/2 ||q_a,k - q_a,k-1||^2 / dt_k^2`` over the arm;
 - ``base_velocity``: ``1/2 sum_i m_i (q_b,k - q_b,k-1)_i^2 / dt_k^2``, ``m = (1, 1, 0.5)``, yaw wrapped;

@@ -10,7 +10,9 @@ keeps the weight set's weights except as listed in its ``tuning``):
 
 - ``forte``: the paper's J1..J5 plus the authors' velocity, nominal, base-velocity and collision
   terms (:data:`FORTE_TERMS`), with the weight set's weights (trajectories: ``forte-trajectory``,
-  the authors' set with capability weight 5; ``authors-trajectory`` is their exact set);
+  the authors' set with capability weight 5 and the paper's text for J2 and the base smoothness;
+  ``authors-trajectory`` is their exact set: J2 on the 3 x 8 Jacobian with the base-yaw column,
+  the base smoothness metric used linearly, which every baseline then inherits);
 - ``manipulability``: J2 and J3 only (no J1, no regularization terms); in the trajectory set the
   joint-limit DoF weights [0,2,1,10,5,1,2,1,0,0]/10 (arm joint 2 penalized);
 - ``rfp-radius``: J1 replaced by ``1/max(|R|, 1e-6)``, R the alpha-scaled origin-centred

@@ -39,27 +39,43 @@ class Smoothness(CostTerm):
     def from_weights(cls, weights: CostWeights) -> Smoothness:
         return cls((0.0, 0.0, 0.0), weights.smoothness_arm)
 
+    def metric(self, n_arm: int) -> FloatArray:
+        """The per-coordinate weights ``m_i`` of ``sum_k 1/2 sum_i m_i (q_k - q_k-1)_i^2``: ``W_s^2``."""
+        return np.concatenate([self.base, np.full(n_arm, self.arm)]) ** 2
+
     def matrix(self, n_arm: int, n: int) -> sparse.csr_matrix:
         size = (n_arm + N_BASE) * n
         if n == 1:
             return sparse.csr_matrix((size, size))
         D = sparse.diags([-np.ones(n - 1), np.ones(n - 1)], [0, 1], shape=(n - 1, n))  # q_{k+1} - q_k
-        Ws = sparse.diags(np.concatenate([self.base, np.full(n_arm, self.arm)]) ** 2)
-        return sparse.kron(D.T @ D, Ws).tocsr()
+        return sparse.kron(D.T @ D, sparse.diags(self.metric(n_arm))).tocsr()
 
 
 @register_term
 @dataclass(frozen=True)
 class BaseSmoothness(Smoothness):
-    """Base part of J4: ``W_s = diag(base, 0...)`` (``smoothness_base``, default (1, 1, 0.5))."""
+    """Base part of J4 over (x, y, yaw), ``b = smoothness_base`` (default (1, 1, 0.5)):
+
+    - the paper's text (default): ``sum_k 1/2 ||W_s (q_b,k - q_b,k-1)||^2``, ``W_s = diag(b)``,
+      i.e. the weights ``b_i^2`` (yaw 0.25);
+    - ``linear`` (``base_smoothness_linear``, the authors' code and every ``authors-*`` set):
+      ``sum_k 1/2 sum_i b_i (q_b,k - q_b,k-1)_i^2``, the weights ``b_i`` (yaw 0.5), the metric
+      their base velocity term also uses. Their code wraps the yaw step to (-pi, pi]; this
+      constant quadratic does not, which changes nothing while ``|yaw_k - yaw_k-1| < pi`` (the
+      base yaw velocity limit keeps it below 0.4 rad per 0.25 s step).
+    """
 
     name: ClassVar[str] = "base_smoothness"
     base: tuple[float, float, float] = (1.0, 1.0, 0.5)
     arm: float = 0.0
+    linear: bool = False
 
     @classmethod
     def from_weights(cls, weights: CostWeights) -> BaseSmoothness:
-        return cls(tuple(weights.smoothness_base), 0.0)
+        return cls(tuple(weights.smoothness_base), 0.0, weights.base_smoothness_linear)
+
+    def metric(self, n_arm: int) -> FloatArray:
+        return np.r_[self.base, np.zeros(n_arm)] if self.linear else super().metric(n_arm)
 
 
 @register_term
@@ -82,10 +98,10 @@ class BaseVelocity(CostTerm):
 
     Not in the paper's text: the authors' code, where it is their base smoothness divided by
     ``dt^2``, the metric ``m`` (``smoothness_base``, default (1, 1, 0.5)) used linearly and the
-    yaw difference wrapped to (-pi, pi] (``atan2(sin, cos)``). forte's base smoothness (J4, the
-    paper's ``1/2 ||W_s dq||^2``, ``W_s`` squared) and J5 are constant quadratics on the raw
-    yaw; the wrap changes nothing while ``|yaw_k - yaw_k-1| < pi`` (the base yaw velocity limit
-    keeps it below 0.4 rad per 0.25 s step).
+    yaw difference wrapped to (-pi, pi] (``atan2(sin, cos)``). forte's base smoothness (J4, see
+    :class:`BaseSmoothness` for its two forms) and J5 are constant quadratics on the raw yaw; the
+    wrap changes nothing while ``|yaw_k - yaw_k-1| < pi`` (the base yaw velocity limit keeps it
+    below 0.4 rad per 0.25 s step).
     """
 
     name: ClassVar[str] = "base_velocity"

@@ -19,8 +19,11 @@ from forte.validation import FloatArray
 
 
 def smoothness_weights(n_arm: int, weights: CostWeights) -> FloatArray:
-    """Diagonal of ``W_s`` (base x, y, yaw, then the arm joints)."""
-    return np.concatenate([weights.smoothness_base, np.full(n_arm, weights.smoothness_arm)])
+    """Diagonal of ``W_s`` (base x, y, yaw, then the arm joints); with ``base_smoothness_linear``
+    the base entries are ``sqrt(smoothness_base)``, so that ``W_s^2`` is the metric used linearly."""
+    base = np.asarray(weights.smoothness_base, dtype=float)
+    return np.concatenate([np.sqrt(base) if weights.base_smoothness_linear else base,
+                           np.full(n_arm, weights.smoothness_arm)])
 
 
 def base_spectral_cost(base: FloatArray, weights: CostWeights) -> float:
