@@ -30,7 +30,7 @@ print(f"RFP at home: {len(rfp.vertices)} vertices, {rfp.capacity_along([0, 0, 1]
 task_force = forte.payload_force([0.0], [robot.ee_position(q)], mass=2.7 + robot.tool_force_mass)
 alpha = forte.CapabilityParameters().alpha  # the metric shrinks the residual torque interval by alpha
 shrunk = forte.residual_force_polytope(robot, q, alpha=alpha)
-d = forte.capability_margin(shrunk.H, shrunk.d, task_force.f[0], task_force.r[0])
+d = forte.capability_margin(shrunk.A, shrunk.b, task_force.f[0], task_force.r[0])
 print(f"margin d = {d:.1f} N (> 0: the whole force ball fits)")
 
 # 3. Plan the lifting task (Section 5.3) with FORTE and with manipulability only.

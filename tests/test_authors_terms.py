@@ -246,7 +246,7 @@ def forte_exact(plan, term: str) -> float:
         return capability_cost(rfp.A, rfp.b, f, r, w.capability_params)
     if term == "static_radius":
         static = [residual_force_polytope(plan.robot, qk, alpha=w.alpha) for qk in plan.q]
-        return sum(1 / max(abs(max(0.0, float(inscribed_radius(p.H, p.d)))), 1e-6) for p in static)
+        return sum(1 / max(abs(max(0.0, float(inscribed_radius(p.A, p.b)))), 1e-6) for p in static)
     if term == "rfp_radius":
         return sum(1 / max(abs(max(0.0, float(inscribed_radius(A, b)))), 1e-6) for A, b in zip(rfp.A, rfp.b,
                                                                                                  strict=True))

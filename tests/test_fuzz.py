@@ -225,7 +225,7 @@ def good_plan() -> Path:
     if not _PLAN:
         out = Path(tempfile.mkdtemp(prefix="forte-fuzz-")) / "plan"
         assert main(["plan", str(TASKS / "hold.yaml"), "--method", "teaching", "--mass", "1", "--quiet",
-                     "--no-figures", "--out", str(out)]) == 0
+                     "--no-figures", "--out", str(out), "--allow-infeasible", "--no-bound"]) == 0
         _PLAN.append(out)
     return _PLAN[0]
 

@@ -80,6 +80,19 @@ def as_positive(value: Any, name: str, allow_zero: bool = False) -> float:
     return x
 
 
+def payload_mass(value: Any, name: str = "mass", allow_zero: bool = False) -> float:
+    """A payload mass in kg: finite, > 0 (>= 0 with ``allow_zero``: no payload) and at most
+    :data:`MAX_MASS_KG`; the one check every entry point uses (``InvalidInputError`` naming ``name``)."""
+    reject_bools(value, name)
+    if not isinstance(value, int | float | np.integer | np.floating):
+        raise InvalidInputError(f"{name}: expected a number of kg, got {value!r}")
+    x = float(value)
+    low = ">= 0" if allow_zero else "> 0"
+    if not np.isfinite(x) or x < 0 or (x == 0 and not allow_zero) or x > MAX_MASS_KG:
+        raise InvalidInputError(f"{name}: expected a finite number {low} and <= {MAX_MASS_KG:g} kg, got {value!r}")
+    return x
+
+
 def check_times(t: Any, name: str = "t") -> FloatArray:
     """Strictly increasing finite time stamps; names the first offending sample."""
     times = as_array(t, name, (None,))

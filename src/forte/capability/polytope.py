@@ -75,17 +75,18 @@ def halfspaces(J: Any, tau_plus: Any, tau_minus: Any, alpha: float = 1.0) -> Hal
 
 @dataclass(frozen=True)
 class ResidualForcePolytope:
-    """The dynamic RFP at one configuration, in pycapacity's vocabulary: ``{f : H f <= d}``.
+    """The dynamic RFP at one configuration: ``{f : A f <= b}``, the paper's ``A_k, b_k``
+    (pycapacity writes ``H f <= d``; forte keeps ``d`` for the margin ``d_k``).
 
     Attributes:
-        H, d: half-space form (``2n x 3``, ``2n``), ``H = [J_t; -J_t]^T``,
-            ``d = alpha [tau_max - tau_nom; tau_max + tau_nom]``.
+        A, b: half-space form (``2n x 3``, ``2n``), ``A = [J_t; -J_t]^T``,
+            ``b = alpha [tau_max - tau_nom; tau_max + tau_nom]``.
         J: world-frame translational Jacobian (3 x n); tau_nom: nominal torque (n).
         alpha: scale of the residual torque interval.
     """
 
-    H: FloatArray
-    d: FloatArray
+    A: FloatArray
+    b: FloatArray
     J: FloatArray
     tau_nom: FloatArray
     alpha: float = 1.0
@@ -93,7 +94,7 @@ class ResidualForcePolytope:
     @cached_property
     def vertices(self) -> FloatArray:
         """Vertices (V x 3); empty when the polytope is empty."""
-        return vertices(self.H, self.d)
+        return vertices(self.A, self.b)
 
     @cached_property
     def faces(self) -> FloatArray:
@@ -103,16 +104,16 @@ class ResidualForcePolytope:
         return ConvexHull(self.vertices).simplices if len(self.vertices) >= 4 else np.zeros((0, 3), int)
 
     def contains(self, f: Any, tol: float = 1e-9) -> bool:
-        return bool(contains(self.H, self.d, f, tol))
+        return bool(contains(self.A, self.b, f, tol))
 
     def capacity_along(self, u: Any) -> float:
         """Distance from the origin to the boundary along ``u`` (the paper's directional capacity)."""
-        return float(directional_capacity(self.H, self.d, u))
+        return float(directional_capacity(self.A, self.b, u))
 
     @property
     def inscribed_radius(self) -> float:
         """Radius of the largest ball centred at the origin inside the polytope."""
-        return float(inscribed_radius(self.H, self.d))
+        return float(inscribed_radius(self.A, self.b))
 
 
 def residual_force_polytope(robot: MobileManipulator, q: Any, dq_a: Any = None, ddq_a: Any = None,
@@ -123,15 +124,15 @@ def residual_force_polytope(robot: MobileManipulator, q: Any, dq_a: Any = None, 
         >>> import forte
         >>> robot = forte.default_robot()
         >>> rfp = forte.residual_force_polytope(robot, robot.home())
-        >>> rfp.H.shape, bool(rfp.contains([0.0, 0.0, 20.0]))
+        >>> rfp.A.shape, bool(rfp.contains([0.0, 0.0, 20.0]))
         ((14, 3), True)
     """
     q = robot.check_configuration(q)
     zeros = np.zeros(robot.n_arm)
     tau = robot.rnea(q[3:], zeros if dq_a is None else dq_a, zeros if ddq_a is None else ddq_a)
     J = robot.arm_jacobian(q)
-    H, d = halfspaces(J, *residual_margins(tau, robot.torque_limits), alpha=alpha)
-    return ResidualForcePolytope(H, d, J, tau, alpha)
+    A, b = halfspaces(J, *residual_margins(tau, robot.torque_limits), alpha=alpha)
+    return ResidualForcePolytope(A, b, J, tau, alpha)
 
 
 @dataclass(frozen=True)

@@ -40,10 +40,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run_demo(args: argparse.Namespace) -> int:
     from forte.exceptions import InvalidInputError
-    from forte.validation import MAX_MASS_KG
+    from forte.validation import payload_mass
 
-    if not 0 < args.mass <= MAX_MASS_KG:
-        raise InvalidInputError(f"--mass: expected a finite number > 0 and <= {MAX_MASS_KG:g} kg, got {args.mass}")
+    payload_mass(args.mass, "--mass")
     if not 0 <= args.radius <= 1e6:
         raise InvalidInputError(f"--radius: expected a number in [0, 1e6] N, got {args.radius}")
     robot = default_robot()

@@ -62,12 +62,14 @@ MAX_BOOTSTRAP, MAX_WORKERS, MAX_RETRIES, MAX_TIMEOUT_S = 100_000, 64, 20, 3600.0
 
 def _check_numbers(args: argparse.Namespace) -> None:
     """Every numeric option in its range (NaN and inf fail), one line naming the option."""
-    from forte.validation import MAX_MASS_KG
+    from forte.validation import payload_mass
 
     checks = [("--timeout", args.timeout, 1e-3, MAX_TIMEOUT_S), ("--retries", args.retries, 0, MAX_RETRIES),
               ("--backoff", args.backoff, 0.0, MAX_TIMEOUT_S)]
     if hasattr(args, "r_min"):
-        checks += [("--r-min", args.r_min, 0.0, 1e6), ("--mass", args.mass, 1e-12, MAX_MASS_KG)]
+        checks += [("--r-min", args.r_min, 0.0, 1e6)]
+        if args.mass is not None:
+            payload_mass(args.mass, "--mass")
     if hasattr(args, "bootstrap"):
         checks += [("--bootstrap", args.bootstrap, 0, MAX_BOOTSTRAP), ("--workers", args.workers, 1, MAX_WORKERS)]
     for flag, value, low, high in checks:

@@ -156,9 +156,11 @@ def _check_arguments(args: argparse.Namespace) -> None:
     """Numbers in range and output paths forte may write, before the (long) simulation."""
     from forte.io.outputs import check_output
     from forte.io.plandir import read_plan_dir
-    from forte.validation import MAX_HOLD_S, MAX_MASS_KG
+    from forte.validation import MAX_HOLD_S, payload_mass
 
-    for flag, value, low, high in (("--hold", args.hold, 0.0, MAX_HOLD_S), ("--mass", args.mass, 0.0, MAX_MASS_KG),
+    if args.mass is not None:
+        payload_mass(args.mass, "--mass", allow_zero=True)  # 0: no payload
+    for flag, value, low, high in (("--hold", args.hold, 0.0, MAX_HOLD_S),
                                    ("--sag", args.sag, 1e-9, 10.0), ("--drop-sag", args.drop_sag, 1e-9, 10.0),
                                    ("--saturation-time", args.saturation_time, 1e-9, MAX_HOLD_S)):
         if value is not None and not low <= value <= high:  # NaN fails too

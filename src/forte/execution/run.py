@@ -44,14 +44,14 @@ from forte.io.plandir import read_plan_dir
 from forte.model.robot import N_BASE, MobileManipulator, robot_from_description
 from forte.model.trajectory import trajectory_header
 from forte.planning.planner import Plan
-from forte.validation import FloatArray, as_positive
+from forte.validation import FloatArray, as_positive, payload_mass
 
 
 def check_mass(mass: Any) -> float:
     """A payload mass >= 0 kg (``InvalidInputError`` naming ``mass`` otherwise)."""
     if mass is None:
         raise InvalidInputError("mass: expected a number >= 0 kg, got None")
-    return as_positive(mass, "mass", allow_zero=True)
+    return payload_mass(mass, "mass", allow_zero=True)
 
 
 class _RunLog:

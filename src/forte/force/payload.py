@@ -11,9 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
-import numpy as np
-
-from forte.exceptions import InvalidInputError
+from forte.validation import payload_mass
 
 
 @dataclass(frozen=True)
@@ -39,9 +37,7 @@ class Payload:
 
     def __post_init__(self) -> None:
         if self.mass is not None:
-            if isinstance(self.mass, bool) or not isinstance(self.mass, int | float) or not np.isfinite(self.mass) \
-                    or self.mass <= 0:
-                raise InvalidInputError(f"payload.mass: expected a finite number > 0 kg, got {self.mass!r}")
+            payload_mass(self.mass, "payload.mass")
 
     @property
     def needs_estimate(self) -> bool:

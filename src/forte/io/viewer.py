@@ -7,7 +7,7 @@
   kinematics of the whole-body URDF (:func:`forte.io.export.whole_body_urdf`);
 - ``world/base_path`` and ``world/ee_path``: the base (x, y on the floor) and end-effector paths;
 - ``world/force``: the desired force at the end effector, drawn at :data:`FORCE_SCALE` m per N;
-- ``force_space/rfp``: the residual force polytope ``{f : H f <= d}`` of the waypoint (N), with
+- ``force_space/rfp``: the residual force polytope ``{f : A f <= b}`` of the waypoint (N), with
   ``force_space/force`` (the desired force f) and ``force_space/ball`` (the uncertainty ball of
   radius r around f), in its own 3D view, in newtons;
 - ``plots/capacity/{capacity,f_norm,f_plus_r,f_minus_r}``: directional capacity vs ``|f|`` and

@@ -17,7 +17,7 @@ import numpy as np
 import pinocchio as pin
 import yaml
 
-from forte.exceptions import ForteError, TaskFileError
+from forte.exceptions import ForteError, InvalidInputError, TaskFileError
 from forte.force.payload import Payload
 from forte.force.taskforce import (
     AUTHORS_FORCE_RAMP_S,
@@ -51,7 +51,7 @@ from forte.planning.schema import (
     rotation,
 )
 from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights, KinematicLimits, SolverOptions
-from forte.validation import MAX_DURATION_S, MAX_FILE_BYTES, MAX_MASS_KG, MAX_WAYPOINTS, FloatArray
+from forte.validation import MAX_DURATION_S, MAX_FILE_BYTES, MAX_MASS_KG, MAX_WAYPOINTS, FloatArray, payload_mass
 
 MODES = ("trajectory", "hold")
 
@@ -219,8 +219,10 @@ def _payload(reader: Reader, base: Path, mass: float | None) -> Payload | None:
         if found.mass is None and found.description is None and found.image is None:
             found = None
     if mass is not None:
-        if isinstance(mass, bool) or not np.isfinite(mass) or mass <= 0 or mass > MAX_MASS_KG:
-            raise TaskFileError(f"--mass: expected a finite number > 0 and <= {MAX_MASS_KG:g} kg, got {mass}")
+        try:
+            payload_mass(mass, "--mass")
+        except InvalidInputError as exc:
+            raise TaskFileError(str(exc)) from None
         found = (found or Payload()).with_mass(mass, source="cli")
     return found
 

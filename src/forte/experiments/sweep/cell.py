@@ -53,7 +53,8 @@ def _identity(cell: Cell, waypoints: int) -> dict[str, Any]:
 def plan_columns(res: Plan) -> dict[str, Any]:
     """The plan's status and metrics (the deterministic ones: no solve time)."""
     m = metrics(res)
-    return {"plan_status": m["status"], "solver_status": m["solver_status"], **{k: m[k] for k in PLAN_COLUMNS}}
+    return {"plan_status": m["status"], "verdict_failed": m["verdict_failed"], "solver_status": m["solver_status"],
+            **{k: m[k] for k in PLAN_COLUMNS}}
 
 
 def simulate_cell(cell: Cell, plan_dir: Path | None, sim: Simulation | None) -> dict[str, Any]:

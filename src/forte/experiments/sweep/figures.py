@@ -76,7 +76,7 @@ def plot_task(rows: Sequence[dict[str, Any]], path: Path, title: str) -> bool:
                 ax.plot(masses, y, color=color, marker=MARKERS[i % len(MARKERS)], ls=DASHES[i % len(DASHES)],
                         ms=7 - i * 0.8, lw=1.5, label=name)  # shrinking markers: coinciding points stay visible
                 bad = [(m, v) for m, v in zip(masses, y, strict=True)
-                       if (method, m) in plans and plans[(method, m)]["plan_status"] != "success"]
+                       if (method, m) in plans and plans[(method, m)]["plan_status"] != "feasible"]
                 _mark_failed(ax, bad)
             ax.set_xlabel("payload mass (kg)")
         else:
@@ -91,8 +91,9 @@ def plot_task(rows: Sequence[dict[str, Any]], path: Path, title: str) -> bool:
         ax.grid(alpha=0.3)
     if masses:
         axes[0, -1].legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, frameon=False)
-    if any(p["plan_status"] != "success" for p in plans.values()):
-        title += " (x: planning failed: the solver's last iterate, on the bottom edge when it raised)"
+    if any(p["plan_status"] != "feasible" for p in plans.values()):
+        title += (" (x: plan not feasible (its verdict); a failed solve is its last iterate, on the bottom edge "
+                  "when it raised)")
     fig.suptitle(title, fontsize=10)
     fig.savefig(path, dpi=DPI, bbox_inches="tight")
     plt.close(fig)

@@ -45,12 +45,13 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from forte.exceptions import InvalidInputError
 from forte.experiments.common import MASS_ERROR
 from forte.planning.methods import METHODS
 from forte.planning.planner import methods_for
 from forte.planning.schema import Reader
 from forte.planning.tasks import Task, read_yaml, task_from_dict
-from forte.validation import MAX_HOLD_S, MAX_MASS_KG, MAX_WAYPOINTS
+from forte.validation import MAX_HOLD_S, MAX_WAYPOINTS, payload_mass
 
 #: Version of the cell key and cell file layout (part of every cell id). 2: the key holds the robot.
 CELL_FORMAT = 2
@@ -214,9 +215,10 @@ def _masses(r: Reader) -> tuple[float, ...] | None:
         return None
     out = []
     for i, m in enumerate(items):
-        if isinstance(m, bool) or not isinstance(m, int | float) or not 0 < m <= MAX_MASS_KG:
-            raise r.error(f"masses[{i}]", f"expected a number > 0 and <= {MAX_MASS_KG:g} kg, got {m!r}")
-        out.append(float(m))
+        try:
+            out.append(payload_mass(m, f"masses[{i}]"))
+        except InvalidInputError as exc:
+            raise r.error(f"masses[{i}]", str(exc).split(": ", 1)[1]) from None
     if len(set(out)) != len(out):
         raise r.error("masses", "lists a mass twice; expected each once")
     return tuple(out)

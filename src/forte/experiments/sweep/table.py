@@ -11,7 +11,8 @@ backend. Columns:
   mass (empty: a task with a force profile);
 - ``run``: ``plan-only``, ``nominal``, ``mass-error`` or ``no-payload``; ``trial``: 0, or the
   mass-error trial 1..K; ``true_mass_kg``: the payload mass in the simulation;
-- ``plan_status`` (``success``, ``failure`` or ``error``), ``solver_status``, and the plan's
+- ``plan_status`` (the plan's verdict: ``feasible``, ``infeasible``, ``solver-failed``; or
+  ``error``), ``verdict_failed`` (the failed requirements), ``solver_status``, and the plan's
   metrics (:func:`forte.experiments.common.metrics`): ``min_d``, ``min_capacity_margin``
   (min capacity − (\\|f\\| + r), N), ``min_capacity_minus_force``, ``mean_capacity``,
   ``min_capacity`` (N), ``mean_manipulability``, ``min_manipulability`` (m³),
@@ -42,7 +43,8 @@ from forte.io.outputs import atomic_write
 COLUMNS: tuple[tuple[str, str], ...] = (
     ("cell_id", "str"), ("task", "str"), ("task_file", "str"), ("waypoints", "int"), ("method", "str"),
     ("mass_kg", "float"), ("run", "str"), ("trial", "int"), ("true_mass_kg", "float"),
-    ("plan_status", "str"), ("solver_status", "str"), ("min_d", "float"), ("min_capacity_margin", "float"),
+    ("plan_status", "str"), ("verdict_failed", "str"), ("solver_status", "str"), ("min_d", "float"),
+    ("min_capacity_margin", "float"),
     ("min_capacity_minus_force", "float"), ("mean_capacity", "float"), ("min_capacity", "float"),
     ("mean_manipulability", "float"), ("min_manipulability", "float"), ("max_torque_ratio", "float"),
     ("max_torque_ratio_with_force", "float"), ("waypoints_with_d_negative", "int"),
