@@ -203,7 +203,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
          guess: FloatArray | None = None) -> Plan:
     """Plan ``task`` with ``method``; never raises for a solver failure (see ``Plan.success``).
 
-    Example:
+    Examples:
         >>> import forte
         >>> task = forte.load_task("examples/tasks/hold.yaml", mass=0.35)
         >>> result = forte.plan(task, "teaching")
@@ -235,7 +235,7 @@ def compare(task: Task, methods: tuple[str, ...] | None = None,
             estimator_options: dict[str, Any] | None = None) -> list[Plan]:
     """Plan ``task`` with every method that applies (or ``methods``); the payload is resolved once.
 
-    Example:
+    Examples:
         >>> import forte
         >>> task = forte.load_task("examples/tasks/hold.yaml", mass=0.35)
         >>> [p.method for p in forte.compare(task, methods=("teaching",))]
