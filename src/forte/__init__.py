@@ -13,14 +13,17 @@ it in this list):
 - :mod:`forte.cli`: the ``forte`` command.
 
 The names below are the public API; they are imported on first use, so ``import forte`` is
-quick. A short session (run from the repository root):
+quick.
 
->>> import forte
->>> task = forte.load_task("examples/tasks/hold.yaml", mass=0.35)
->>> task.mode, task.n
-('hold', 1)
->>> [name for name in forte.METHODS if forte.METHODS[name].in_paper]
-['forte', 'manipulability', 'rfp-radius', 'rfp-cone', 'quintic', 'teaching']
+Examples:
+    A short session (run from the repository root):
+
+    >>> import forte
+    >>> task = forte.load_task("examples/tasks/hold.yaml", mass=0.35)
+    >>> task.mode, task.n
+    ('hold', 1)
+    >>> [name for name in forte.METHODS if forte.METHODS[name].in_paper]
+    ['forte', 'manipulability', 'rfp-radius', 'rfp-cone', 'quintic', 'teaching']
 """
 
 from __future__ import annotations

@@ -63,7 +63,9 @@ def signed_distances(A: Any, b: Any, f: Any, r: Any) -> FloatArray:
 def capability_margin(A: Any, b: Any, f: Any, r: Any) -> FloatArray:
     """``d_k``: the minimum signed distance between the force ball and the RFP ``{f : A f <= b}``.
 
-    Example (a box of +-10 N, a ball of radius 2 N around 5 N along x: 3 N of margin left):
+    Examples:
+        A box of +-10 N, a ball of radius 2 N around 5 N along x: 3 N of margin left:
+
         >>> import numpy as np, forte
         >>> A = np.vstack([np.eye(3), -np.eye(3)])
         >>> float(forte.capability_margin(A, np.full(6, 10.0), [5.0, 0.0, 0.0], 2.0))

@@ -120,7 +120,7 @@ def residual_force_polytope(robot: MobileManipulator, q: Any, dq_a: Any = None, 
                             alpha: float = 1.0) -> ResidualForcePolytope:
     """The RFP at whole-body configuration ``q`` with arm velocity and acceleration (default rest).
 
-    Example:
+    Examples:
         >>> import forte
         >>> robot = forte.default_robot()
         >>> rfp = forte.residual_force_polytope(robot, robot.home())

@@ -213,7 +213,9 @@ def build_sim_model(
         payload_radius: Radius of the payload sphere (m), sets its inertia ``2/5 m r^2``.
         meshes: Keep the URDF meshes (for rendering; no contacts either way).
         timestep: Integration step (s).
-        base_mass, base_inertia, base_kv: Base body and base velocity-actuator parameters.
+        base_mass: Mass of the base body (kg).
+        base_inertia: Principal inertia of the base body (kg m^2).
+        base_kv: Gains of the base's velocity actuators: slides (N s/m) and yaw (N m s/rad).
         armature: Reflected rotor inertia of the arm joints (kg m^2; one value or one per joint).
 
     Raises:

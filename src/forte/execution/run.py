@@ -270,7 +270,9 @@ def simulate_plan(
         timestep: Simulation and control period (s); 1 ms = 1 kHz.
         record_every: Log every n-th control step (saturation flags OR-ed over the window).
         stop_on_failure: Stop at the first failure instead of running to the end.
-        frames_dir, video: Offscreen rendering to PNG frames / an mp4 file at ``fps``.
+        frames_dir: Offscreen rendering to PNG frames in this folder (at ``fps``).
+        video: Offscreen rendering to this mp4 file (at ``fps``).
+        fps: Frame rate of ``frames_dir`` and ``video``.
         viewer: Show the run in MuJoCo's interactive viewer, paced to real time; after the
             run (and after writing the results) wait until the user closes the window.
         replan: :class:`~forte.execution.closed_loop.ReplanOptions` to identify the payload
@@ -281,7 +283,9 @@ def simulate_plan(
         write: Write ``sim.csv``/``sim.json``, after the run, each through a temporary file
             and a rename: an interrupted or crashed run never replaces earlier results.
 
-    Example (hold the home pose for 0.2 s, no payload):
+    Examples:
+        Hold the home pose for 0.2 s, no payload:
+
         >>> import tempfile, forte
         >>> from forte.io.plandir import write_plan_dir
         >>> robot = forte.default_robot()

@@ -200,7 +200,9 @@ def estimate_payload(
         EstimationError: no estimate could be obtained or the answer failed validation.
         InvalidInputError: a non-positive ``mass`` or an unreadable image.
 
-    Example (the offline estimator reads volumes and liquids from the description):
+    Examples:
+        The offline estimator reads volumes and liquids from the description:
+
         >>> import forte
         >>> est = forte.estimate_payload("a 2.7 L pack of water bottles", None)
         >>> est.source.startswith("offline"), round(est.mass_kg, 1)  # water plus the bottles

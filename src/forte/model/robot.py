@@ -358,7 +358,7 @@ def default_robot(torque_limits: Any = PAPER_TORQUE_LIMITS, variant: str = "auth
 
     Both use the paper's torque limits (60 Nm joints 1-4, 12 Nm joints 5-7).
 
-    Example:
+    Examples:
         >>> import forte
         >>> robot = forte.default_robot()
         >>> robot.nq, robot.torque_limits.tolist(), robot.tool_force_mass

@@ -291,7 +291,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
     """Plan ``task`` with ``method`` and judge it; never raises for a solver failure or an
     infeasible plan (see ``Plan.verdict``).
 
-    Example:
+    Examples:
         >>> import forte
         >>> task = forte.load_task("examples/tasks/hold.yaml", mass=0.35)
         >>> result = forte.plan(task, "teaching")
@@ -329,7 +329,7 @@ def compare(task: Task, methods: tuple[str, ...] | None = None,
     ``on_plan(i, plan)`` is called after the i-th plan (1-based), e.g. to show progress; every
     plan carries its verdict.
 
-    Example:
+    Examples:
         >>> import forte
         >>> task = forte.load_task("examples/tasks/hold.yaml", mass=0.35)
         >>> [p.method for p in forte.compare(task, methods=("teaching",))]

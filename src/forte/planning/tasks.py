@@ -237,7 +237,9 @@ def load_task(
         mass: Payload mass overriding the file's (kg).
         waypoints: Number of samples overriding the file's (trajectory mode).
 
-    Example (from the repository root):
+    Examples:
+        From the repository root:
+
         >>> import forte
         >>> task = forte.load_task("examples/tasks/lift.yaml", waypoints=20)
         >>> task.n, task.payload.mass, task.resampled(30).n
