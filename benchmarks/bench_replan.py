@@ -67,7 +67,7 @@ class Series:
         self.wall.append(result.latency_s)
         self.iters.append(result.iterations)
         self.labels.append(label)
-        path = "not converged" if not result.plan.success else "warm IPOPT" if result.warm else "cold retry"
+        path = "not converged" if not result.plan.solved else "warm IPOPT" if result.warm else "cold retry"
         self.paths[path] += 1
         return result
 
@@ -102,7 +102,7 @@ def masses(args: argparse.Namespace, task: Task, planner: Replanner) -> None:
     for mass in np.random.default_rng(args.seed).uniform(0.3, 3.3, args.replans):
         r = series.add(f"{previous:.2f}->{mass:.2f} kg", lambda m=float(mass): planner.replan(mass=m))
         previous = mass
-        if r.plan.success:
+        if r.plan.solved:
             done.append((float(mass), r.plan.q))
     for mass, q in done if args.check else ():  # after the timed loop: its BLAS threads stay out of it
         cold = plan(task.with_payload(task.payload.with_mass(mass)), "forte")
@@ -121,7 +121,7 @@ def receding(args: argparse.Namespace, task: Task, with_mass: bool) -> None:
         label = f"shift {moved}->{moved + 1}" + (f", {mass:.2f} kg" if with_mass else "")
         r = series.add(label, lambda m=mass, p=planner: p.shift(1, mass=m))
         moved += 1
-        if r.plan.success:
+        if r.plan.solved:
             done.append((planner, (planner.task, planner.force, planner.nominal), r.plan.q))
     for owner, problem, q in done if args.check else ():
         cold = cold_solve(owner, problem)

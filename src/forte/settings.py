@@ -318,6 +318,9 @@ class SolverOptions:
             stop in a worse one (forte at the authors' point with 0.35 kg: objective 5.02 from
             there, 4.76 from the best of 16 starts). ``1`` is the authors' single start.
         hold_seed: seed of those extra starts.
+        refine_rounds: rounds of verdict-driven refinement of a converged plan that fails only
+            where the NLP's waypoint view falls short of the executed motion (capacity, arm
+            accelerations; :func:`forte.planning.planner._refine`); 0 returns the NLP's own optimum.
     """
 
     max_iter: int = 500
@@ -329,14 +332,17 @@ class SolverOptions:
     extra: dict[str, Any] = field(default_factory=dict)
     hold_starts: int = 16
     hold_seed: int = 0
+    refine_rounds: int = 3
 
     def __post_init__(self) -> None:
         for name in ("max_iter", "hold_starts"):
             value = getattr(self, name)
             if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
                 raise InvalidInputError(f"{name}: expected an integer >= 1, got {value!r}")
-        if not (isinstance(self.hold_seed, int) and not isinstance(self.hold_seed, bool) and self.hold_seed >= 0):
-            raise InvalidInputError(f"hold_seed: expected an integer >= 0, got {self.hold_seed!r}")
+        for name in ("hold_seed", "refine_rounds"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and not isinstance(value, bool) and value >= 0):
+                raise InvalidInputError(f"{name}: expected an integer >= 0, got {value!r}")
         for name in ("tol", "constraint_tol"):
             value = getattr(self, name)
             if not (_finite(value) and value > 0):

@@ -228,8 +228,6 @@ def _best_of_starts(opt: TrajectoryOptimizer, task: Task, force: TaskForce, firs
     return results[best], facts
 
 
-#: Rounds of verdict-driven refinement (:func:`_refine`).
-REFINE_ROUNDS = 3
 #: What a refinement round adds to the shortfall it covers (N).
 REFINE_SLACK_N = 0.5
 
@@ -252,15 +250,15 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
       the ratio ``x`` becomes ``min(limit, largest waypoint acceleration) / (1.05 x)``.
 
     The metrics, the cost terms and the verdict keep the task's own radii and limits. At most
-    :data:`REFINE_ROUNDS` rounds; the first feasible plan is kept, else the original.
+    ``task.solver.refine_rounds`` rounds (0: none); the first feasible plan is kept, else the original.
     ``info["refinement"]`` records the rounds.
     """
     fixable = {"capacity", "acceleration"} if "capability" in spec.terms else {"acceleration"}
-    if not sol.success or not verdict.failed or not set(verdict.failed) <= fixable:
+    if not sol.success or not verdict.failed or not set(verdict.failed) <= fixable or not task.solver.refine_rounds:
         return sol, info, verdict
     radius, acc = force.r.copy(), task.limits.resolve(task.robot)[1][N_BASE:].copy()
     rounds, current, current_verdict = [], sol, verdict
-    for _ in range(REFINE_ROUNDS):
+    for _ in range(task.solver.refine_rounds):
         if "capacity" in current_verdict.failed:
             short = capacity_shortfall(task, current.q, force)
             radius = radius + np.where(short > 0, short + REFINE_SLACK_N, 0.0)
