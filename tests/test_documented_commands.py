@@ -58,6 +58,8 @@ REDUCED: list[tuple[str, str, str]] = [
      "50 cells, ~80 s on 2 cores; the demo sweep of the same page computes its grid"),
     ("forte sweep examples/sweeps/mass-scan.yaml --ray", "--dry-run",
      "72 cells, ~95 s on 2 cores; Ray itself is tested in test_sweep.py"),
+    ("python benchmarks/verdict_vs_mujoco.py", "--tasks hold --masses 2.7 --workers 1",
+     "78 plans and runs, ~2.5 min on 2 cores; one case of the table here"),
 ]
 
 #: Blocks the default run leaves to ``-m docs_full``: (document, text of one of its commands, reason).

@@ -45,9 +45,13 @@ class TaskForce:
     @property
     def direction(self) -> FloatArray:
         """Unit force directions (straight up where the force vanishes)."""
-        mag = self.magnitude[:, None]
-        up = np.broadcast_to([0.0, 0.0, 1.0], self.f.shape)
-        return np.where(mag > 1e-12, self.f / np.maximum(mag, 1e-12), up)
+        return force_directions(self.f)
+
+
+def force_directions(f: FloatArray) -> FloatArray:
+    """Unit directions of forces ``f`` (K x 3), straight up where a force vanishes."""
+    mag = np.linalg.norm(f, axis=1)[:, None]
+    return np.where(mag > 1e-12, f / np.maximum(mag, 1e-12), np.array([0.0, 0.0, 1.0]))
 
 
 def _radii(radius: Any, n: int) -> FloatArray:

@@ -102,16 +102,6 @@ class SampledForce(NamedTuple):
     f: FloatArray
     r: FloatArray
 
-    @property
-    def magnitude(self) -> FloatArray:
-        return np.linalg.norm(self.f, axis=1)
-
-    @property
-    def direction(self) -> FloatArray:
-        """Unit force directions (straight up where the force vanishes), as :class:`TaskForce`."""
-        mag = self.magnitude[:, None]
-        return np.where(mag > 1e-12, self.f / np.maximum(mag, 1e-12), np.array([0.0, 0.0, 1.0]))
-
 
 def force_at(force: TaskForce, times: FloatArray) -> SampledForce:
     """The task force (and ball radius) linear in time at ``times``, held outside its range."""

@@ -26,6 +26,7 @@ import numpy as np
 
 from forte.capability.metrics import capability_margin
 from forte.capability.polytope import directional_capacity
+from forte.force.taskforce import force_directions
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.self_collision import arm_geometry
 from forte.planning.motion_samples import MotionSamples, SampledForce
@@ -145,7 +146,7 @@ class Capacity(Requirement):
     def measures(self, ctx: Context) -> list[Measure]:
         s, f = ctx.samples, ctx.force
         d = capability_margin(s.A, ctx.alpha * s.b, f.f, f.r)
-        short = (f.magnitude + f.r) - directional_capacity(s.A, s.b, f.direction)
+        short = (np.linalg.norm(f.f, axis=1) + f.r) - directional_capacity(s.A, s.b, force_directions(f.f))
         return [Measure(-d, 0.0, "N", "the force ball leaves the alpha-scaled RFP (-d > 0)"),
                 Measure(short, 0.0, "N", "the RFP's capacity along the force is below |f| + r (shortfall)")]
 
