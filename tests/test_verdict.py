@@ -217,3 +217,17 @@ def test_a_plan_written_by_hand_is_judged(robot, tmp_path):
 
 def test_task_force_is_a_taskforce():
     assert isinstance(forte.load_task(LIFT, mass=0.35).force(), TaskForce)
+
+
+def test_batched_arm_quantities_equal_the_robot_s_own(robot):
+    from forte.planning.motion_samples import arm_quantities
+
+    rng = np.random.default_rng(5)
+    Q = np.column_stack([rng.uniform(-1, 1, (6, 2)), rng.uniform(-3, 3, 6), rng.uniform(robot.lower, robot.upper,
+                                                                                        (6, robot.n_arm))])
+    V, A = rng.normal(size=Q.shape), rng.normal(size=Q.shape)
+    J, tau, ee = arm_quantities(robot, Q, V, A)
+    for k, q in enumerate(Q):
+        np.testing.assert_allclose(J[k], robot.arm_jacobian(q), atol=1e-12)
+        np.testing.assert_allclose(tau[k], robot.rnea(q[N_BASE:], V[k, N_BASE:], A[k, N_BASE:]), atol=1e-10)
+        np.testing.assert_allclose(ee[k], robot.ee_pose(q), atol=1e-12)

@@ -24,12 +24,13 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import numpy as np
+import pinocchio as pin
 
 from forte.capability.polytope import halfspaces, residual_margins
 from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.trajectory import backward_differences, clamped_spline
-from forte.validation import FloatArray
+from forte.validation import FloatArray, as_array, check_times
 
 #: Dense samples per interval between two waypoints (see the module docstring).
 SAMPLES_PER_INTERVAL = 8
@@ -76,8 +77,8 @@ def dense_times(t: FloatArray, per_interval: int = SAMPLES_PER_INTERVAL) -> Floa
 def sample_motion(robot: MobileManipulator, t: Any, q: Any, per_interval: int = SAMPLES_PER_INTERVAL) -> MotionSamples:
     """The plan ``(t, q)`` at its waypoints and along its executed motion (module docstring);
     ``per_interval = 0`` gives the waypoints alone."""
-    t = np.asarray(t, dtype=float)
-    q = np.array(q, dtype=float, ndmin=2)
+    t = check_times(t)
+    q = as_array(q, "q", (t.size, robot.nq)).copy()
     q[:, 2] = np.unwrap(q[:, 2])  # as the controllers' reference: never turn the long way round
     v, a = backward_differences(q, t, "q")
     if per_interval > 0 and t.size > 1:
@@ -89,11 +90,26 @@ def sample_motion(robot: MobileManipulator, t: Any, q: Any, per_interval: int = 
     order = np.argsort(times, kind="stable")  # a waypoint before the spline sample at its time
     times, Q, V, Acc = times[order], Q[order], V[order], Acc[order]
     waypoint = np.argsort(order)[: t.size]
-    J = np.array([robot.arm_jacobian(qk) for qk in Q])
-    tau = np.array([robot.rnea(qk[N_BASE:], vk[N_BASE:], ak[N_BASE:]) for qk, vk, ak in zip(Q, V, Acc, strict=True)])
+    J, tau, ee = arm_quantities(robot, Q, V, Acc)
     A, b = halfspaces(J, *residual_margins(tau, robot.torque_limits), alpha=1.0)
-    ee = np.array([robot.ee_pose(qk) for qk in Q])
     return MotionSamples(times, Q, V, Acc, waypoint, J, tau, A, b, ee)
+
+
+def arm_quantities(robot: MobileManipulator, Q: FloatArray, V: FloatArray,
+                   Acc: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """World translational arm Jacobians, RNEA torques and end-effector poses at many samples:
+    :meth:`~forte.model.robot.MobileManipulator.arm_jacobian`, ``rnea`` and ``ee_pose`` without
+    their per-call input checks (the samples are checked once; a test compares the two)."""
+    model, data, frame = robot.model, robot.data, robot.ee_frame_id
+    J, tau, ee = np.empty((len(Q), 3, robot.n_arm)), np.empty((len(Q), robot.n_arm)), np.empty((len(Q), 4, 4))
+    for k, (q, v, a) in enumerate(zip(Q, V, Acc, strict=True)):
+        qa = np.ascontiguousarray(q[N_BASE:])
+        tau[k] = pin.rnea(model, data, qa, np.ascontiguousarray(v[N_BASE:]), np.ascontiguousarray(a[N_BASE:]))
+        local = pin.computeFrameJacobian(model, data, qa, frame, pin.LOCAL_WORLD_ALIGNED)[:3]
+        base = robot.base_transform(q[:N_BASE])
+        J[k] = base[:3, :3] @ local
+        ee[k] = base @ data.oMf[frame].homogeneous  # placed by the Jacobian's forward kinematics
+    return J, tau, ee
 
 
 class SampledForce(NamedTuple):
