@@ -242,10 +242,11 @@ _HOLD = CostWeights(
 #:   the 3 x 7 arm Jacobian (the text: "computed using only the arm joints") and the base
 #:   smoothness ``1/2 ||W_s dq_b||^2`` with ``W_s = diag(1, 1, 0.5)`` (yaw weight 0.25).
 #:   Why: on our model of the robot the authors' weight 1 lets the other terms win where the
-#:   load is heavy: at 2.8 kg forte's lift then stays 13.6 N short of |f| + r (min over the
-#:   waypoints of the capacity along f minus |f| + r) and fails in MuJoCo, while with 5 it keeps
-#:   +5.3 N and lifts; its 2.7 kg plan lifts every mass from 2.43 to 2.97 kg. The weight is fixed across
-#:   payloads, as the paper requires; at light load J1 is ~0 and the weight has no effect.
+#:   load is heavy: with ``authors-trajectory`` forte's 2.8 kg lift stays 8.2 N short of
+#:   |f| + r (min over the waypoints of the capacity along f minus |f| + r; min d = -12.1 N,
+#:   verdict infeasible), while with 5 it keeps +8.7 N and is feasible; its 2.7 kg plan lifts
+#:   every mass from 2.43 to 2.97 kg. The weight is fixed across payloads, as the paper
+#:   requires; at light load J1 is ~0 and the weight has no effect.
 #:   ``docs/experiments/lift`` reports both sets;
 #: - ``authors-trajectory``: the authors' lift/continuous set exactly as their public code runs
 #:   it (capability 1, manipulability 1 on the 3 x 8 Jacobian with the base-yaw column, joint

@@ -225,8 +225,8 @@ def sim_text(sim: dict[str, Any] | None) -> str:
 
 
 def _table(case: Case) -> list[str]:
-    lines = ["| method | plan | min d (N) | min cap − (\\|f\\| + r) (N) | min cap − \\|f\\| (N) | mean cap (N) | "
-             "mean manipulability | simulation |", "|---|---|---|---|---|---|---|---|"]
+    lines = ["| method | plan verdict | min d (N) | min cap − (\\|f\\| + r) (N) | min cap − \\|f\\| (N) | "
+             "mean cap (N) | mean manipulability | simulation |", "|---|---|---|---|---|---|---|---|"]
     for method, res in case.results.items():
         m = metrics(res)
         lines.append(f"| {method} | {m['status']} | {m['min_d']:.1f} | {m['min_capacity_margin']:.1f} | "

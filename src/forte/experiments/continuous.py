@@ -173,7 +173,10 @@ def continuous_notes(results: dict[str, Plan]) -> list[str]:
     margins = ", ".join(f"{m} {np.min(res.metrics['capacity_margin']):.1f}" for m, res in results.items())
     return [
         "Solver status per method: " + ", ".join(f"{m} {res.status}" for m, res in results.items())
-        + ". Where a plan is marked failure its curves are the solver's last iterate and its claims fail.",
+        + ". The plan column is each plan's verdict (forte.planning.verdict); a plan marked solver-failed "
+          "is the solver's last iterate and its claims fail. Verdicts: "
+        + "; ".join(f"{m} {res.label}" + (f" ({res.verdict.brief()})" if not res.feasible else "")
+                    for m, res in results.items()) + ".",
         f"Min capacity − (|f| + r) along the trajectory (N): {margins}.",
         f"Peak demand |f| + r = {mag[k] + r[k]:.0f} N at t = {ours.t[k]:.1f} s; the best planned capacity there is "
         f"{cap[best][k]:.0f} N ({best}{'' if results[best].solved else ', last iterate of a failed solve'}), "
