@@ -46,6 +46,11 @@ from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights, Kinemat
 from forte.validation import FloatArray
 
 
+def accepted_violation(options: SolverOptions) -> float:
+    """The largest constraint violation a converged solve may keep: ``max(1e-5, 10 constraint_tol)``."""
+    return max(1e-5, 10 * options.constraint_tol)
+
+
 @dataclass
 class SolverResult:
     """What one IPOPT solve returned (the planner turns it into a plan)."""
@@ -370,7 +375,7 @@ class TrajectoryOptimizer:
         bounds = np.maximum(np.maximum(lbx - x, x - ubx), 0)
         g_excess = np.maximum(np.maximum(lbg - g, g - ubg), 0)
         violation = float(max(g_excess.max(initial=0.0), bounds.max(initial=0.0)))
-        tol = max(1e-5, 10 * self.options.constraint_tol)
+        tol = accepted_violation(self.options)
         return SolverResult(
             q=x[: n * nq].reshape(n, nq), success=bool(stats.get("success", False)) and violation <= tol,
             status=str(stats.get("return_status", "unknown")), iterations=int(stats.get("iter_count", -1)),

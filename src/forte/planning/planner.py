@@ -23,7 +23,7 @@ from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.trajectory import backward_differences
 from forte.planning.ik import initial_guess
 from forte.planning.methods import METHODS, Method, get_method, method_names
-from forte.planning.optimizer import SolverResult, TrajectoryOptimizer
+from forte.planning.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
 from forte.planning.tasks import Task
 from forte.planning.verdict import SOLVER_FAILED, Verdict, arm_acceleration_ratios, capacity_shortfall, judge_plan
 from forte.settings import CapabilityParameters
@@ -189,6 +189,7 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
     info |= {
         "status": sol.status, "success": sol.success, "iterations": sol.iterations,
         "objective": sol.objective, "constraint_violation": sol.constraint_violation,
+        "accepted_violation": accepted_violation(options),
         "build_time_s": sol.build_time, "solve_time_s": sol.solve_time, "kernels": sol.codegen,
         "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, (reported or force).f, (reported or force).r),
         "term_weights": opt.term_weights(), "quadratic_forms": opt.quadratic_forms,

@@ -272,7 +272,8 @@ class SelfCollision(Requirement):
 
 @dataclass(frozen=True)
 class Solver(Requirement):
-    """An optimized plan: IPOPT converged (:data:`CONVERGED`) with a small constraint violation."""
+    """An optimized plan: IPOPT converged (:data:`CONVERGED`) with a constraint violation within
+    what the solver accepts (``accepted_violation`` of its facts, else ``max_violation``)."""
 
     name: ClassVar[str] = "solver"
     max_violation: float = 1e-5
@@ -285,11 +286,12 @@ class Solver(Requirement):
             return None
         status = str(ctx.solver.get("status", "unknown"))
         violation = float(ctx.solver.get("constraint_violation", np.inf))
-        if status in CONVERGED and violation <= self.max_violation:
+        accepted = float(ctx.solver.get("accepted_violation", self.max_violation))
+        if status in CONVERGED and violation <= accepted:
             return None
         why = f"IPOPT stopped with {status}" if status not in CONVERGED else "constraints not met"
-        detail = f"{why}; constraint violation {violation:.3g} (accepted up to {self.max_violation:g})"
-        return Violation(self.name, detail, violation, self.max_violation, "", (), None)
+        detail = f"{why}; constraint violation {violation:.3g} (accepted up to {accepted:g})"
+        return Violation(self.name, detail, violation, accepted, "", (), None)
 
 
 #: The requirements every plan is judged on, in the order their failures are reported.
