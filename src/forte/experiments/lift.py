@@ -133,10 +133,21 @@ def _sufficient_and_lifts(heavy: Case, mh: dict[str, dict[str, Any]], method: st
                   every_run(heavy, method)],
                  why=f"{method} ignores the force's magnitude (" + ("a ball centred at the origin" if method ==
                  "rfp-radius" else "rays around the force's direction") + "), so its plan is the same at both "
-                 "payloads; with the authors' weights its "
-                 f"capacity along f reaches {mh[method]['min_capacity']:.1f} N at the weakest waypoint, "
-                 f"{-mh[method]['min_capacity_minus_force']:.1f} N short of |f| there; forte, whose J1 asks for "
-                 "the load, keeps it (the weight sweep below shows where a larger weight gets it there)")
+                 "payloads; with the authors' weights its " + _shortfall(mh[method]))
+
+
+def _shortfall(m: dict[str, Any]) -> str:
+    """Where an RFP baseline's 2.7 L plan falls short: |f| itself, |f| + r, or neither (its verdict)."""
+    if m["min_capacity_minus_force"] < 0:
+        return (f"capacity along f reaches {m['min_capacity']:.1f} N at the weakest waypoint, "
+                f"{-m['min_capacity_minus_force']:.1f} N short of |f| there; forte, whose J1 asks for the load, "
+                "keeps it (the weight sweep below shows where a larger weight gets it there)")
+    if m["min_capacity_margin"] < 0:
+        return (f"capacity along f stays above |f| but falls {-m['min_capacity_margin']:.1f} N short of |f| + r "
+                "at the weakest waypoint")
+    return (f"capacity along f stays {m['min_capacity_margin']:.1f} N above |f| + r (min d = {m['min_d']:.1f} N, "
+            f"with the metric's alpha); its plan is {m['status']}" + (f": {m['verdict_failed']}" if
+                                                                       m["verdict_failed"] else ""))
 
 
 def _heavy_claims(heavy: Case, unloaded: dict[str, dict[str, Any]]) -> list[Claim]:
