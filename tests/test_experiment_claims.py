@@ -504,3 +504,10 @@ def test_an_rfp_baselines_shortfall_names_what_it_lacks():
     text = _shortfall({**base, "min_capacity_minus_force": 13.9, "min_capacity_margin": 3.9})
     assert "3.9 N above |f| + r (min d = -2.0 N" in text and text.endswith("infeasible: capacity")
     assert "short" not in text
+
+
+def test_manipulability_onlys_band_why_says_on_which_side_it_falls():
+    from forte.experiments.hold_claims import band_why
+
+    assert "below the band" in band_why(23.7, 37.7, 10.0) and "23.7 N < |f| − r = 27.7 N" in band_why(23.7, 37.7, 10.0)
+    assert "above the band" in band_why(62.0, 37.7, 10.0) and "62.0 N >= |f| + r = 47.7 N" in band_why(62.0, 37.7, 10.0)
