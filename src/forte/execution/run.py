@@ -357,6 +357,7 @@ def _run_facts(plan: Plan, plan_dir: Path, sim: SimModel, gains: ControlGains) -
         "plan_verdict": plan.label,
         "plan_verdict_failed": list(plan.verdict.failed) if plan.verdict is not None else None,
         "plan_mass": plan.payload.mass, "force_feedforward": gains.force_feedforward, "armature": sim.armature.tolist(),
+        "torque_limits": sim.robot.torque_limits.tolist(),  # the plan's, or simulate_plan's torque_limits
         "gains": describe_gains(gains),
         "sampled_loop_radius_start": sampled_loop_radius_at(sim.robot, gains, q_a0, sim.armature, sim.timestep),
     }
