@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from forte.cli import experiment as cli_experiment
+from forte.exceptions import InvalidInputError
 from forte.experiments import common
 from forte.experiments.claims import (
     Check,
@@ -446,3 +447,67 @@ def test_trials_default_to_the_paper_s_counts(tmp_path, monkeypatch):
     assert args.func(args) == 0 and seen["trials"] == 2
     args = parser.parse_args(["experiment", "continuous", "--out", str(tmp_path / "c"), "--trials", "-1"])
     assert args.func(args) == 2
+
+
+def test_torque_limits_reach_the_runner_and_bad_values_are_one_line(tmp_path, monkeypatch, capsys):
+    for runner, name in (("run_lift", "lift"), ("run_hold", "hold")):
+        parser, seen = recording_cli(monkeypatch, runner)
+        args = parser.parse_args(["experiment", name, "--out", str(tmp_path / name), "--torque-limits", "urdf",
+                                  "--quiet"])
+        assert args.func(args) == 0 and seen["torque_limits"] == "urdf"
+    args = parser.parse_args(["experiment", "hold", "--out", str(tmp_path / "default"), "--quiet"])
+    assert args.func(args) == 0 and "torque_limits" not in seen  # the runner's default, paper
+    for name, value, expected in (("lift", "87", "expected one of paper, urdf, got '87'"),
+                                  ("hold", "URDF", "expected one of paper, urdf"),
+                                  ("continuous", "urdf", "only lift and hold take torque limits"),
+                                  ("replan", "paper", "only lift and hold take torque limits")):
+        out = tmp_path / f"bad-{name}"
+        args = parser.parse_args(["experiment", name, "--out", str(out), "--torque-limits", value])
+        assert args.func(args) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("forte: error: --torque-limits: ") and expected in err and err.count("\n") == 1
+        assert not out.exists()
+
+
+def test_a_torque_limit_set_changes_the_task_robot_and_the_summary_names_it(tmp_path):
+    from forte.model.description import PAPER_TORQUE_LIMITS, torque_limit_set
+    from forte.model.robot import torque_limit_name, with_torque_limits
+    from forte.planning.tasks import load_task
+
+    task = load_task(common.task_path("hold"))
+    assert common.with_limit_set(task, "paper") is task  # the task file's limits are the paper's
+    urdf = common.with_limit_set(task, "urdf")
+    assert urdf.robot.torque_limits.tolist() == [87.0] * 4 + [12.0] * 3
+    assert urdf.robot.fingerprint != task.robot.fingerprint  # compiled kernels are not shared
+    assert common.with_limit_set(urdf, "paper").robot.torque_limits.tolist() == list(PAPER_TORQUE_LIMITS)
+    assert [torque_limit_name(r) for r in (task.robot, urdf.robot, with_torque_limits(task.robot, 50.0))] == [
+        "paper", "urdf", "custom"]
+    with pytest.raises(InvalidInputError, match="expected one of paper, urdf"):
+        torque_limit_set("87/12")
+    res = fake_plan("forte", 50.0)
+    res.task = urdf
+    doc = write_summary(tmp_path, "t", [], [Case("2.7 L", 2.7, {"forte": res})], [], [], {}, [])
+    assert doc["settings"]["torque_limit_set"] == "urdf"
+    assert doc["settings"]["torque_limits"] == [87.0] * 4 + [12.0] * 3
+    assert ("Torque limits: `urdf`, 87/87/87/87/12/12/12 Nm (the URDF's efforts, a what-if; the paper uses 60/12)"
+            in (tmp_path / "summary.md").read_text())
+
+
+def test_an_rfp_baselines_shortfall_names_what_it_lacks():
+    from forte.experiments.lift import _shortfall
+
+    base = {"min_capacity": 52.1, "min_d": -2.0, "status": "infeasible", "verdict_failed": "capacity"}
+    short = _shortfall({**base, "min_capacity_minus_force": -13.9, "min_capacity_margin": -23.9})
+    assert "13.9 N short of |f| there" in short
+    short = _shortfall({**base, "min_capacity_minus_force": 6.0, "min_capacity_margin": -4.0})
+    assert "4.0 N short of |f| + r" in short
+    text = _shortfall({**base, "min_capacity_minus_force": 13.9, "min_capacity_margin": 3.9})
+    assert "3.9 N above |f| + r (min d = -2.0 N" in text and text.endswith("infeasible: capacity")
+    assert "short" not in text
+
+
+def test_manipulability_onlys_band_why_says_on_which_side_it_falls():
+    from forte.experiments.hold_claims import band_why
+
+    assert "below the band" in band_why(23.7, 37.7, 10.0) and "23.7 N < |f| − r = 27.7 N" in band_why(23.7, 37.7, 10.0)
+    assert "above the band" in band_why(62.0, 37.7, 10.0) and "62.0 N >= |f| + r = 47.7 N" in band_why(62.0, 37.7, 10.0)

@@ -16,7 +16,7 @@ EXPERIMENTS: dict[str, tuple[str, str]] = {
 #: Figure formats (the same as :data:`forte.experiments.common.FORMATS`, kept here so that
 #: ``forte --help`` does not import the planner).
 FORMATS = ("png", "pdf", "svg")
-#: The experiments that run the RFP baselines' weight sweep and take --weights.
+#: The experiments that run the RFP baselines' weight sweep and take --weights and --torque-limits.
 WEIGHTED: tuple[str, ...] = ("lift", "hold")
 #: Upper bound of --trials (documented).
 MAX_TRIALS = 1000
@@ -46,6 +46,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="lift, hold: plan with this named weight set instead of the task file's (e.g. "
                    "authors-trajectory for the authors' exact lift set, authors-hold-as-run for holding with "
                    "the trajectory weights, see the README); the summary names the set it used")
+    p.add_argument("--torque-limits", metavar="SET",
+                   help="lift, hold: the arm's torque limits in planning and in every simulated run: paper (the "
+                   "paper's 60/12 Nm, the default) or urdf (the URDF's efforts, 87/12 Nm on the Panda, a what-if); "
+                   "the summary names the limits it used")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     p.set_defaults(func=run_experiment)
 
@@ -53,7 +57,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run_experiment(args: argparse.Namespace) -> int:
     """Run the chosen experiment; print its summary.md unless ``--quiet``."""
     import forte.experiments as experiments  # the runners load the planner and MuJoCo
+    from forte.exceptions import InvalidInputError
     from forte.io.outputs import check_output, output_lock
+    from forte.model.description import torque_limit_set
+    from forte.settings import weight_set
     from forte.validation import MAX_WAYPOINTS
 
     if args.trials is not None and not 0 <= args.trials <= MAX_TRIALS:
@@ -67,17 +74,18 @@ def run_experiment(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     weights = getattr(args, "weights", None)
-    if weights is not None:
-        from forte.exceptions import InvalidInputError
-        from forte.settings import weight_set
-
+    limits = getattr(args, "torque_limits", None)
+    for option, value, what, check in (("--weights", weights, "a weight set", weight_set),
+                                       ("--torque-limits", limits, "torque limits", torque_limit_set)):
+        if value is None:
+            continue
         if args.name not in WEIGHTED:
-            print(f"forte: error: --weights: only lift and hold take a weight set, not {args.name}", file=sys.stderr)
+            print(f"forte: error: {option}: only lift and hold take {what}, not {args.name}", file=sys.stderr)
             return 2
         try:
-            weight_set(weights)
+            check(value)
         except InvalidInputError as exc:
-            print(f"forte: error: --weights: {exc}", file=sys.stderr)
+            print(f"forte: error: {option}: {exc}", file=sys.stderr)
             return 2
     out = args.out or Path("runs") / "experiments" / args.name
 
@@ -97,6 +105,8 @@ def run_experiment(args: argparse.Namespace) -> int:
         kwargs["weight_factors"] = ()
     if weights is not None:
         kwargs["weights"] = weights
+    if limits is not None:
+        kwargs["torque_limits"] = limits
     check_output(out)  # before any work: never run for minutes and then refuse
     with output_lock(out):
         check_output(out)

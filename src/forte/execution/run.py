@@ -41,7 +41,7 @@ from forte.execution.reference import plan_reference
 from forte.execution.render import FrameRecorder, FrameSink, LiveViewer
 from forte.io.outputs import atomic_write
 from forte.io.plandir import read_plan_dir
-from forte.model.robot import N_BASE, MobileManipulator, robot_from_description
+from forte.model.robot import N_BASE, MobileManipulator, with_torque_limits
 from forte.model.trajectory import trajectory_header
 from forte.planning.planner import Plan
 from forte.validation import FloatArray, as_positive, payload_mass
@@ -298,7 +298,7 @@ def simulate_plan(
         arguments; SimulationError: model or rendering problems, no display for ``viewer``.
     """
     plan = read_plan_dir(plan_dir)
-    robot = plan.robot if torque_limits is None else _with_torque_limits(plan.robot, torque_limits)
+    robot = plan.robot if torque_limits is None else with_torque_limits(plan.robot, torque_limits)
     true_mass = plan.payload.mass if mass is None else check_mass(mass)
     force_feedforward, force_share = _feedforward(plan, robot, mass is not None and true_mass == 0.0,
                                                   force_feedforward)
@@ -361,6 +361,7 @@ def _run_facts(plan: Plan, plan_dir: Path, sim: SimModel, gains: ControlGains) -
         "plan_verdict": plan.label,
         "plan_verdict_failed": list(plan.verdict.failed) if plan.verdict is not None else None,
         "plan_mass": plan.payload.mass, "force_feedforward": gains.force_feedforward, "armature": sim.armature.tolist(),
+        "torque_limits": sim.robot.torque_limits.tolist(),  # the plan's, or simulate_plan's torque_limits
         "gains": describe_gains(gains),
         "sampled_loop_radius_start": sampled_loop_radius_at(sim.robot, gains, q_a0, sim.armature, sim.timestep),
     }
@@ -379,10 +380,6 @@ def _resolve_gains(gains: ControlGains | Mapping[str, Any] | None, sim: SimModel
     return gains if force_feedforward else replace(gains, force_feedforward=False)
 
 
-def _with_torque_limits(robot: MobileManipulator, torque_limits: Any) -> MobileManipulator:
-    """``robot`` with other torque limits (Nm; one value for every joint, or one per joint)."""
-    limits = np.broadcast_to(np.asarray(torque_limits, dtype=float), (robot.n_arm,))
-    return robot_from_description({**robot.describe(), "torque_limits": list(limits)})
 
 
 def _plan_reference(plan: Plan, dt: float, hold: float, force_share: float = 1.0,

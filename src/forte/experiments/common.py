@@ -21,9 +21,11 @@ from forte.io.figures import pyplot
 from forte.io.outputs import GENERATOR
 from forte.io.plandir import FORMAT_VERSION, TRAJECTORY_FILE, plan_summary, write_plan
 from forte.io.reports import jsonable, package_versions
+from forte.model.description import torque_limit_set
+from forte.model.robot import torque_limit_name, with_torque_limits
 from forte.planning.methods import METHODS, method_names
 from forte.planning.planner import Plan, plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks import Task, load_task
 from forte.settings import weight_set
 
 TASKS_DIR = Path(__file__).resolve().parents[3] / "examples" / "tasks"
@@ -36,6 +38,8 @@ FORMATS = ("png", "pdf", "svg")
 DPI = 150
 
 Log = Callable[[str], None]
+#: How the summaries describe each torque-limit set.
+LIMIT_TEXT: dict[str, str] = {"paper": "the paper's", "urdf": "the URDF's efforts, a what-if; the paper uses 60/12"}
 
 def paper_methods(experiment: str) -> tuple[str, ...]:
     """The methods the paper compares in ``experiment`` ("continuous", "lift" or "hold"), in order.
@@ -91,20 +95,38 @@ def plan_methods(task: Any, methods: tuple[str, ...], log: Log, tag: str) -> dic
 
 
 def plan_payloads(name: str, methods: tuple[str, ...], waypoints: int | None, log: Log,
-                  weights: str | None = None) -> list[Case]:
+                  weights: str | None = None, torque_limits: str = "paper") -> list[Case]:
     """Plan every method for both payloads of :data:`PAYLOADS` (the build step simulates them).
 
     ``weights``: a :data:`~forte.settings.WEIGHT_SETS` name replacing the task file's weight set
     (each method still applies its own tuning for that set).
+    ``torque_limits``: a :data:`~forte.model.description.TORQUE_LIMIT_SETS` name (see
+    :func:`with_limit_set`).
     """
+    torque_limit_set(torque_limits)  # a bad name fails before any planning
     cases = []
     for label, mass in PAYLOADS.items():
-        task = load_task(task_path(name), mass=mass, waypoints=waypoints)
+        task = with_limit_set(load_task(task_path(name), mass=mass, waypoints=waypoints), torque_limits)
         if weights is not None:
             task = replace(task, weights=weight_set(weights))
         log(f"{name} {label} ({mass} kg): {task.n} waypoint(s)")
         cases.append(Case(label, mass, plan_methods(task, methods, log, label)))
     return cases
+
+
+def with_limit_set(task: Task, name: str) -> Task:
+    """``task`` with the torque limits of the named set (``paper``: 60/12 Nm; ``urdf``: its robot's
+    URDF efforts).
+
+    The limits are the robot's, so they hold in planning and, through the plan directory's robot
+    description, in every MuJoCo run of the plan (``simulate_plan`` reads them from ``plan.json``).
+    """
+    limits = torque_limit_set(name)
+    robot = task.robot
+    target = np.asarray(robot.model.effortLimit if limits is None else limits, dtype=float)
+    if robot.torque_limits.shape == target.shape and np.array_equal(robot.torque_limits, target):
+        return task
+    return replace(task, robot=with_torque_limits(robot, None if limits is None else target))
 
 
 def metrics(res: Plan) -> dict[str, Any]:
@@ -241,14 +263,19 @@ def write_summary(directory: Path, title: str, intro: list[str], cases: list[Cas
     """``summary.json`` and ``summary.md``: per-case tables, the paper's claims, our notes, figures.
 
     ``sections`` are markdown lines placed after the per-case tables; ``extra`` adds keys to the JSON.
-    The intro ends with the weight set the plans used (also ``settings.weight_set``).
+    The intro ends with the weight set and the torque limits the plans used (also
+    ``settings.weight_set``, ``settings.torque_limit_set`` and ``settings.torque_limits``).
     """
     first = next((r for c in cases for r in c.results.values()), None)
     if first is not None:
-        weights = first.task.weights
-        settings = {**settings, "weight_set": weights.preset}
+        weights, robot = first.task.weights, first.task.robot
+        limits, name = robot.torque_limits, torque_limit_name(robot)
+        settings = {**settings, "weight_set": weights.preset, "torque_limit_set": name,
+                    "torque_limits": limits.tolist()}
         intro = [*intro, f"Weight set: `{weights.preset}` (alpha {weights.alpha:g}); each baseline applies its "
-                 "own changes to it (`forte.planning.methods`)."]
+                 "own changes to it (`forte.planning.methods`).",
+                 f"Torque limits: `{name}`, {'/'.join(f'{v:g}' for v in limits)} Nm ({LIMIT_TEXT.get(name, 'given')})"
+                 ", in planning and in every MuJoCo run."]
     doc = {
         "generator": GENERATOR, "format_version": FORMAT_VERSION,
         "experiment": title,

@@ -223,7 +223,8 @@ def plot_hold_ellipses(cases: list[Case], directory: Path, fmt: str) -> str:
 # -- run -------------------------------------------------------------------------------------
 def run_hold(out: str | Path, trials: int = 3, waypoints: int | None = None, seed: int = 0,
              log: Log = quiet, fmt: str = "png",
-             weight_factors: tuple[float, ...] = SWEEP_FACTORS, weights: str | None = None) -> dict[str, Any]:
+             weight_factors: tuple[float, ...] = SWEEP_FACTORS, weights: str | None = None,
+             torque_limits: str = "paper") -> dict[str, Any]:
     """Plan, simulate (nominal + ``trials`` seeded mass errors) and summarize Section 5.4 in ``out``.
 
     ``waypoints`` is accepted for a uniform interface (a hold task has one waypoint); ``fmt`` is
@@ -232,9 +233,11 @@ def run_hold(out: str | Path, trials: int = 3, waypoints: int | None = None, see
     :mod:`forte.experiments.baseline_weights`, as multiples of the authors' (empty: no sweep).
     ``weights``: a weight set replacing the task file's (default: the task file's,
     ``forte-hold``); the summary names the set it used.
+    ``torque_limits``: ``paper`` (60/12 Nm, the default) or ``urdf`` (the URDF's efforts, 87/12 Nm,
+    a what-if), in planning and in every simulated run; the summary names them.
     """
     out, fmt = Path(out), check_format(fmt)
-    cases = plan_payloads("hold", paper_methods("hold"), waypoints, log, weights)
+    cases = plan_payloads("hold", paper_methods("hold"), waypoints, log, weights, torque_limits)
 
     def build(tmp: Path) -> None:
         simulate_cases(tmp, cases, trials, seed, log, hold=HOLD_SECONDS)

@@ -33,9 +33,7 @@ def _heavy_claims(heavy: Case, unloaded: dict[str, dict[str, Any]]) -> list[Clai
               [solved(res, "manipulability"),
                compare("manipulability-only's capacity", cap["manipulability"], "<", "|f| + r", need + rad, " N"),
                compare("manipulability-only's capacity", cap["manipulability"], ">=", "|f| − r", need - rad, " N")],
-              why="on our model the manipulability optimum lies below the band, not in it "
-              f"({cap['manipulability']:.1f} N < |f| − r = {need - rad:.1f} N): the paper's point, too little "
-              "capacity for the load, holds more strongly than its wording"),
+              why=band_why(cap["manipulability"], need, rad)),
         Claim("5.4", "2.7 L: the teaching point's capacity is below the required force (ball centre outside the RFP)",
               "capacity − |f| (N)", f"{mh['teaching']['min_capacity_minus_force']:.1f}",
               [solved(res, "teaching"), compare("teaching's capacity", cap["teaching"], "<", "|f|", need, " N")]),
@@ -67,6 +65,16 @@ def _ball_claim(heavy: Case, method: str, m: dict[str, Any]) -> Claim:
                  [solved(heavy.results, method), compare(f"{method}'s d to the drawn RFP", drawn, ">=", "0", 0.0, " N"),
                   every_run(heavy, method)],
                  why=_ball_why(method, m, res, drawn))
+
+
+def band_why(cap: float, need: float, rad: float) -> str:
+    """Why manipulability-only's 2.7 L capacity ``cap`` is not in the band [need − rad, need + rad)."""
+    if cap < need - rad:
+        return (f"on our model the manipulability optimum lies below the band, not in it ({cap:.1f} N < |f| − r = "
+                f"{need - rad:.1f} N): the paper's point, too little capacity for the load, holds more strongly "
+                "than its wording")
+    return (f"on our model the manipulability optimum lies above the band, not in it ({cap:.1f} N >= |f| + r = "
+            f"{need + rad:.1f} N): it has the capacity the load needs")
 
 
 def _ball_why(method: str, m: dict[str, Any], res: Plan, drawn: float) -> str:

@@ -73,7 +73,8 @@ def plot_lift(cases: list[Case], directory: Path, fmt: str) -> str:
 
 def run_lift(out: str | Path, trials: int = 3, waypoints: int | None = None, seed: int = 0,
              log: Log = quiet, fmt: str = "png",
-             weight_factors: tuple[float, ...] = SWEEP_FACTORS, weights: str | None = None) -> dict[str, Any]:
+             weight_factors: tuple[float, ...] = SWEEP_FACTORS, weights: str | None = None,
+             torque_limits: str = "paper") -> dict[str, Any]:
     """Plan, simulate (nominal + ``trials`` seeded mass errors) and summarize Section 5.3 in ``out``.
 
     ``fmt`` is the figure format (png, pdf or svg).
@@ -81,9 +82,11 @@ def run_lift(out: str | Path, trials: int = 3, waypoints: int | None = None, see
     :mod:`forte.experiments.baseline_weights`, as multiples of the authors' (empty: no sweep).
     ``weights``: a weight set replacing the task file's (default: the task file's,
     ``forte-trajectory``); the summary names the set it used.
+    ``torque_limits``: ``paper`` (60/12 Nm, the default) or ``urdf`` (the URDF's efforts, 87/12 Nm,
+    a what-if), in planning and in every simulated run; the summary names them.
     """
     out, fmt = Path(out), check_format(fmt)
-    cases = plan_payloads("lift", paper_methods("lift"), waypoints, log, weights)
+    cases = plan_payloads("lift", paper_methods("lift"), waypoints, log, weights, torque_limits)
 
     def build(tmp: Path) -> None:
         simulate_cases(tmp, cases, trials, seed, log, hold=1.0)
@@ -130,10 +133,21 @@ def _sufficient_and_lifts(heavy: Case, mh: dict[str, dict[str, Any]], method: st
                   every_run(heavy, method)],
                  why=f"{method} ignores the force's magnitude (" + ("a ball centred at the origin" if method ==
                  "rfp-radius" else "rays around the force's direction") + "), so its plan is the same at both "
-                 "payloads; with the authors' weights its "
-                 f"capacity along f reaches {mh[method]['min_capacity']:.1f} N at the weakest waypoint, "
-                 f"{-mh[method]['min_capacity_minus_force']:.1f} N short of |f| there; forte, whose J1 asks for "
-                 "the load, keeps it (the weight sweep below shows where a larger weight gets it there)")
+                 "payloads; with the authors' weights its " + _shortfall(mh[method]))
+
+
+def _shortfall(m: dict[str, Any]) -> str:
+    """Where an RFP baseline's 2.7 L plan falls short: |f| itself, |f| + r, or neither (its verdict)."""
+    if m["min_capacity_minus_force"] < 0:
+        return (f"capacity along f reaches {m['min_capacity']:.1f} N at the weakest waypoint, "
+                f"{-m['min_capacity_minus_force']:.1f} N short of |f| there; forte, whose J1 asks for the load, "
+                "keeps it (the weight sweep below shows where a larger weight gets it there)")
+    if m["min_capacity_margin"] < 0:
+        return (f"capacity along f stays above |f| but falls {-m['min_capacity_margin']:.1f} N short of |f| + r "
+                "at the weakest waypoint")
+    return (f"capacity along f stays {m['min_capacity_margin']:.1f} N above |f| + r (min d = {m['min_d']:.1f} N, "
+            f"with the metric's alpha); its plan is {m['status']}" + (f": {m['verdict_failed']}" if
+                                                                       m["verdict_failed"] else ""))
 
 
 def _heavy_claims(heavy: Case, unloaded: dict[str, dict[str, Any]]) -> list[Claim]:
@@ -250,8 +264,8 @@ def _weights_note(heavy: Case, exact: dict[str, Any]) -> str:
             "keep the authors' weights. With the authors' exact set (`authors-trajectory`, capability 1) "
             f"forte's 2.7 L plan has min d = {exact['min_d']:.1f} N and min cap − (|f| + r) = "
             f"{exact['min_capacity_margin']:.1f} N (ours: {ours['min_d']:.1f} N and "
-            f"{ours['min_capacity_margin']:.1f} N): on our model of the robot weight 1 lets the regularization "
-            "win under the heavy load.")
+            f"{ours['min_capacity_margin']:.1f} N)" + (": on our model of the robot weight 1 lets the regularization "
+            "win under the heavy load." if exact["min_d"] < 0 else ": weight 1 keeps the ball inside here."))
 
 
 def lift_notes(cases: list[Case], unloaded: dict[str, dict[str, Any]]) -> list[str]:

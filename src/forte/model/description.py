@@ -17,6 +17,10 @@ from forte.validation import FloatArray, as_array, as_positive, as_vector
 
 #: Torque limits used in the paper's experiments (Nm): joints 1-4 and 5-7 of the Franka arm.
 PAPER_TORQUE_LIMITS: tuple[float, ...] = (60.0, 60.0, 60.0, 60.0, 12.0, 12.0, 12.0)
+#: Named torque-limit sets (``forte experiment --torque-limits``): ``paper``, the paper's 60/12 Nm
+#: (the default), or ``urdf``, the robot's URDF efforts (``None``: read from the model; 87/12 Nm
+#: on the Panda), a what-if.
+TORQUE_LIMIT_SETS: dict[str, tuple[float, ...] | None] = {"paper": PAPER_TORQUE_LIMITS, "urdf": None}
 #: Joint names of the Franka Panda arm in example-robot-data.
 PANDA_ARM_JOINTS: tuple[str, ...] = tuple(f"panda_joint{i}" for i in range(1, 8))
 #: The Panda's usual "ready" pose.
@@ -148,3 +152,10 @@ def set_urdf_link_mass(root: Any, link: str, mass: float) -> bool:
             inertia.set(key, repr(float(value) * scale))
         return True
     return False
+
+
+def torque_limit_set(name: str) -> tuple[float, ...] | None:
+    """The limits of the named set of :data:`TORQUE_LIMIT_SETS` (``None``: the URDF's efforts)."""
+    if name not in TORQUE_LIMIT_SETS:
+        raise InvalidInputError(f"torque-limit set: expected one of {', '.join(TORQUE_LIMIT_SETS)}, got {name!r}")
+    return TORQUE_LIMIT_SETS[name]

@@ -51,6 +51,7 @@ from forte.model.description import (
     PANDA_HOME,
     PAPER_TORQUE_LIMITS,
     STANDARD_GRAVITY,
+    TORQUE_LIMIT_SETS,
     ToolLoad,
     _link_inertial,
     example_robot_data_dir,
@@ -411,3 +412,21 @@ def robot_from_description(desc: dict[str, Any]) -> MobileManipulator:
         )
     except KeyError as exc:
         raise RobotModelError(f"robot description: missing field {exc}") from exc
+
+
+def with_torque_limits(robot: MobileManipulator, limits: Any) -> MobileManipulator:
+    """``robot`` with other torque limits: Nm (one value for every arm joint, or one per joint), or
+    ``None`` for the efforts of its URDF."""
+    if limits is not None:
+        limits = [float(v) for v in np.broadcast_to(np.asarray(limits, dtype=float), (robot.n_arm,))]
+    return robot_from_description({**robot.describe(), "torque_limits": limits})
+
+
+def torque_limit_name(robot: MobileManipulator) -> str:
+    """The set of :data:`~forte.model.description.TORQUE_LIMIT_SETS` that ``robot``'s limits equal
+    (``paper`` first), else ``custom``."""
+    for name, limits in TORQUE_LIMIT_SETS.items():
+        values = robot.model.effortLimit if limits is None else limits
+        if len(values) == robot.n_arm and np.array_equal(robot.torque_limits, np.asarray(values, dtype=float)):
+            return name
+    return "custom"
