@@ -24,6 +24,7 @@ from forte.model.trajectory import backward_differences
 from forte.planning.ik import initial_guess
 from forte.planning.methods import METHODS, Method, get_method, method_names
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
+from forte.planning.requirements import TRACKING_ORIENTATION_TOL, orientation_errors
 from forte.planning.tasks import Task
 from forte.planning.verdict import SOLVER_FAILED, Verdict, arm_acceleration_ratios, capacity_shortfall, judge_plan
 from forte.settings import CapabilityParameters
@@ -216,17 +217,30 @@ def hold_starts(task: Task) -> FloatArray:
 def _best_of_starts(opt: TrajectoryOptimizer, task: Task, force: TaskForce, first: SolverResult,
                     nominal: FloatArray) -> tuple[SolverResult, dict[str, Any]]:
     """Solve the hold problem from every start of :func:`hold_starts`; the converged result with
-    the lowest objective (``first`` is the solve from the first start)."""
+    the lowest objective (``first`` is the solve from the first start).
+
+    The orientation equality ``vee(R_d^T R - R^T R_d) = 0`` also holds with the hand turned by pi
+    about some axis, and a start can converge there (the holding sweep's rfp-radius at capability
+    weight 20 and 60 did); such a result is chosen only when no start converged the right way up
+    (``facts["upside_down"]`` counts them)."""
     results = [first]
     for q in hold_starts(task)[1:]:
         results.append(opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q[None, :], nominal))
     converged = [i for i, r in enumerate(results) if r.success]
-    best = min(converged, key=lambda i: results[i].objective) if converged else 0
-    facts = {"count": len(results), "converged": len(converged), "chosen": best,
+    upright = [i for i in converged if _upright(task, results[i].q)]
+    best = min(upright or converged, key=lambda i: results[i].objective) if converged else 0
+    facts = {"count": len(results), "converged": len(converged), "upside_down": len(converged) - len(upright),
+             "chosen": best,
              "objectives": [float(r.objective) for r in results],
              "iterations": int(sum(r.iterations for r in results)),
              "solve_time_s": float(sum(r.solve_time for r in results))}
     return results[best], facts
+
+
+def _upright(task: Task, q: FloatArray) -> bool:
+    """The end effector within the verdict's orientation tolerance of the task's poses."""
+    ee = np.array([task.robot.ee_pose(qk) for qk in q])
+    return bool(np.all(orientation_errors(ee, task.targets) <= TRACKING_ORIENTATION_TOL))
 
 
 #: What a refinement round adds to the shortfall it covers (N).
