@@ -104,16 +104,28 @@ def _stop_before_second_result(monkeypatch) -> None:
     monkeypatch.setattr(run_module, "backend", backend)
 
 
-def _records(out: Path) -> dict[str, object]:
-    """Every record of the stopped run, reduced to what must agree."""
+def _run_stopped(tmp_path: Path, capsys, *extra: str) -> Path:
+    out = tmp_path / "out"
+    code = main(["sweep", str(_sweep(tmp_path)), "--out", str(out), "--workers", "1", "--no-figures", "--quiet",
+                 *extra])
+    assert code == 130, capsys.readouterr().err
+    return out
+
+
+def _check_records(out: Path) -> int:
+    """Every record of the stopped run names the same cells; returns how many."""
     doc = json.loads((out / "sweep.json").read_text())
     events = SweepDir(out).events()
-    end = events[-1]
+    start, end = [e for e in events if e["event"] == "start"][-1], events[-1]
     files = sorted(p.stem for p in (out / "cells").glob("*.json"))
-    return {"files": files, "table": sorted(r["cell_id"] for r in read_csv(out / CSV_FILE)),
-            "logged": sorted(e["cell_id"] for e in events if e["event"] == "cell"),
-            "marker": (doc["status"], doc["finished"]), "end": (end["event"], end["status"], end["computed"]),
-            "expected": {"marker": ("partial", len(files)), "end": ("end", "interrupted", len(files))}}
+    table = sorted(r["cell_id"] for r in read_csv(out / CSV_FILE))
+    logged = sorted(e["cell_id"] for e in events if e["event"] == "cell")
+    new = sum(1 for e in events if e["event"] == "cell" and e["run"] == start["run"])
+    assert files == table == logged and len(files) < CELLS
+    assert (doc["status"], doc["finished"]) == ("partial", len(files))
+    assert (end.get("event"), end.get("status"), end.get("computed")) == ("end", "interrupted", new)
+    assert start["finished_before"] + new == len(files)
+    return len(files)
 
 
 @pytest.mark.parametrize("where", ["after-a-cell-file", "result-after-the-stop", "again-while-finishing"])
@@ -128,24 +140,22 @@ def test_a_stop_whenever_results_land_leaves_records_that_agree(tmp_path, monkey
     else:  # the first stop after a cell file, a second one while the table is written
         _after_write(monkeypatch, store_module, _nth_cell(1))
         _after_write(monkeypatch, table_module, lambda path: path.name == CSV_FILE)
-    out = tmp_path / "out"
-    code = main(["sweep", str(_sweep(tmp_path)), "--out", str(out), "--workers", "1", "--no-figures", "--quiet"])
-    assert code == 130, capsys.readouterr().err
-    records = _records(out)
-    assert records["files"] == records["table"] == records["logged"]
-    assert 0 < len(records["files"]) < CELLS
-    assert records.pop("expected") == {"marker": records["marker"], "end": records["end"]}
+    assert _check_records(_run_stopped(tmp_path, capsys)) == 3  # the first plan's cells, all of them
+
+
+def test_a_resumed_run_stopped_right_after_its_marker_leaves_records_that_agree(tmp_path, monkeypatch, capsys):
+    """sweep.json is rewritten ('running') as a run starts: a stop just then still ends the run
+    (start and end events, the marker back to 'partial' with the earlier cells, the table)."""
+    _stop_before_second_result(monkeypatch)
+    out = _run_stopped(tmp_path, capsys)
+    monkeypatch.undo()
+    _after_write(monkeypatch, store_module, lambda path: path.name == "sweep.json")
+    assert _run_stopped(tmp_path, capsys) == out and _check_records(out) == 3
 
 
 @pytest.mark.slow
 def test_a_stop_right_after_a_cell_file_on_ray(tmp_path, monkeypatch, capsys):
-    """The same race on a local Ray instance (forte's own session)."""
+    """The race of issue 28 on a local Ray instance (forte's own session)."""
     pytest.importorskip("ray")
     _after_write(monkeypatch, store_module, _nth_cell(2))
-    out = tmp_path / "out"
-    code = main(["sweep", str(_sweep(tmp_path)), "--out", str(out), "--workers", "1", "--no-figures", "--quiet",
-                 "--ray"])
-    assert code == 130, capsys.readouterr().err
-    records = _records(out)
-    assert records["files"] == records["table"] == records["logged"] and 0 < len(records["files"]) < CELLS
-    assert records.pop("expected") == {"marker": records["marker"], "end": records["end"]}
+    assert _check_records(_run_stopped(tmp_path, capsys, "--ray")) == 3

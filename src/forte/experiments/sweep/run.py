@@ -116,7 +116,6 @@ def run_sweep(sweep: str | Path | SweepSpec, out: str | Path | None = None, work
         todo = pending_groups(groups, finished)
         # start the pool or connect to Ray (or fail: one line) before the directory is created
         with backend(ray, workers) if todo else contextlib.nullcontext(None) as execute:
-            store.open(spec, len(cells))
             run = _Run(store, spec, cells, figures, log)
             return run.compute(todo, len(finished), execute,
                                {"backend": "pool" if ray is None else f"ray:{ray}", "workers": workers,
@@ -124,23 +123,22 @@ def run_sweep(sweep: str | Path | SweepSpec, out: str | Path | None = None, work
 
 
 class _Run:
-    """One run of a sweep in its (open, locked) directory."""
+    """One run of a sweep in its (locked) directory, which it opens."""
 
     def __init__(self, store: SweepDir, spec: SweepSpec, cells: list[Cell], figures: bool, log: Log) -> None:
         self.store, self.spec, self.cells, self.figures, self.log = store, spec, cells, figures, log
 
     def compute(self, todo: list[PlanGroup], skipped: int, execute: Execute | None,
                 facts: dict[str, Any]) -> SweepResult:
-        """Compute ``todo``, storing each cell as it finishes; the table is rebuilt however it ends."""
+        """Open the directory and compute ``todo``, storing each cell as it finishes; once opened,
+        the table is rebuilt however it ends. A stop (Ctrl-C, SIGTERM) is held while a record is
+        written (:func:`~forte.experiments.sweep.stops.held_stops`): it lands between records."""
         store, total = self.store, len(self.cells)
-        run = store.next_run()
-        store.log({"event": "start", "run": run, **facts, "cells": total, "finished_before": skipped,
-                   "to_compute": sum(len(g.cells) for g in todo)})
-        counter = _Counter(total, skipped, self.log)
-        if skipped:
-            self.log(f"{self.spec.name}: {skipped} of {total} cells finished earlier, skipped")
-        status, error = "failed", None
+        run, status, error = None, "failed", None
         try:
+            with held_stops():  # the marker and the start event; the finally below writes the end
+                run = self.start(todo, skipped, facts)
+            counter = _Counter(total, skipped, self.log)
             with progress.step(f"sweep {self.spec.name}: {total - skipped} cells to compute"):
                 index = {c.id: (c, g) for g in todo for c in g.cells}
                 for results in execute(todo) if execute is not None else ():
@@ -159,11 +157,23 @@ class _Run:
             error = str(exc)
             raise
         finally:
-            with held_stops():  # a second stop waits for the final records: table, marker, end event
-                result = self.finish(skipped)
-                store.log({"event": "end", "run": run, "status": result.status if status == "done" else status,
-                           "computed": result.computed} | ({"error": error} if error else {}))
+            if run is not None:  # opened (an error opening it leaves no run to end)
+                with held_stops():  # a second stop waits for the final records: table, marker, end event
+                    result = self.finish(skipped)
+                    store.log({"event": "end", "run": run, "status": result.status if status == "done"
+                               else status, "computed": result.computed} | ({"error": error} if error else {}))
         return result
+
+    def start(self, todo: list[PlanGroup], skipped: int, facts: dict[str, Any]) -> int:
+        """Create (or re-open) and mark the directory, log the start; returns the run's number."""
+        total = len(self.cells)
+        self.store.open(self.spec, total)
+        run = self.store.next_run()
+        self.store.log({"event": "start", "run": run, **facts, "cells": total, "finished_before": skipped,
+                        "to_compute": sum(len(g.cells) for g in todo)})
+        if skipped:
+            self.log(f"{self.spec.name}: {skipped} of {total} cells finished earlier, skipped")
+        return run
 
     def finish(self, skipped: int) -> SweepResult:
         """Rebuild the table (and figures) from the cell files; mark the directory complete or partial.
