@@ -3,8 +3,9 @@
 ``forte sweep SWEEP.yaml`` (:func:`run_sweep`) computes every cell of the grid that a sweep
 file describes (:mod:`.spec`) on a local process pool or a Ray cluster (:mod:`.executors`),
 stores each finished cell as it completes and resumes where a killed run stopped
-(:mod:`.store`), and writes one results table (:mod:`.table`) and summary figures
-(:mod:`.figures`). The worker function is :func:`.cell.run_group`.
+(:mod:`.store`; a Ctrl-C or SIGTERM waits for the record being written, :mod:`.stops`), and
+writes one results table (:mod:`.table`) and summary figures (:mod:`.figures`). The worker
+function is :func:`.cell.run_group`.
 """
 
 from __future__ import annotations

@@ -19,6 +19,7 @@ from forte.experiments.sweep.cell import CellResult
 from forte.experiments.sweep.executors import Execute, backend, default_workers
 from forte.experiments.sweep.figures import write_figures
 from forte.experiments.sweep.spec import Cell, PlanGroup, SweepSpec, plan_groups, read_sweep
+from forte.experiments.sweep.stops import held_stops
 from forte.experiments.sweep.store import SweepDir
 from forte.experiments.sweep.table import write_table
 from forte.io.outputs import output_lock
@@ -67,8 +68,7 @@ class _Counter:
         self.start = time.perf_counter()
 
     def stored(self) -> None:
-        """One more cell stored (counted as it is written: an interruption between two cells of a
-        group leaves the count equal to the cell files)."""
+        """One more cell stored (for the progress line; the records count the cell files)."""
         self.done += 1
         self.computed += 1
 
@@ -116,7 +116,6 @@ def run_sweep(sweep: str | Path | SweepSpec, out: str | Path | None = None, work
         todo = pending_groups(groups, finished)
         # start the pool or connect to Ray (or fail: one line) before the directory is created
         with backend(ray, workers) if todo else contextlib.nullcontext(None) as execute:
-            store.open(spec, len(cells))
             run = _Run(store, spec, cells, figures, log)
             return run.compute(todo, len(finished), execute,
                                {"backend": "pool" if ray is None else f"ray:{ray}", "workers": workers,
@@ -124,29 +123,29 @@ def run_sweep(sweep: str | Path | SweepSpec, out: str | Path | None = None, work
 
 
 class _Run:
-    """One run of a sweep in its (open, locked) directory."""
+    """One run of a sweep in its (locked) directory, which it opens."""
 
     def __init__(self, store: SweepDir, spec: SweepSpec, cells: list[Cell], figures: bool, log: Log) -> None:
         self.store, self.spec, self.cells, self.figures, self.log = store, spec, cells, figures, log
 
     def compute(self, todo: list[PlanGroup], skipped: int, execute: Execute | None,
                 facts: dict[str, Any]) -> SweepResult:
-        """Compute ``todo``, storing each cell as it finishes; the table is rebuilt however it ends."""
+        """Open the directory and compute ``todo``, storing each cell as it finishes; once opened,
+        the table is rebuilt however it ends. A stop (Ctrl-C, SIGTERM) is held while a record is
+        written (:func:`~forte.experiments.sweep.stops.held_stops`): it lands between records."""
         store, total = self.store, len(self.cells)
-        run = store.next_run()
-        store.log({"event": "start", "run": run, **facts, "cells": total, "finished_before": skipped,
-                   "to_compute": sum(len(g.cells) for g in todo)})
-        counter = _Counter(total, skipped, self.log)
-        if skipped:
-            self.log(f"{self.spec.name}: {skipped} of {total} cells finished earlier, skipped")
-        status, error = "failed", None
+        run, status, error = None, "failed", None
         try:
+            with held_stops():  # the marker and the start event; the finally below writes the end
+                run = self.start(todo, skipped, facts)
+            counter = _Counter(total, skipped, self.log)
             with progress.step(f"sweep {self.spec.name}: {total - skipped} cells to compute"):
                 index = {c.id: (c, g) for g in todo for c in g.cells}
                 for results in execute(todo) if execute is not None else ():
-                    for r in results:
-                        store.write_cell(index[r.cell_id][0], r, run)
-                        counter.stored()
+                    with held_stops():  # a group that reached the driver is stored whole: files, log, count
+                        for r in results:
+                            store.write_cell(index[r.cell_id][0], r, run)
+                            counter.stored()
                     line = counter.line(index[results[0].cell_id][1], results)
                     progress.update(line)
                     self.log(line)
@@ -158,13 +157,33 @@ class _Run:
             error = str(exc)
             raise
         finally:
-            result = self.finish(counter.computed, skipped)
-            store.log({"event": "end", "run": run, "status": result.status if status == "done" else status,
-                       "computed": counter.computed} | ({"error": error} if error else {}))
+            if run is not None:  # opened (an error opening it leaves no run to end)
+                with held_stops():  # a second stop waits for the final records: table, marker, end event
+                    result = self.finish(skipped)
+                    store.log({"event": "end", "run": run, "status": result.status if status == "done"
+                               else status, "computed": result.computed} | ({"error": error} if error else {}))
         return result
 
-    def finish(self, computed: int, skipped: int) -> SweepResult:
-        """Rebuild the table (and figures) from the cell files; mark the directory complete or partial."""
+    def start(self, todo: list[PlanGroup], skipped: int, facts: dict[str, Any]) -> int:
+        """Create (or re-open) and mark the directory, log the start; returns the run's number."""
+        total = len(self.cells)
+        self.store.open(self.spec, total)
+        run = self.store.next_run()
+        self.store.log({"event": "start", "run": run, **facts, "cells": total, "finished_before": skipped,
+                        "to_compute": sum(len(g.cells) for g in todo)})
+        if skipped:
+            self.log(f"{self.spec.name}: {skipped} of {total} cells finished earlier, skipped")
+        return run
+
+    def finish(self, skipped: int) -> SweepResult:
+        """Rebuild the table (and figures) from the cell files; mark the directory complete or partial.
+
+        Every count comes from this one read of the cell files (the run holds the directory's lock
+        and writes only cells not finished before it, so ``computed`` is the rows less ``skipped``).
+        A cell whose result reached the driver before a stop is kept and counted everywhere: it is
+        a valid result that a resume would only recompute; results still in workers are dropped
+        everywhere (workers write nothing, the backend stops them).
+        """
         rows_by_id = self.store.finished(self.cells)
         rows = [rows_by_id[c.id] for c in self.cells if c.id in rows_by_id]
         files = write_table(rows, self.store.out)
@@ -173,5 +192,5 @@ class _Run:
         status = "complete" if len(rows) == len(self.cells) else "partial"
         self.store.write_marker(self.spec, len(self.cells), len(rows), status, files)
         errors = sum(1 for r in rows if r["plan_status"] == "error" or r["sim_verdict"] == "error")
-        return SweepResult(self.store.out, len(self.cells), len(rows), computed, skipped, errors, status,
+        return SweepResult(self.store.out, len(self.cells), len(rows), len(rows) - skipped, skipped, errors, status,
                            tuple(files))
