@@ -51,3 +51,25 @@ def test_unknown_reference_kind_is_refused():
     t, q = _random_plan()
     with pytest.raises(InvalidInputError, match="reference: expected one of spline, plan"):
         plan_reference(t, q, t, kind="linear")
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 7, 40])
+def test_clamped_spline_equals_scipy_s(n):
+    from scipy.interpolate import CubicSpline
+
+    from forte.model.trajectory import clamped_spline
+
+    rng = np.random.default_rng(n)
+    t = np.cumsum(rng.uniform(0.1, 0.6, n))
+    q = rng.normal(size=(n, 4))
+    times = np.linspace(t[0] - 0.2, t[-1] + 0.2, 301)
+    pos, vel, acc = clamped_spline(t, q, times)
+    if n == 1:
+        assert np.all(pos == q[0]) and not vel.any() and not acc.any()
+        return
+    ref = CubicSpline(t, q, axis=0, bc_type="clamped")
+    tc = np.clip(times, t[0], t[-1])
+    inside = ((times >= t[0]) & (times <= t[-1]))[:, None]
+    np.testing.assert_allclose(pos, ref(tc), atol=1e-10)
+    np.testing.assert_allclose(vel, np.where(inside, ref(tc, 1), 0.0), atol=1e-9)
+    np.testing.assert_allclose(acc, np.where(inside, ref(tc, 2), 0.0), atol=1e-8)

@@ -14,7 +14,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from forte.exceptions import InvalidInputError
 from forte.validation import FloatArray, as_array, check_times
@@ -89,14 +88,53 @@ def quintic_hermite(t_knots: Any, q: Any, v: Any, a: Any, times: Any) -> tuple[A
 def clamped_spline(t_knots: Any, q: Any, times: Any) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Clamped cubic spline through ``(t_k, q_k)`` (C2, zero velocity at both ends) sampled at
     ``times``: position, velocity, acceleration; the first/last knot is held outside the knots'
-    range (velocity and acceleration 0). One knot: held everywhere."""
+    range (velocity and acceleration 0). One knot: held everywhere.
+
+    The knot slopes ``m_k`` solve the tridiagonal continuity system
+    ``h_k m_{k-1} + 2 (h_{k-1} + h_k) m_k + h_{k-1} m_{k+1} = 3 (h_k s_{k-1} + h_{k-1} s_k)``
+    (``h_k`` the intervals, ``s_k`` the secant slopes, ``m_0 = m_N = 0``) by the Thomas
+    algorithm; each interval is then the cubic Hermite through its ends (equal to SciPy's
+    ``CubicSpline(..., bc_type="clamped")``, tested; written out because importing
+    ``scipy.interpolate`` alone takes half a second of every ``forte plan``).
+    """
     tk = check_times(t_knots, "t")
     qk = as_array(q, "q", (tk.size, None))
     ts = as_array(times, "times", (None,))
     if tk.size == 1:
         pos = np.repeat(qk, ts.size, axis=0)
         return pos, np.zeros_like(pos), np.zeros_like(pos)
-    spline = CubicSpline(tk, qk, axis=0, bc_type="clamped")
+    m = _clamped_slopes(tk, qk)
     tc = np.clip(ts, tk[0], tk[-1])
+    seg = np.clip(np.searchsorted(tk, tc, side="right") - 1, 0, tk.size - 2)
+    h = (tk[seg + 1] - tk[seg])[:, None]
+    x = (tc - tk[seg])[:, None]
+    secant = (qk[seg + 1] - qk[seg]) / h
+    c2 = (3 * secant - 2 * m[seg] - m[seg + 1]) / h
+    c3 = (m[seg] + m[seg + 1] - 2 * secant) / h**2
     inside = ((ts >= tk[0]) & (ts <= tk[-1]))[:, None]
-    return spline(tc), np.where(inside, spline(tc, 1), 0.0), np.where(inside, spline(tc, 2), 0.0)
+    pos = qk[seg] + x * (m[seg] + x * (c2 + x * c3))
+    vel = m[seg] + x * (2 * c2 + 3 * c3 * x)
+    return pos, np.where(inside, vel, 0.0), np.where(inside, 2 * c2 + 6 * c3 * x, 0.0)
+
+
+def _clamped_slopes(tk: FloatArray, qk: FloatArray) -> FloatArray:
+    """Knot slopes of the clamped cubic spline (see :func:`clamped_spline`)."""
+    h = np.diff(tk)[:, None]
+    secant = np.diff(qk, axis=0) / h
+    m = np.zeros_like(qk)
+    n = tk.size - 1  # unknowns m_1 .. m_{n-1}
+    if n < 2:
+        return m
+    lower, diag, upper = h[1:], 2 * (h[:-1] + h[1:]), h[:-1]
+    rhs = 3 * (h[1:] * secant[:-1] + h[:-1] * secant[1:])
+    d, r = diag.copy(), rhs.copy()
+    for k in range(1, n - 1):  # forward sweep
+        w = lower[k] / d[k - 1]
+        d[k] = d[k] - w * upper[k - 1]
+        r[k] = r[k] - w * r[k - 1]
+    x = np.empty_like(r)
+    x[-1] = r[-1] / d[-1]
+    for k in range(n - 3, -1, -1):  # back substitution
+        x[k] = (r[k] - upper[k] * x[k + 1]) / d[k]
+    m[1:-1] = x
+    return m
