@@ -210,10 +210,9 @@ class JointAccelerations(Requirement):
         return [Measure(ratio, 1.0 + LIMIT_SLACK, "x limit", "an arm joint acceleration exceeds its limit")]
 
     @staticmethod
-    def ratios(ctx: Context) -> FloatArray:
-        """Per arm joint: the worst ``|ddq_i| / a_max,i`` over the samples."""
-        limits = ctx.acceleration_limits[N_BASE:]
-        return np.max(np.abs(ctx.samples.ddq[:, N_BASE:]) / limits, axis=0)
+    def ratios(samples: MotionSamples, acceleration_limits: FloatArray) -> FloatArray:
+        """Per arm joint: the worst ``|ddq_i| / a_max,i`` over the samples (whole-body limits in)."""
+        return np.max(np.abs(samples.ddq[:, N_BASE:]) / acceleration_limits[N_BASE:], axis=0)
 
 
 def orientation_errors(ee: FloatArray, targets: FloatArray) -> FloatArray:

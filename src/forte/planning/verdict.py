@@ -208,9 +208,7 @@ def capacity_shortfall(task: Any, q: Any, force: TaskForce, per_interval: int = 
 def arm_acceleration_ratios(task: Any, q: Any, per_interval: int = SAMPLES_PER_INTERVAL) -> FloatArray:
     """Per arm joint: the worst ``|ddq_i| / a_max,i`` of the plan's samples (the task's limits)."""
     samples = sample_motion(task.robot, task.t, q, per_interval)
-    vel, acc = task.limits.resolve(task.robot)
-    ctx = Context(task.robot, samples, None, 1.0, None, vel, acc, {}, False)  # type: ignore[arg-type]
-    return JointAccelerations.ratios(ctx)
+    return JointAccelerations.ratios(samples, task.limits.resolve(task.robot)[1])
 
 
 def judge_plan(task: Any, q: Any, force: TaskForce, solver: dict[str, Any] | None = None,
