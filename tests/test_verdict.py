@@ -244,3 +244,17 @@ def test_a_hold_never_picks_a_start_that_turned_the_hand_over():
     assert res.solver["starts"]["upside_down"] > 0 and "tracking" not in res.verdict.failed
     ee = task.robot.ee_pose(res.q[0])
     assert np.trace(task.targets[0, :3, :3].T @ ee[:3, :3]) > 2.99  # within ~0.1 rad of the task's orientation
+
+
+def test_capacity_shortfall_covers_every_waypoint_the_refinement_grows():
+    """What a refinement round adds to r_k: at least the waypoint's own -d_k where the ball is out,
+    and nothing where neither neighbouring interval falls short."""
+    from forte.planning.verdict import capacity_shortfall
+
+    task = forte.load_task(LIFT)
+    res = forte.plan(task, "quintic")  # short of capacity over most of the lift
+    short = capacity_shortfall(task, res.q, res.force)
+    d = res.metrics["d"]
+    assert np.all(short[d < 0] >= -d[d < 0] - 1e-9) and np.any(short > 0)
+    light = forte.plan(forte.load_task(LIFT, mass=0.35), "forte")
+    assert not capacity_shortfall(light.task, light.q, light.force).any()  # feasible: nothing to grow
