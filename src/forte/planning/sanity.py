@@ -1,5 +1,6 @@
 """Physical sanity checks around a solve: refuse a certainly impossible task force before it,
-and report the waypoints where the plan's force ball leaves the RFP after it.
+and record the waypoints where the plan's force ball leaves the RFP after it (plan.json's
+``capacity`` block; the plan's verdict, :mod:`forte.planning.verdict`, judges it).
 
 **The rule before the solve** (:func:`check_force_capacity`): the task force ``f_k`` of every
 waypoint is compared with the largest *static* directional capacity along ``f_k / |f_k|``
@@ -93,11 +94,3 @@ def negative_margins(metrics: dict[str, Any]) -> dict[str, Any]:
     return {"sufficient": bool(bad.size == 0), "negative_margin_waypoints": bad.tolist(),
             "negative_margins_n": d[bad].tolist(), "worst_waypoint": worst,
             "worst_margin_n": float(d[worst]) if d.size else None}
-
-
-def describe_negative(info: dict[str, Any], total: int) -> str:
-    ks = info["negative_margin_waypoints"]
-    shown = ", ".join(f"{k} ({d:.2f} N)" for k, d in zip(ks[:8], info["negative_margins_n"][:8], strict=False))
-    more = f" and {len(ks) - 8} more" if len(ks) > 8 else ""
-    return (f"the force ball leaves the RFP (d < 0) at {len(ks)} of {total} waypoints: {shown}{more}; "
-            f"worst d = {info['worst_margin_n']:.2f} N at waypoint {info['worst_waypoint']}")
