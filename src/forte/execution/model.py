@@ -45,6 +45,7 @@ import pinocchio as pin
 
 from forte.exceptions import InvalidInputError, SimulationError
 from forte.execution.arm_spec import ARM_PREFIX, load_arm_spec
+from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT
 from forte.model.robot import N_BASE, MobileManipulator, ToolLoad
 from forte.validation import FloatArray, as_positive, as_vector
 
@@ -300,8 +301,8 @@ def _add_base(spec: mujoco.MjSpec, robot: MobileManipulator, mass: float,
     base.add_joint(name="base_x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0])
     base.add_joint(name="base_y", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0])
     base.add_joint(name="base_yaw", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
-    height = max(float(robot.mount[2, 3]), 0.05)
-    base.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.3, 0.25, height / 2], pos=[0, 0, height / 2],
+    height = max(float(robot.mount[2, 3]), BASE_BOX_MIN_HEIGHT)
+    base.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[*BASE_BOX_HALF_XY, height / 2], pos=[0, 0, height / 2],
                   rgba=[0.3, 0.3, 0.35, 1], contype=0, conaffinity=0, mass=0.0)
     return base
 

@@ -33,6 +33,12 @@ KNOWN_ARMS: dict[str, dict[str, tuple[float, ...]]] = {
     "panda_description/urdf/panda.urdf": {"home": PANDA_HOME, "acceleration_limits": PANDA_ACCELERATION_LIMITS},
 }
 N_BASE = 3
+#: Half extents (m) of the base's body in its own x and y axes: a box of 0.6 m x 0.5 m from the
+#: floor up to the arm's mount (a MOCA-like platform), the base's collision geometry in the
+#: planner, the exact clearance check and the MuJoCo model alike.
+BASE_BOX_HALF_XY: tuple[float, float] = (0.3, 0.25)
+#: The base box's height when the mount is lower than this (m).
+BASE_BOX_MIN_HEIGHT = 0.05
 STANDARD_GRAVITY = 9.81
 
 

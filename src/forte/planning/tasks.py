@@ -31,6 +31,7 @@ from forte.force.taskforce import (
     payload_force,
 )
 from forte.model.robot import MobileManipulator
+from forte.model.scene import Scene
 from forte.model.trajectory import quintic_path
 from forte.planning.paths import (
     ForceAt,
@@ -42,6 +43,7 @@ from forte.planning.paths import (
     taught_knots,
     windowed_sine,
 )
+from forte.planning.scene_section import DEFAULT_CLEARANCE, clearance_value, scene_section
 from forte.planning.schema import (
     Reader,
     check_joint_limits,
@@ -106,6 +108,10 @@ class Task:
     force_model: str = "paper"
     #: Time of the ``authors`` blend already passed at ``t[0]`` (advanced by a horizon shift).
     force_ramp_elapsed: float = 0.0
+    #: Static bodies around the robot (:mod:`forte.model.scene`; empty: free space).
+    scene: Scene = field(default_factory=Scene)
+    #: Distance (m) the plan keeps from every scene body (:data:`DEFAULT_CLEARANCE`).
+    clearance: float = DEFAULT_CLEARANCE
 
     @property
     def n(self) -> int:
@@ -286,7 +292,8 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     reader = Reader(data, path)
     reader.unknown({"name", "robot", "mode", "initial_configuration", "path", "pose", "payload", "force",
                     "uncertainty_radius", "uncertainty_rule", "force_model", "weights", "torque_limits", "solver",
-                    "teaching_configuration", "limits", "controller", "require_capacity"})
+                    "teaching_configuration", "limits", "controller", "require_capacity", "scene", "scene_file",
+                    "clearance"})
     base = path.parent if path else Path.cwd()
     robot = robot_section(reader, base)
     mode = reader.choice("mode", MODES, "trajectory")
@@ -350,7 +357,8 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                 force_profile=None if force_at is None else force_at(t), weights=weights, solver=solver,
                 teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
                 targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots,
-                radius_rule=radius_rule, force_model=force_model)
+                radius_rule=radius_rule, force_model=force_model, scene=scene_section(reader, base),
+                clearance=clearance_value(reader))
 
 
 def _weight_preset(reader: Reader, mode: str) -> CostWeights:
