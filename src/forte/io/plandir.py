@@ -37,6 +37,7 @@ from forte.io.outputs import (
     replace_directory,
 )
 from forte.model.robot import MobileManipulator, robot_from_description
+from forte.model.scene import Scene, scene_from_json
 from forte.model.trajectory import trajectory_header
 from forte.planning.planner import Plan
 from forte.planning.verdict import Verdict, judge
@@ -171,6 +172,8 @@ def plan_document(plan: Plan) -> dict[str, Any]:
         doc |= {"weights": asdict(task.weights), "solver_options": asdict(task.solver),
                 "kinematic_limits": asdict(task.limits)}
     doc |= {"robot": plan.robot.describe(), "payload": plan.payload.to_dict()}
+    if plan.scene:
+        doc["scene"] = plan.scene.describe()
     if plan.force is not None:
         given = task is not None and task.force_profile is not None
         # the task's force_model (paper | authors); None for a given profile or a plan made by hand
@@ -224,7 +227,15 @@ def read_plan_dir(plan_dir: str | Path) -> Plan:
         raise TaskFileError(f"{plan_path}: field 'force.t': {force.t.size} samples; expected at most {MAX_WAYPOINTS}")
     return Plan(method=str(meta.get("method", "unknown")), robot=robot, t=t, q=q, force=force, payload=payload,
                 solved=True, status=str(meta.get("solver_status", meta.get("status", "unknown"))),
-                verdict=_read_verdict(plan_path, meta.get("verdict")))
+                verdict=_read_verdict(plan_path, meta.get("verdict")), scene=_read_scene(plan_path, meta.get("scene")))
+
+
+def _read_scene(plan_path: Path, entries: Any) -> Scene:
+    """The scene recorded in plan.json (empty when none)."""
+    try:
+        return scene_from_json(entries)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise TaskFileError(f"{plan_path}: field 'scene': expected the scene forte wrote ({exc})") from None
 
 
 def _read_verdict(plan_path: Path, doc: Any) -> Verdict | None:

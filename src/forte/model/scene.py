@@ -210,3 +210,29 @@ def _load_mesh(mesh: Mesh) -> Any:
     if geometry.num_vertices == 0:
         raise InvalidInputError(f"mesh.file: {mesh.file} has no vertices")
     return geometry
+
+
+def scene_from_json(entries: Any) -> Scene:
+    """The scene :meth:`Scene.describe` wrote (plan.json); ``ValueError`` when malformed."""
+    if entries is None:
+        return Scene()
+    if not isinstance(entries, list):
+        raise ValueError("expected a list of bodies")
+    objects = []
+    for entry in entries:
+        kind = next((k for k in SHAPE_KINDS if k in entry), None)
+        if kind is None or not isinstance(entry[kind], dict):
+            raise ValueError(f"body {entry.get('name')!r}: no shape")
+        params = dict(entry[kind])
+        if kind == "mesh":
+            params = {"file": Path(params["file"]), "scale": tuple(map(float, params.get("scale", (1, 1, 1))))}
+        elif kind == "box":
+            params = {"size": tuple(map(float, params["size"]))}
+        else:
+            params = {k: float(v) for k, v in params.items()}
+        pose = np.asarray(entry["pose"], dtype=float)
+        if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
+            raise ValueError(f"body {entry.get('name')!r}: pose is not a 4x4 matrix")
+        objects.append(SceneObject(str(entry["name"]), SHAPE_KINDS[kind](**params), pose))
+    return Scene(tuple(objects))
+

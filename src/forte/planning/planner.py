@@ -20,6 +20,7 @@ from forte.exceptions import InvalidInputError, TaskFileError
 from forte.force.payload import Payload
 from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE, MobileManipulator
+from forte.model.scene import Scene
 from forte.model.trajectory import backward_differences
 from forte.planning.ik import initial_guess
 from forte.planning.methods import METHODS, Method, get_method, method_names
@@ -49,6 +50,8 @@ class Plan:
         task: the task it solves (``None`` for a plan read from disk).
         verdict: whether the plan can be executed (:mod:`forte.planning.verdict`; ``None`` when
             not judged).
+        scene: the task's scene (:mod:`forte.model.scene`), recorded in plan.json for
+            ``forte simulate``, ``forte view`` and the exports.
     """
 
     method: str
@@ -63,6 +66,8 @@ class Plan:
     solver: dict[str, Any] = field(default_factory=dict)
     task: Task | None = None
     verdict: Verdict | None = None
+    #: The static bodies around the robot the plan was made in (empty: free space).
+    scene: Scene = field(default_factory=Scene)
 
     @property
     def feasible(self) -> bool:
@@ -332,7 +337,8 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
     info["wall_time_s"] = time.perf_counter() - start
     metrics = evaluate(task.robot, q, task.t, force, task.weights.capability_params)
     return Plan(method=spec.name, robot=task.robot, t=task.t, q=q, force=force, payload=task.payload,
-                metrics=metrics, solved=solved, status=status, solver=info, task=task, verdict=verdict)
+                metrics=metrics, solved=solved, status=status, solver=info, task=task, verdict=verdict,
+                scene=task.scene)
 
 
 def compare(task: Task, methods: tuple[str, ...] | None = None,
