@@ -22,6 +22,7 @@ from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import backward_differences
+from forte.planning.collision_slots import assign_slots, missing_pairs
 from forte.planning.ik import initial_guess
 from forte.planning.methods import METHODS, Method, get_method, method_names
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
@@ -187,9 +188,12 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         q_guess, info["coarse"] = warm
         # a near-optimal start: begin with a small barrier parameter
         options = replace(options, extra={"mu_strategy": "monotone", "mu_init": 1e-4} | options.extra)
-    opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
-                              options=options, limits=task.limits)
-    sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess, nominal)
+    if task.scene:
+        opt, sol, info["clearance_rows"] = _solve_in_scene(task, method, force, q_guess, nominal, options)
+    else:
+        opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
+                                  options=options, limits=task.limits)
+        sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess, nominal)
     if task.mode == "hold" and guess is None and options.hold_starts > 1:
         sol, info["starts"] = _best_of_starts(opt, task, force, sol, nominal)
     info |= {
@@ -205,6 +209,33 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         starts["chosen_iterations"], starts["chosen_solve_time_s"] = sol.iterations, sol.solve_time
         info["iterations"], info["solve_time_s"] = starts["iterations"], starts["solve_time_s"]
     return sol, info
+
+
+#: Solves from the last solution when it brought a pair close that had no clearance rows.
+SCENE_ROUNDS = 3
+
+
+def _solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatArray, nominal: FloatArray,
+                    options: Any) -> tuple[TrajectoryOptimizer, SolverResult, dict[str, Any]]:
+    """Solve with clearance rows for the pairs the broad phase finds near ``q_guess``; while the
+    solution brings a pair within the clearance that had no rows, solve again from it with those
+    pairs added (at most :data:`SCENE_ROUNDS` times)."""
+    fix = task.mode != "hold"
+    extra: set[tuple[int, int, int]] = set()
+    start, rounds = q_guess, []
+    for _ in range(SCENE_ROUNDS + 1):
+        slots = assign_slots(task.robot, start, task.scene, task.clearance, fix, extra)
+        opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=fix, options=options,
+                                  limits=task.limits, slots=slots)
+        sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, start, nominal)
+        missing = missing_pairs(task.robot, sol.q, task.scene, task.clearance, slots)
+        rounds.append({"rows": slots.rows, "slots": {f.frame: f.slots for f in slots.frames},
+                       "iterations": sol.iterations, "missing_pairs": len(missing)})
+        if not missing or not sol.success:
+            break
+        extra |= missing | slots.triples()
+        start = sol.q
+    return opt, sol, {"rounds": rounds}
 
 
 def hold_starts(task: Task) -> FloatArray:
