@@ -158,9 +158,14 @@ def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]
         return None
     coarse = task.resampled(COARSE_WAYPOINTS)
     force = coarse.force()
-    opt = TrajectoryOptimizer(task.robot, coarse.n, method, task.weights, options=task.solver, limits=task.limits)
     nominal = coarse.nominal()
-    sol = opt.solve(coarse.t, coarse.targets, force.f, force.r, coarse.q_init, start_guess(coarse, nominal), nominal)
+    if task.scene:  # clear of the scene already: the fine solve starts outside the bodies
+        sol = _solve_in_scene(coarse, method, force, start_guess(coarse, nominal), nominal, task.solver)[1]
+    else:
+        opt = TrajectoryOptimizer(task.robot, coarse.n, method, task.weights, options=task.solver,
+                                  limits=task.limits)
+        sol = opt.solve(coarse.t, coarse.targets, force.f, force.r, coarse.q_init, start_guess(coarse, nominal),
+                        nominal)
     if not sol.success:
         return None
     q = np.column_stack([np.interp(task.t, coarse.t, sol.q[:, j]) for j in range(sol.q.shape[1])])
