@@ -131,8 +131,11 @@ class ClearanceChecker:
         self.parts: tuple[Part, ...] = (*(self._arm.parts if self._arm else ()), _part(BASE_PART, box))
         self._part_centres = np.array([p.centre for p in self.parts])
         self.bodies = tuple(_part(o.name, o.collision_geometry()) for o in scene.objects)
+        import coal
+
         poses = [o.pose for o in scene.objects]
-        self._body_poses = np.array(poses) if poses else np.zeros((0, 4, 4))
+        self._body_transforms = [coal.Transform3s(T[:3, :3].copy(), T[:3, 3].copy()) for T in poses]
+        self._request = coal.DistanceRequest()
         self._body_centres = np.array([T[:3, :3] @ b.centre + T[:3, 3] for T, b in zip(poses, self.bodies,
                                                                                        strict=True)]).reshape(-1, 3)
         if self._arm is not None:
@@ -164,33 +167,39 @@ class ClearanceChecker:
         wr, wb = np.full((k, 3), np.nan), np.full((k, 3), np.nan)
         if self.bodies:
             radii = np.array([p.radius for p in self.parts])[:, None] + np.array([b.radius for b in self.bodies])
+            hint = 0
             for i, q in enumerate(Q):
-                distance[i], robot[i], body[i], wr[i], wb[i] = self._closest(self.placements(q), radii)
+                hint, distance[i], wr[i], wb[i] = self._closest(self.placements(q), radii, hint)
+                g, b = divmod(hint, len(self.bodies))
+                robot[i], body[i] = self.parts[g].name, self.bodies[b].name
         return Clearances(distance, tuple(robot), tuple(body), wr, wb)
 
-    def _closest(self, T: FloatArray, radii: FloatArray) -> tuple[float, str, str, FloatArray, FloatArray]:
-        """Branch and bound over the pairs of one configuration (module docstring)."""
+    def _closest(self, T: FloatArray, radii: FloatArray, hint: int) -> tuple[int, float, FloatArray, FloatArray]:
+        """Branch and bound over the pairs of one configuration (module docstring), starting with
+        pair ``hint`` (the previous sample's closest: usually close again, so few bounds pass).
+        Returns the closest pair's flat index (part x body), its distance and witness points."""
+        centres = np.einsum("gij,gj->gi", T[:, :3, :3], self._part_centres) + T[:, :3, 3]
+        bound = (np.linalg.norm(centres[:, None, :] - self._body_centres[None], axis=-1) - radii).ravel()
+        best = (hint, *self._distance(T, hint))
+        candidates = np.flatnonzero(bound < best[1])
+        for idx in candidates[np.argsort(bound[candidates])]:
+            if bound[idx] >= best[1]:
+                break
+            if idx != hint:
+                found = self._distance(T, int(idx))
+                if found[0] < best[1]:
+                    best = (int(idx), *found)
+        return best
+
+    def _distance(self, T: FloatArray, pair: int) -> tuple[float, FloatArray, FloatArray]:
+        """coal's signed distance of one pair (flat index part x body) and its witness points."""
         import coal
 
-        centres = np.einsum("gij,gj->gi", T[:, :3, :3], self._part_centres) + T[:, :3, 3]
-        bound = np.linalg.norm(centres[:, None, :] - self._body_centres[None], axis=-1) - radii
-        order = np.argsort(bound, axis=None)
-        flat = bound.ravel()
-        request, result = coal.DistanceRequest(), coal.DistanceResult()
-        best: tuple[float, str, str, FloatArray, FloatArray] = (np.inf, "", "", np.full(3, np.nan), np.full(3, np.nan))
-        n_bodies = len(self.bodies)
-        for idx in order:
-            if flat[idx] >= best[0]:
-                break
-            g, b = divmod(int(idx), n_bodies)
-            part, obj, pose = self.parts[g], self.bodies[b], self._body_poses[b]
-            result.clear()
-            d = coal.distance(part.geometry, coal.Transform3s(T[g, :3, :3], T[g, :3, 3]),
-                              obj.geometry, coal.Transform3s(pose[:3, :3], pose[:3, 3]), request, result)
-            if d < best[0]:
-                best = (float(d), part.name, obj.name, np.array(result.getNearestPoint1()),
-                        np.array(result.getNearestPoint2()))
-        return best
+        g, b = divmod(pair, len(self.bodies))
+        result = coal.DistanceResult()
+        d = coal.distance(self.parts[g].geometry, coal.Transform3s(T[g, :3, :3], T[g, :3, 3]),
+                          self.bodies[b].geometry, self._body_transforms[b], self._request, result)
+        return float(d), np.array(result.getNearestPoint1()), np.array(result.getNearestPoint2())
 
 
 def clearances(robot: MobileManipulator, scene: Scene, Q: Any) -> Clearances:
