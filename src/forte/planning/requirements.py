@@ -257,7 +257,7 @@ class SelfCollision(Requirement):
     The authors' spheres (basket against base, :data:`forte.model.collision.AUTHORS_SPHERES`) are
     not judged here: they are a soft keep-out with a 0.08 m margin in the cost (a 0.52 m ball for
     the base), which the authors' own lift overlaps by up to 9 cm, not the robot's geometry. The
-    base's own geometry is not in the URDF either; both wait for a scene with real shapes.
+    base's own geometry is not in the URDF either (:class:`Clearance` judges it against a scene).
     """
 
     name: ClassVar[str] = "self_collision"
