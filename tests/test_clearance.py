@@ -223,3 +223,27 @@ def test_a_wall_through_the_goal_is_never_a_success(tmp_path, capsys):
     assert "min clearance = " in err and " vs wall" in err
     last = err.splitlines()[-1]  # a plan that runs into the scene is reported for that first
     assert last.startswith("forte: error: forte: infeasible: clearance: ") and " vs wall " in last
+
+
+def test_a_scene_mesh_measures_like_its_primitive_when_apart(robot, tmp_path):
+    """A cube as a triangle mesh (OBJ) and as a box: equal distances when apart; overlapping, the
+    mesh reads a triangle's depth, never deeper than the solid's (module docstring)."""
+    corners = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1)])
+    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6),
+             (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    obj = tmp_path / "cube.obj"
+    obj.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in corners) + "".join(f"f {a + 1} {b + 1} {c + 1}\n"
+                                                                                   for a, b, c in faces))
+    from forte.model.scene import Mesh
+
+    q = np.r_[0.0, 0.0, 0.0, robot.home_arm]
+    ee = robot.ee_pose(q)[:3, 3]
+    for dx, apart in ((0.35, True), (0.2, True), (0.05, False)):
+        pose = [ee[0] + dx, ee[1], ee[2], 0.3, 0.2, 0.1]
+        as_mesh = clearances(robot, _scene(("cube", Mesh(obj), pose)), q[None])
+        as_box = clearances(robot, _scene(("cube", Box((0.2, 0.2, 0.2)), pose)), q[None])
+        if apart:
+            assert as_box.distance[0] > 0
+            assert as_mesh.distance[0] == pytest.approx(as_box.distance[0], abs=1e-6)
+        else:
+            assert as_box.distance[0] <= as_mesh.distance[0] < 0

@@ -131,7 +131,7 @@ def context(robot: MobileManipulator, samples: MotionSamples, force: TaskForce, 
 
 def clearance_summary(ctx: Context) -> dict[str, Any] | None:
     """The closest approach of the robot to the scene over every sample: ``min_m`` (signed, m),
-    the pair (``robot`` part, scene ``body``), its time ``t`` and nearest ``waypoint``, the
+    the pair (``robot`` part, scene ``body``), its time ``t`` and the ``waypoint`` at or before it, the
     witness points (world frame), the ``required_m`` clearance and the number of ``samples``;
     ``None`` for an empty scene."""
     found = scene_distances(ctx)
