@@ -19,6 +19,7 @@ from forte.capability.polytope import directional_capacity, inscribed_radius, tr
 from forte.exceptions import InvalidInputError, TaskFileError
 from forte.force.payload import Payload
 from forte.force.taskforce import TaskForce
+from forte.model.clearance import clearances
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import backward_differences
@@ -104,11 +105,14 @@ def methods_for(task: Task) -> tuple[str, ...]:
 
 
 def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: TaskForce,
-             params: CapabilityParameters | float = CapabilityParameters()) -> dict[str, FloatArray]:
+             params: CapabilityParameters | float = CapabilityParameters(),
+             scene: Scene | None = None) -> dict[str, FloatArray]:
     """Exact per-waypoint metrics of a plan (the columns of metrics.csv).
 
     ``d`` uses the metric's ``alpha``; the directional capacity (along the desired force) and
-    the inscribed radius are those of the paper's RFP ``P_r,k`` itself (``alpha = 1``).
+    the inscribed radius are those of the paper's RFP ``P_r,k`` itself (``alpha = 1``);
+    ``clearance`` is the robot's exact signed distance (m) to the nearest body of ``scene``
+    (:mod:`forte.model.clearance`), ``inf`` without a scene (the distance to no body).
     """
     alpha = params.alpha if isinstance(params, CapabilityParameters) else float(params)
     rfp = trajectory_rfp(robot, q, t, alpha=1.0)
@@ -126,6 +130,7 @@ def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: Task
         # nominal torque plus the torque that applies the desired force, tau_nom + J^T f
         "max_torque_ratio_with_force": np.max(
             np.abs(rfp.tau_nom + np.einsum("kij,ki->kj", rfp.J, force.f)) / robot.torque_limits, axis=1),
+        "clearance": clearances(robot, scene, q).distance if scene else np.full(len(rfp.J), np.inf),
     }
 
 
@@ -371,7 +376,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         q, solved, status = spec.produce(task), True, spec.status
         verdict = judge_plan(task, q, force)
     info["wall_time_s"] = time.perf_counter() - start
-    metrics = evaluate(task.robot, q, task.t, force, task.weights.capability_params)
+    metrics = evaluate(task.robot, q, task.t, force, task.weights.capability_params, task.scene)
     return Plan(method=spec.name, robot=task.robot, t=task.t, q=q, force=force, payload=task.payload,
                 metrics=metrics, solved=solved, status=status, solver=info, task=task, verdict=verdict,
                 scene=task.scene)
