@@ -16,7 +16,13 @@ applied at the end effector.
 the end-effector error ``ee_err_x/y/z`` (``p - p_d``, world frame) and its norm ``ee_err``;
 the simulated whole-body joint positions ``x_b, y_b, yaw, q1..qn`` (the names of
 ``trajectory.csv``; yaw not wrapped) and velocities ``dx_b, dy_b, dyaw, dq1..dqn``.
-``sim.json`` holds the verdict, the summary statistics and the gains used.
+``sim.json`` holds the verdict, the summary statistics and the gains used, and the contacts:
+the plan's scene is built into the model (:mod:`forte.execution.contact`), a touch of the scene
+or the floor fails the run (reason ``contact``), ``contact_checked`` says whether contacts were
+on (off only for a robot whose URDF geometry MuJoCo cannot load, without a scene) and
+``contacts`` lists every pair that touched: ``robot`` (a link, ``base`` or ``payload``),
+``world`` (a scene body or ``floor``), ``first_time`` (s), ``first_force_N`` and
+``peak_force_N`` (the normal force summed over the pair's contact points).
 """
 
 from __future__ import annotations
@@ -33,6 +39,8 @@ import mujoco
 import numpy as np
 
 from forte.exceptions import InvalidInputError
+from forte.execution.arm_spec import ARM_PREFIX, geometry_loadable
+from forte.execution.contact import touches
 from forte.execution.control import ArmCommand, ArmImpedance, BaseAdmittance, ControlGains, Reference
 from forte.execution.gains import default_gains, describe_gains, gains_from_mapping, sampled_loop_radius_at
 from forte.execution.judge import Judge, SimResult, Thresholds
@@ -188,6 +196,7 @@ def run_simulation(
     judge = Judge(th, dt, sim.robot.n_arm, sim.payload_mass > 0)
     log = _RunLog(reference.t.size, record_every, sim.robot.nq, control.arm.tau_max)
     sim.set_state(reference.q[0])
+    contacts = sim.scene is not None
     start = time.perf_counter()
     steps_run = 0
     for k in range(reference.t.size):
@@ -205,6 +214,8 @@ def run_simulation(
         if stop_on_failure and judge.reason is not None:
             break
         mujoco.mj_step(sim.model, sim.data)
+        if contacts and sim.data.ncon:  # the contacts of the state at step k
+            judge.touch(k * dt, touches(sim.model, sim.data, ARM_PREFIX))
         if after_step is not None:
             after_step(k, q, dq)
     wall = time.perf_counter() - start
@@ -216,6 +227,8 @@ def run_simulation(
         "payload_mass": sim.payload_mass,
         **log.summary(steps_run),
         "thresholds": asdict(th),
+        "contact_checked": contacts,
+        "contacts": judge.contact_list(),
     }
     return SimResult(judge.reason is None, judge.reason, judge.time,
                      judge.detail or "all criteria met", log.columns(reference.t), summary)
@@ -307,7 +320,9 @@ def simulate_plan(
     # the robot's end-effector load that the plan's force includes (tool_force_mass) is carried
     # physically with the payload: one welded body of both masses
     carried = (true_mass or 0.0) + (robot.tool_force_mass if plan.payload.mass is not None else 0.0)
-    sim = build_sim_model(robot, carried, meshes=offscreen or viewer, timestep=timestep)
+    # contact with the scene and the floor, unless the URDF's geometry cannot be loaded and there is no scene
+    scene = plan.scene if plan.scene or geometry_loadable(robot) else None
+    sim = build_sim_model(robot, carried, meshes=offscreen or viewer, timestep=timestep, scene=scene)
     gains = _resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
     reference_kind, reference = reference, _plan_reference(plan, sim.timestep, hold, force_share, kind=reference)
     recorder = FrameRecorder(sim, _optional_path(frames_dir), _optional_path(video), fps) if offscreen else None
