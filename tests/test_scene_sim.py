@@ -1,5 +1,5 @@
 """The scene in MuJoCo: static bodies, robot-versus-world contacts judged as failures, the scene in
-the exported MJCF."""
+the exported MJCF and in ``forte view``."""
 
 from __future__ import annotations
 
@@ -180,3 +180,21 @@ def test_a_mesh_mujoco_cannot_read_is_one_line(robot: MobileManipulator, tmp_pat
     with pytest.raises(SimulationError, match=r"scene body shelf: mesh shelf.dae: MuJoCo reads \.stl"):
         build_sim_model(robot, scene=scene)
 
+
+def test_view_draws_the_scene(robot: MobileManipulator, tmp_path: Path) -> None:
+    pytest.importorskip("rerun")
+    from rerun.chunk import RrdReader
+
+    cube = _cube_stl(tmp_path / "cube.stl", 0.1)
+    scene = Scene((BOX_ON_ARC, SceneObject("rail", Capsule(0.04, 0.6), pose_matrix([-1.0, 1.0, 0.5, 0, 0, 0])),
+                   SceneObject("crate", Mesh(cube), pose_matrix([-1, -1, 0.3, 0, 0, 0]))))
+    plan_dir = write_plan_dir(tmp_path / "p", robot, [0.0, 0.5], [robot.home()] * 2, scene=scene)
+    out = tmp_path / "scene.rrd"
+    assert main(["view", str(plan_dir), "--save", str(out), "--quiet"]) == 0
+    columns: dict[str, set[str]] = {}
+    for chunk in RrdReader(out).stream():
+        columns.setdefault(chunk.entity_path, set()).update(chunk.to_record_batch().schema.names)
+    assert "Boxes3D:half_sizes" in columns["/world/scene/box/shape"]
+    assert "Capsules3D:lengths" in columns["/world/scene/rail/shape"]
+    assert "Mesh3D:triangle_indices" in columns["/world/scene/crate/shape"]
+    assert "Transform3D:translation" in columns["/world/scene/box"]
