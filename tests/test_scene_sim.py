@@ -18,6 +18,7 @@ from forte.execution.contact import touches
 from forte.execution.model import build_sim_model
 from forte.execution.run import simulate_plan
 from forte.io.plandir import read_plan_dir, write_plan_dir
+from forte.model.description import BASE_BOX_HALF_XY
 from forte.model.robot import MobileManipulator, default_robot
 from forte.model.scene import Box, Capsule, Cylinder, Mesh, Scene, SceneObject, Sphere, pose_matrix
 from forte.model.scene_files import read_scene_file
@@ -61,6 +62,22 @@ def test_arm_through_a_box_fails_naming_the_box_and_the_link(
     assert all(c["world"] == "box" for c in result["contacts"])  # never the base on the floor
     assert line.startswith(f"failure at t = {first['first_time']:.3f} s: contact ({first['robot']} touched box")
     assert "N" in line and "sim.json" in line
+
+
+def test_every_pair_that_touched_is_reported(
+        robot: MobileManipulator, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A crate 1 cm into the back of the base from the start, the box on the hand's arc later."""
+    behind = -BASE_BOX_HALF_XY[0] - 0.1 + 0.01
+    crate = SceneObject("crate", Box((0.2, 0.2, 0.2)), pose_matrix([behind, 0.0, 0.1, 0, 0, 0]))
+    plan_dir = write_plan_dir(tmp_path / "p", robot, *_sweep(robot), scene=Scene((crate, BOX_ON_ARC)))
+    assert main(["simulate", str(plan_dir), "--hold", "0.3"]) == 1
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    pairs = json.loads((plan_dir / "sim.json").read_text())["contacts"]
+    assert [(c["robot"], c["world"]) for c in pairs[:1]] == [("base", "crate")] and pairs[0]["first_time"] == 0.0
+    assert any(c["world"] == "box" and c["robot"].startswith("panda_") for c in pairs[1:])
+    assert all(c["peak_force_N"] > 0 for c in pairs)
+    assert line.startswith("failure at t = 0.000 s: contact (base touched crate at t = 0.000 s")
+    assert f"{len(pairs)} pairs touched: base-crate from t = 0.000 s" in line
 
 
 def test_the_box_moved_away_is_never_touched(robot: MobileManipulator, tmp_path: Path) -> None:

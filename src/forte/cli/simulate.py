@@ -147,15 +147,16 @@ def run(args: argparse.Namespace) -> int:
               f"{r['replans']} re-plans ({r['replans_failed']} not converged){latency}", file=sys.stderr)
     if result.success:
         return 0
-    print(f"failure at t = {result.failure_time:.3f} s: {result.reason} ({result.detail}){_touched(s)}; "
+    print(f"failure at t = {result.failure_time:.3f} s: {result.reason} ({result.detail}){_touched(result)}; "
           f"wrote {out}/sim.csv, {out}/sim.json", file=sys.stderr)
     return 1
 
 
-def _touched(summary: dict[str, Any], shown: int = 3) -> str:
-    """The pairs that touched (robot body - world body, first time, peak force), for the failure line."""
-    pairs = summary.get("contacts") or []
-    if not pairs:
+def _touched(result: Any, shown: int = 3) -> str:
+    """The pairs that touched (robot body - world body, first time, peak force), for the failure
+    line (nothing when the failure's own detail names the only one)."""
+    pairs = result.summary.get("contacts") or []
+    if not pairs or (result.reason == "contact" and len(pairs) == 1):
         return ""
     text = ", ".join(f"{c['robot']}-{c['world']} from t = {c['first_time']:.3f} s (peak {c['peak_force_N']:.1f} N)"
                      for c in pairs[:shown])
