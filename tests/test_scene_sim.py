@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import struct
+from dataclasses import replace
 from pathlib import Path
 
 import mujoco
@@ -22,6 +23,7 @@ from forte.model.description import BASE_BOX_HALF_XY
 from forte.model.robot import MobileManipulator, default_robot
 from forte.model.scene import Box, Capsule, Cylinder, Mesh, Scene, SceneObject, Sphere, pose_matrix
 from forte.model.scene_files import read_scene_file
+from forte.planning.planner import evaluate
 
 # The hand at home is at (0.79, 0.01, 0.98) m; turning joint 1 by +1.2 rad in 1 s sweeps it
 # through (0.69, 0.31, 0.98) at 0.5 s to (0.44, 0.50, 0.98): the box below stands in that arc.
@@ -215,3 +217,29 @@ def test_view_draws_the_scene(robot: MobileManipulator, tmp_path: Path) -> None:
     assert "Capsules3D:lengths" in columns["/world/scene/rail/shape"]
     assert "Mesh3D:triangle_indices" in columns["/world/scene/crate/shape"]
     assert "Transform3D:translation" in columns["/world/scene/box"]
+
+
+def _area(outline: np.ndarray) -> float:
+    x, y = outline.T
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def test_footprints_and_the_scene_figure(robot: MobileManipulator, tmp_path: Path) -> None:
+    """The footprints seen from above (areas by hand), and scene.png beside a plan's figures."""
+    from forte.io.figures import footprint, plan_figures
+
+    yawed = SceneObject("table", Box((0.8, 1.2, 0.75)), pose_matrix([1.5, 0.2, 0.375, 0, 0, 0.6]))
+    assert _area(footprint(yawed)) == pytest.approx(0.8 * 1.2, rel=1e-9)  # counter-clockwise, exact
+    np.testing.assert_allclose(footprint(yawed).mean(axis=0), [1.5, 0.2], atol=1e-9)
+    lying = SceneObject("rail", Capsule(0.05, 1.0), pose_matrix([0, 0, 0.5, np.pi / 2, 0, 0]))
+    assert _area(footprint(lying, samples=400)) == pytest.approx(1.0 * 0.1 + np.pi * 0.05**2, rel=1e-3)
+    upright = SceneObject("post", Cylinder(0.05, 1.8), pose_matrix([0.6, 1.5, 0.9, 0, 0, 0]))
+    assert _area(footprint(upright, samples=400)) == pytest.approx(np.pi * 0.05**2, rel=1e-3)
+    cube = SceneObject("crate", Mesh(_cube_stl(tmp_path / "cube.stl", 0.1)), pose_matrix([0, 0, 0, 0, 0, 0.3]))
+    assert _area(footprint(cube)) == pytest.approx(0.04, rel=1e-6)
+    for name, scene in (("p", Scene((yawed, lying, upright))), ("e", Scene())):
+        plan = read_plan_dir(write_plan_dir(tmp_path / name, robot, *_sweep(robot), scene=scene))
+        plan_figures(replace(plan, metrics=evaluate(robot, plan.q, plan.t, plan.force)), tmp_path / name)
+        assert (tmp_path / name / "capacity.png").is_file()
+    assert (tmp_path / "p" / "scene.png").stat().st_size > 10_000
+    assert not (tmp_path / "e" / "scene.png").exists()
