@@ -79,8 +79,12 @@ def _describe(res: Plan) -> str:
     s = plan_summary(res)
     solve = res.solver.get("solve_time_s")
     timing = f", solved in {solve:.2f} s ({res.solver.get('iterations')} it.)" if solve is not None else ""
+    near = res.verdict.clearance if res.verdict is not None else None
+    clearance = (f", min clearance = {near['min_m']:.3f} m ({near['robot']} vs {near['body']} at t = {near['t']:.2f} s)"
+                 if near else "")
     return (f"{res.method}: {res.label} ({res.status}{timing}); min d = {s['min_d']:.2f} N, min capacity - "
-            f"(|f| + r) = {s['min_capacity_margin']:.2f} N, mean manipulability = {s['mean_manipulability']:.4f}")
+            f"(|f| + r) = {s['min_capacity_margin']:.2f} N, mean manipulability = {s['mean_manipulability']:.4f}"
+            f"{clearance}")
 
 
 def _with_bound(args: argparse.Namespace, res: Plan) -> Plan:

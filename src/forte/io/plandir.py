@@ -4,7 +4,9 @@ A plan directory holds
 
 - ``trajectory.csv``: ``t, x_b, y_b, yaw, q1..qn`` per waypoint (``last_iterate.csv`` instead
   when the optimization failed, so a failed plan never carries the name of a plan);
-- ``metrics.csv``: the columns of :data:`METRIC_COLUMNS`;
+- ``metrics.csv``: the columns of :data:`METRIC_COLUMNS` (``clearance``: the robot's exact
+  distance to the scene, m; ``inf`` without a scene; a file of :data:`LEGACY_METRIC_COLUMNS`, written
+  before the scene, is still read, without that column);
 - ``plan.json``: :func:`plan_document`, with ``"generator": "forte"`` and
   ``"format_version"`` (:data:`FORMAT_VERSION`);
 - figures (PNG), when asked for.
@@ -65,7 +67,10 @@ FORMAT_VERSION = 3
 #: ``status`` values of a directory that holds an executable plan (``success``: format 1-2).
 GOOD_STATUSES = ("feasible", "success")
 METRIC_COLUMNS = ("t", "fx", "fy", "fz", "radius", "d", "directional_capacity", "capacity_margin",
-                  "inscribed_radius", "manipulability", "max_torque_ratio", "max_torque_ratio_with_force")
+                  "inscribed_radius", "manipulability", "max_torque_ratio", "max_torque_ratio_with_force",
+                  "clearance")
+#: The columns of metrics.csv before the scene (no ``clearance``), still read.
+LEGACY_METRIC_COLUMNS = METRIC_COLUMNS[:-1]
 
 
 # -- writing ----------------------------------------------------------------------------------
@@ -176,6 +181,8 @@ def plan_document(plan: Plan) -> dict[str, Any]:
     doc |= {"robot": plan.robot.describe(), "payload": plan.payload.to_dict()}
     if plan.scene:
         doc["scene"] = plan.scene.describe()
+        if plan.verdict is not None and plan.verdict.clearance is not None:
+            doc["clearance"] = plan.verdict.clearance  # the closest approach over the judged samples
     if plan.force is not None:
         given = task is not None and task.force_profile is not None
         # the task's force_model (paper | authors); None for a given profile or a plan made by hand
@@ -229,7 +236,8 @@ def read_plan_dir(plan_dir: str | Path) -> Plan:
         raise TaskFileError(f"{plan_path}: field 'force.t': {force.t.size} samples; expected at most {MAX_WAYPOINTS}")
     return Plan(method=str(meta.get("method", "unknown")), robot=robot, t=t, q=q, force=force, payload=payload,
                 solved=True, status=str(meta.get("solver_status", meta.get("status", "unknown"))),
-                verdict=_read_verdict(plan_path, meta.get("verdict")), scene=_read_scene(plan_path, meta.get("scene")))
+                verdict=_read_verdict(plan_path, meta.get("verdict"), meta.get("clearance")),
+                scene=_read_scene(plan_path, meta.get("scene")))
 
 
 def _read_scene(plan_path: Path, entries: Any) -> Scene:
@@ -240,12 +248,15 @@ def _read_scene(plan_path: Path, entries: Any) -> Scene:
         raise TaskFileError(f"{plan_path}: field 'scene': expected the scene forte wrote ({exc})") from None
 
 
-def _read_verdict(plan_path: Path, doc: Any) -> Verdict | None:
-    """The verdict recorded in plan.json (``None`` for a plan of format 1-2, written before verdicts)."""
+def _read_verdict(plan_path: Path, doc: Any, clearance: Any = None) -> Verdict | None:
+    """The verdict recorded in plan.json (``None`` for a plan of format 1-2, written before verdicts),
+    with the ``clearance`` block when there is one."""
     if doc is None:
         return None
+    if clearance is not None and not isinstance(clearance, dict):
+        raise TaskFileError(f"{plan_path}: field 'clearance': expected the clearance object forte wrote")
     try:
-        return Verdict.from_json(doc)
+        return Verdict.from_json(doc)._replace(clearance=clearance)
     except (KeyError, TypeError, ValueError, AttributeError):
         raise TaskFileError(f"{plan_path}: field 'verdict': expected the verdict object forte wrote") from None
 
@@ -263,16 +274,17 @@ def read_controller(plan_dir: str | Path) -> dict[str, Any]:
 
 
 def read_metrics(plan_dir: str | Path) -> dict[str, FloatArray]:
-    """The columns of ``metrics.csv`` (:data:`METRIC_COLUMNS`); empty when the plan has none."""
+    """The columns of ``metrics.csv`` (:data:`METRIC_COLUMNS`, or the older
+    :data:`LEGACY_METRIC_COLUMNS` without ``clearance``); empty when the plan has none."""
     path = Path(plan_dir) / METRICS_FILE
     if not path.is_file():
         return {}
     rows = list(csv.reader(path.read_text(encoding="utf-8").splitlines()))
     header = [h.strip() for h in rows[0]] if rows else []
-    if header != list(METRIC_COLUMNS):
+    if header not in (list(METRIC_COLUMNS), list(LEGACY_METRIC_COLUMNS)):
         raise TaskFileError(f"{path}: header: expected {','.join(METRIC_COLUMNS)}, got {','.join(header)}")
     body = [r for r in rows[1:] if any(c.strip() for c in r)]
-    try:  # d may be +-inf (vacuous or empty RFP rows): no finiteness check here
+    try:  # d may be +-inf (vacuous or empty RFP rows), clearance inf (no scene): no finiteness check here
         data = np.array([[float(c) for c in r] for r in body], dtype=float).reshape(len(body), len(header))
     except ValueError as exc:
         raise TaskFileError(f"{path}: expected {len(header)} numbers per row: {exc}") from None

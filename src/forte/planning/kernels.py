@@ -209,7 +209,8 @@ def _check_record(lib: Path) -> str | None:
     return None
 
 
-def _load_verified(lib: Path, quiet: bool = True) -> dict[str, ca.Function] | None:
+def _load_verified(lib: Path, quiet: bool = True, names: tuple[str, ...] = KERNEL_NAMES
+                   ) -> dict[str, ca.Function] | None:
     """The library's functions when it exists and verifies; else None (with a notice when it was
     there but bad)."""
     if not lib.exists() and not _record_path(lib).exists():
@@ -217,7 +218,7 @@ def _load_verified(lib: Path, quiet: bool = True) -> dict[str, ca.Function] | No
     problem = verify_library(lib) if lib.exists() else "library missing"
     if problem is None:
         try:
-            return {name: ca.external(name, str(lib)) for name in KERNEL_NAMES}
+            return {name: ca.external(name, str(lib)) for name in names}
         except RuntimeError as exc:  # verified bytes that still do not load (another machine's build)
             problem = f"does not load ({str(exc).strip().splitlines()[-1][:120] if str(exc).strip() else 'error'})"
     if not quiet:
@@ -227,7 +228,7 @@ def _load_verified(lib: Path, quiet: bool = True) -> dict[str, ca.Function] | No
 
 
 #: Kernels whose reverse mode is generated next to them (``casadi.external`` finds it by name).
-REVERSE_KERNELS = ("stage_cost", "pose")
+REVERSE_KERNELS = ("stage_cost", "pose", "clear_rows")
 
 
 def _compile(functions: dict[str, ca.Function], lib: Path, compiler: str) -> None:

@@ -39,6 +39,9 @@ from forte.exceptions import InvalidInputError, SolverError
 from forte.model.robot import MobileManipulator
 from forte.planning import layout
 from forte.planning.assembly import block_diagonal_pattern, dm, gather, hessian_pattern, scatter_matrix
+from forte.planning.clearance_rows import clearance_hessian, clearance_jacobian
+from forte.planning.collision_kernels import SLOT_SIZE, load_collision_kernels
+from forte.planning.collision_slots import Slots
 from forte.planning.ipopt_progress import IpoptProgress, margin_of
 from forte.planning.kernels import load_kernels
 from forte.planning.methods import Method, get_method, method_names
@@ -87,13 +90,16 @@ class TrajectoryOptimizer:
         limits: Joint velocity and acceleration limits.
         keep_multipliers: Return the bound and constraint multipliers of every solve, so the
             next solve can start from the last primal-dual point (:meth:`solve`'s ``warm``).
+        slots: Robot-versus-scene pairs that get clearance rows (:mod:`forte.planning.collision_slots`;
+            ``None``: no scene, no rows). The rows are part of the problem's structure, so a
+            problem with slots serves one assignment of pairs.
     """
 
     def __init__(
         self, robot: MobileManipulator, n: int, method: str | Method = "forte",
         weights: CostWeights = DEFAULT_TRAJECTORY_WEIGHTS, fix_initial: bool = True,
         options: SolverOptions = SolverOptions(), limits: KinematicLimits = KinematicLimits(),
-        keep_multipliers: bool = False,
+        keep_multipliers: bool = False, slots: Slots | None = None,
     ) -> None:
         resolved = get_method(method) if isinstance(method, Method) or method in method_names() else None
         if resolved is None or not resolved.optimized:
@@ -112,6 +118,8 @@ class TrajectoryOptimizer:
         self._stage = tuple(t for t in terms if t.kind == "stage")
         self._quadratic = tuple(t for t in terms if t.kind == "quadratic")
         start = time.perf_counter()
+        self.slots = slots
+        self._clear = [load_collision_kernels(robot, f.frame, f.slots, options) for f in slots.frames] if slots else []
         self.kernels = load_kernels(robot, resolved, weights, options)
         self._build()
         self.build_time = time.perf_counter() - start
@@ -130,6 +138,8 @@ class TrajectoryOptimizer:
         sizes = {"dt": n, "f": 3 * n, "r": n, "q_nom": self.robot.nq * n, "p_d": 3 * n, "R_d": 9 * n}
         for term in self._stage:
             sizes |= {name: size * n for name, size in term.parameters}
+        for ck in self._clear:
+            sizes[f"clear{ck.frame}"] = ck.slots * SLOT_SIZE * n
         spans, offset = {}, 0
         for name, size in sizes.items():
             spans[name] = (offset, size)
@@ -164,7 +174,10 @@ class TrajectoryOptimizer:
         lbx, ubx = layout.variable_bounds(self.robot, self.n, lifted, q_init if self.fix_initial else None)
         kinematic = layout.kinematic_bounds(self._vel[self._vel_rows], self._acc[self._acc_rows], t,
                                             2 * self.robot.nq if self.rests_at_end else 0)
-        return layout.Bounds(lbx, ubx, *layout.constraint_bounds(self._pose_steps.size, kinematic, lifted))
+        lbg, ubg = layout.constraint_bounds(self._pose_steps.size, kinematic, lifted)
+        clear = self._clear_index.size  # clearance rows: >= 0
+        return layout.Bounds(lbx, ubx, np.concatenate([lbg, np.zeros(clear)]),
+                             np.concatenate([ubg, np.full(clear, np.inf)]))
 
     def _build(self) -> None:
         robot, n, kern = self.robot, self.n, self.kernels
@@ -198,12 +211,23 @@ class TrajectoryOptimizer:
             lift = sparse.hstack([self._lift, -sparse.identity(self._lift.shape[0])])
             g_kin = ca.vertcat(g_kin, ca.mtimes(dm(lift), x))
         g = ca.vertcat(ca.vec(kern.pose.map(n)(X, pd, Rd)[:, self._pose_steps.tolist()]), g_kin)
+        kept = [np.flatnonzero(f.keep.ravel()) for f in self.slots.frames] if self.slots else []
+        self._clear_index = np.concatenate(kept) if kept else np.array([], int)
+        clear_par = [par(f"clear{ck.frame}", ck.slots * SLOT_SIZE) for ck in self._clear]
+        for ck, P_f, rows in zip(self._clear, clear_par, kept, strict=True):
+            g = ca.vertcat(g, ca.vec(ck.rows.map(n)(Z, P_f))[rows.tolist()])
         scatter = dm(scatter_matrix(index.T.ravel(), x.numel()))
         # dense: IPOPT reads every entry (a structural zero would be read as garbage)
         grad = ca.densify(ca.mtimes(scatter, ca.vec(kern.grad.map(n)(*stage_args))) + Qx)
         jac = self._constraint_jacobian(x, X, pd, Rd, g_kin, first)
+        for ck, P_f, rows in zip(self._clear, clear_par, kept, strict=True):
+            jac = ca.vertcat(jac, clearance_jacobian(ck, Z, P_f, index, rows, x.numel()))
         lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", g.numel())
         hess = self._lagrangian_hessian(index, X, pd, Rd, stage_args, Q, lam_f, lam_g, first)
+        offset = g.numel() - self._clear_index.size
+        for ck, P_f, rows in zip(self._clear, clear_par, kept, strict=True):
+            hess += clearance_hessian(ck, Z, P_f, lam_g[offset:offset + rows.size], rows, index, n, Q)
+            offset += rows.size
         opts = self._ipopt_options()
         opts["grad_f"] = ca.Function("nlp_grad_f", [x, P], [cost, grad])
         opts["jac_g"] = ca.Function("nlp_jac_g", [x, P], [g, jac])
@@ -338,6 +362,8 @@ class TrajectoryOptimizer:
         }
         for term in self._stage:
             values |= {name: term.parameter_values(name, f, r) for name, _ in term.parameters}
+        for f in self.slots.frames if self.slots else ():
+            values[f"clear{f.frame}"] = f.values.ravel()
         return np.concatenate([values[name] for name in self._layout])
 
     def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,

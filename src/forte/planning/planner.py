@@ -19,9 +19,11 @@ from forte.capability.polytope import directional_capacity, inscribed_radius, tr
 from forte.exceptions import InvalidInputError, TaskFileError
 from forte.force.payload import Payload
 from forte.force.taskforce import TaskForce
+from forte.model.clearance import clearances
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import backward_differences
+from forte.planning.collision_slots import assign_slots, missing_pairs
 from forte.planning.ik import initial_guess
 from forte.planning.methods import METHODS, Method, get_method, method_names
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
@@ -103,11 +105,14 @@ def methods_for(task: Task) -> tuple[str, ...]:
 
 
 def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: TaskForce,
-             params: CapabilityParameters | float = CapabilityParameters()) -> dict[str, FloatArray]:
+             params: CapabilityParameters | float = CapabilityParameters(),
+             scene: Scene | None = None) -> dict[str, FloatArray]:
     """Exact per-waypoint metrics of a plan (the columns of metrics.csv).
 
     ``d`` uses the metric's ``alpha``; the directional capacity (along the desired force) and
-    the inscribed radius are those of the paper's RFP ``P_r,k`` itself (``alpha = 1``).
+    the inscribed radius are those of the paper's RFP ``P_r,k`` itself (``alpha = 1``);
+    ``clearance`` is the robot's exact signed distance (m) to the nearest body of ``scene``
+    (:mod:`forte.model.clearance`), ``inf`` without a scene (the distance to no body).
     """
     alpha = params.alpha if isinstance(params, CapabilityParameters) else float(params)
     rfp = trajectory_rfp(robot, q, t, alpha=1.0)
@@ -125,6 +130,7 @@ def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: Task
         # nominal torque plus the torque that applies the desired force, tau_nom + J^T f
         "max_torque_ratio_with_force": np.max(
             np.abs(rfp.tau_nom + np.einsum("kij,ki->kj", rfp.J, force.f)) / robot.torque_limits, axis=1),
+        "clearance": clearances(robot, scene, q).distance if scene else np.full(len(rfp.J), np.inf),
     }
 
 
@@ -157,9 +163,14 @@ def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]
         return None
     coarse = task.resampled(COARSE_WAYPOINTS)
     force = coarse.force()
-    opt = TrajectoryOptimizer(task.robot, coarse.n, method, task.weights, options=task.solver, limits=task.limits)
     nominal = coarse.nominal()
-    sol = opt.solve(coarse.t, coarse.targets, force.f, force.r, coarse.q_init, start_guess(coarse, nominal), nominal)
+    if task.scene:  # clear of the scene already: the fine solve starts outside the bodies
+        sol = _solve_in_scene(coarse, method, force, start_guess(coarse, nominal), nominal, task.solver)[1]
+    else:
+        opt = TrajectoryOptimizer(task.robot, coarse.n, method, task.weights, options=task.solver,
+                                  limits=task.limits)
+        sol = opt.solve(coarse.t, coarse.targets, force.f, force.r, coarse.q_init, start_guess(coarse, nominal),
+                        nominal)
     if not sol.success:
         return None
     q = np.column_stack([np.interp(task.t, coarse.t, sol.q[:, j]) for j in range(sol.q.shape[1])])
@@ -187,9 +198,12 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         q_guess, info["coarse"] = warm
         # a near-optimal start: begin with a small barrier parameter
         options = replace(options, extra={"mu_strategy": "monotone", "mu_init": 1e-4} | options.extra)
-    opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
-                              options=options, limits=task.limits)
-    sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess, nominal)
+    if task.scene:
+        opt, sol, info["clearance_rows"] = _solve_in_scene(task, method, force, q_guess, nominal, options)
+    else:
+        opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
+                                  options=options, limits=task.limits)
+        sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess, nominal)
     if task.mode == "hold" and guess is None and options.hold_starts > 1:
         sol, info["starts"] = _best_of_starts(opt, task, force, sol, nominal)
     info |= {
@@ -205,6 +219,33 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         starts["chosen_iterations"], starts["chosen_solve_time_s"] = sol.iterations, sol.solve_time
         info["iterations"], info["solve_time_s"] = starts["iterations"], starts["solve_time_s"]
     return sol, info
+
+
+#: Solves from the last solution when it brought a pair close that had no clearance rows.
+SCENE_ROUNDS = 3
+
+
+def _solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatArray, nominal: FloatArray,
+                    options: Any) -> tuple[TrajectoryOptimizer, SolverResult, dict[str, Any]]:
+    """Solve with clearance rows for the pairs the broad phase finds near ``q_guess``; while the
+    solution brings a pair within the clearance that had no rows, solve again from it with those
+    pairs added (at most :data:`SCENE_ROUNDS` times)."""
+    fix = task.mode != "hold"
+    extra: set[tuple[int, int, int]] = set()
+    start, rounds = q_guess, []
+    for _ in range(SCENE_ROUNDS + 1):
+        slots = assign_slots(task.robot, start, task.scene, task.clearance, fix, extra)
+        opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=fix, options=options,
+                                  limits=task.limits, slots=slots)
+        sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, start, nominal)
+        missing = missing_pairs(task.robot, sol.q, task.scene, task.clearance, slots)
+        rounds.append({"rows": slots.rows, "slots": {f.frame: f.slots for f in slots.frames},
+                       "iterations": sol.iterations, "missing_pairs": len(missing)})
+        if not missing or not sol.success:
+            break
+        extra |= missing | slots.triples()
+        start = sol.q
+    return opt, sol, {"rounds": rounds}
 
 
 def hold_starts(task: Task) -> FloatArray:
@@ -335,7 +376,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         q, solved, status = spec.produce(task), True, spec.status
         verdict = judge_plan(task, q, force)
     info["wall_time_s"] = time.perf_counter() - start
-    metrics = evaluate(task.robot, q, task.t, force, task.weights.capability_params)
+    metrics = evaluate(task.robot, q, task.t, force, task.weights.capability_params, task.scene)
     return Plan(method=spec.name, robot=task.robot, t=task.t, q=q, force=force, payload=task.payload,
                 metrics=metrics, solved=solved, status=status, solver=info, task=task, verdict=verdict,
                 scene=task.scene)

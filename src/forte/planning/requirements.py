@@ -14,6 +14,8 @@ much. :func:`forte.planning.verdict.judge` runs the list :data:`REQUIREMENTS`.
   checked whether or not the NLP imposed them;
 - :class:`Tracking`: the end effector on the task's path (position and orientation);
 - :class:`SelfCollision`: no collision between the arm's URDF collision meshes;
+- :class:`Clearance`: the whole robot (arm collision meshes, base box) keeps the task's
+  ``clearance`` from every scene body, exactly on coal's geometry (:mod:`forte.model.clearance`);
 - :class:`Solver`: the solver converged (its status) with a small constraint violation.
 """
 
@@ -27,9 +29,12 @@ import numpy as np
 from forte.capability.metrics import capability_margin
 from forte.capability.polytope import directional_capacity
 from forte.force.taskforce import force_directions
+from forte.model.clearance import Clearances, clearances
 from forte.model.robot import N_BASE, MobileManipulator
+from forte.model.scene import Scene
 from forte.model.self_collision import arm_geometry
 from forte.planning.motion_samples import MotionSamples, SampledForce
+from forte.planning.scene_section import DEFAULT_CLEARANCE
 from forte.validation import FloatArray
 
 #: End-effector position error (m) and orientation error (rad) a plan may have against its task's path.
@@ -79,6 +84,9 @@ class Context(NamedTuple):
         velocity_limits, acceleration_limits: whole-body limits (nq; ``inf`` where none).
         solver: the solver's facts (``{}`` for a plan that was not optimized).
         optimized: whether the plan came from the solver.
+        scene, clearance: the static bodies around the robot and the distance (m) to keep from them.
+        distances: the exact robot-scene clearance at every sample (``None``: not computed yet;
+            :class:`Clearance` computes it when the scene is not empty).
     """
 
     robot: MobileManipulator
@@ -90,6 +98,9 @@ class Context(NamedTuple):
     acceleration_limits: FloatArray
     solver: dict[str, Any]
     optimized: bool
+    scene: Scene = Scene()
+    clearance: float = DEFAULT_CLEARANCE
+    distances: Clearances | None = None
 
 
 def exceeded(ctx: Context, name: str, value: FloatArray, limit: float, units: str, what: str) -> Violation | None:
@@ -246,7 +257,7 @@ class SelfCollision(Requirement):
     The authors' spheres (basket against base, :data:`forte.model.collision.AUTHORS_SPHERES`) are
     not judged here: they are a soft keep-out with a 0.08 m margin in the cost (a 0.52 m ball for
     the base), which the authors' own lift overlaps by up to 9 cm, not the robot's geometry. The
-    base's own geometry is not in the URDF either; both wait for a scene with real shapes.
+    base's own geometry is not in the URDF either (:class:`Clearance` judges it against a scene).
     """
 
     name: ClassVar[str] = "self_collision"
@@ -267,6 +278,47 @@ class SelfCollision(Requirement):
         pair = geometry.contact(ctx.samples.q[first, N_BASE:]) if geometry is not None else None
         names = f": {pair.first} with {pair.second}" if pair is not None else ""
         return found._replace(detail=f"{found.detail.split(';')[0]}{names}")
+
+
+def scene_distances(ctx: Context) -> Clearances | None:
+    """The exact clearance at every sample (``None`` for an empty scene: nothing to compute)."""
+    if not ctx.scene:
+        return None
+    return ctx.distances if ctx.distances is not None else clearances(ctx.robot, ctx.scene, ctx.samples.q)
+
+
+@dataclass(frozen=True)
+class Clearance(Requirement):
+    """Every robot part at least ``ctx.clearance`` (m) from every scene body, at every sample
+    (signed distance on coal's exact geometry, :mod:`forte.model.clearance`); the violation names
+    the closest pair and its time. An empty scene is not checked."""
+
+    name: ClassVar[str] = "clearance"
+
+    def measures(self, ctx: Context) -> list[Measure]:
+        found = scene_distances(ctx)
+        if found is None:
+            return []
+        return [Measure(-found.distance, -ctx.clearance, "m", "the robot comes closer to the scene than the "
+                        "clearance (-distance > -clearance)")]
+
+    def check(self, ctx: Context) -> Violation | None:
+        found = scene_distances(ctx)
+        if found is None:
+            return None
+        s, bad = ctx.samples, found.distance < ctx.clearance
+        if not np.any(bad):
+            return None
+        worst = found.closest()
+        at_waypoints = tuple(int(k) for k in np.flatnonzero(bad[s.waypoint]))
+        first = float(s.t[np.flatnonzero(bad)[0]])
+        where = (f"at {len(at_waypoints)} of {len(s.waypoint)} waypoints" if at_waypoints
+                 else "between waypoints only")
+        detail = (f"{found.robot[worst]} vs {found.body[worst]} {found.distance[worst]:.3g} m < "
+                  f"{ctx.clearance:g} m at t = {s.t[worst]:.3g} s (below the clearance {where}, "
+                  f"first at t = {first:.3g} s)")
+        return Violation(self.name, detail, float(found.distance[worst]), float(ctx.clearance), "m",
+                         at_waypoints, first)
 
 
 @dataclass(frozen=True)
@@ -293,8 +345,9 @@ class Solver(Requirement):
         return Violation(self.name, detail, violation, accepted, "", (), None)
 
 
-#: The requirements every plan is judged on, in the order their failures are reported.
+#: The requirements every plan is judged on, in the order their failures are reported (a plan
+#: that runs into the scene is reported for that first: one line names the pair).
 REQUIREMENTS: tuple[Requirement, ...] = (
-    Solver(), Capacity(), TorqueWithForce(), JointPositions(), JointVelocities(), JointAccelerations(),
-    Tracking(), SelfCollision(),
+    Solver(), Clearance(), Capacity(), TorqueWithForce(), JointPositions(), JointVelocities(),
+    JointAccelerations(), Tracking(), SelfCollision(),
 )

@@ -25,7 +25,9 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from forte.force.taskforce import TaskForce
+from forte.model.clearance import clearances
 from forte.model.robot import MobileManipulator
+from forte.model.scene import Scene
 from forte.planning.motion_samples import SAMPLES_PER_INTERVAL, MotionSamples, force_at, sample_motion
 from forte.planning.requirements import (
     REQUIREMENTS,
@@ -34,7 +36,9 @@ from forte.planning.requirements import (
     JointAccelerations,
     Requirement,
     Violation,
+    scene_distances,
 )
+from forte.planning.scene_section import DEFAULT_CLEARANCE
 from forte.settings import KinematicLimits
 from forte.validation import FloatArray
 
@@ -53,6 +57,9 @@ class Verdict(NamedTuple):
         samples_per_interval: density of the grid between waypoints.
         payload_bound: what would work when the capacity or torque requirement fails
             (``asked_kg``, ``fixed_motion_kg``: :func:`fixed_motion_bound`), else ``None``.
+        clearance: with a scene, the closest approach over every sample (:func:`clearance_summary`:
+            the distance, the pair, its time, the witness points); ``None`` without a scene.
+            plan.json keeps it as its own ``clearance`` block, not inside ``verdict``.
     """
 
     label: str
@@ -60,6 +67,7 @@ class Verdict(NamedTuple):
     checked: tuple[str, ...]
     samples_per_interval: int
     payload_bound: dict[str, Any] | None = None
+    clearance: dict[str, Any] | None = None
 
     @property
     def feasible(self) -> bool:
@@ -109,24 +117,46 @@ def _label(violations: tuple[Violation, ...]) -> str:
 
 def context(robot: MobileManipulator, samples: MotionSamples, force: TaskForce, alpha: float,
             targets_at: Callable[[FloatArray], FloatArray] | None, limits: KinematicLimits | None,
-            solver: dict[str, Any], optimized: bool) -> Context:
-    """The :class:`~forte.planning.requirements.Context` of a sampled plan."""
+            solver: dict[str, Any], optimized: bool, scene: Scene | None = None,
+            clearance: float = DEFAULT_CLEARANCE) -> Context:
+    """The :class:`~forte.planning.requirements.Context` of a sampled plan (the exact
+    clearance at every sample computed once here when ``scene`` has bodies)."""
     vel, acc = (limits or KinematicLimits()).resolve(robot)
     targets = None if targets_at is None else np.asarray(targets_at(samples.t), dtype=float)
-    return Context(robot, samples, force_at(force, samples.t), float(alpha), targets, vel, acc, solver, optimized)
+    scene = scene or Scene()
+    distances = clearances(robot, scene, samples.q) if scene else None
+    return Context(robot, samples, force_at(force, samples.t), float(alpha), targets, vel, acc, solver, optimized,
+                   scene, float(clearance), distances)
+
+
+def clearance_summary(ctx: Context) -> dict[str, Any] | None:
+    """The closest approach of the robot to the scene over every sample: ``min_m`` (signed, m),
+    the pair (``robot`` part, scene ``body``), its time ``t`` and the ``waypoint`` at or before it, the
+    witness points (world frame), the ``required_m`` clearance and the number of ``samples``;
+    ``None`` for an empty scene."""
+    found = scene_distances(ctx)
+    if found is None:
+        return None
+    i, s = found.closest(), ctx.samples
+    return {"min_m": float(found.distance[i]), "robot": found.robot[i], "body": found.body[i],
+            "t": float(s.t[i]), "waypoint": s.segment_of(i), "required_m": float(ctx.clearance),
+            "witness_robot": found.witness_robot[i].tolist(), "witness_body": found.witness_body[i].tolist(),
+            "samples": len(s.t)}
 
 
 def judge_context(ctx: Context, requirements: tuple[Requirement, ...] = REQUIREMENTS,
                   per_interval: int = SAMPLES_PER_INTERVAL) -> Verdict:
     """Judge a prepared context on ``requirements``."""
     found = tuple(v for v in (req.check(ctx) for req in requirements) if v is not None)
-    return Verdict(_label(found), found, tuple(r.name for r in requirements), per_interval)
+    return Verdict(_label(found), found, tuple(r.name for r in requirements), per_interval,
+                   clearance=clearance_summary(ctx))
 
 
 def judge(robot: MobileManipulator, t: Any, q: Any, force: TaskForce, alpha: float, *,
           targets_at: Callable[[FloatArray], FloatArray] | None = None, limits: KinematicLimits | None = None,
           solver: dict[str, Any] | None = None, optimized: bool = False,
-          per_interval: int = SAMPLES_PER_INTERVAL) -> Verdict:
+          per_interval: int = SAMPLES_PER_INTERVAL, scene: Scene | None = None,
+          clearance: float = DEFAULT_CLEARANCE) -> Verdict:
     """The verdict of the plan ``(t, q)`` for the task force ``force`` (see the module docstring).
 
     Args:
@@ -134,9 +164,10 @@ def judge(robot: MobileManipulator, t: Any, q: Any, force: TaskForce, alpha: flo
             against it; ``None``: not judged).
         limits: the kinematic limits (velocity, acceleration); default :class:`KinematicLimits`.
         solver: the solver's facts (``status``, ``constraint_violation``) of an optimized plan.
+        scene, clearance: the bodies around the robot and the distance (m) to keep from them.
     """
     samples = sample_motion(robot, t, q, per_interval)
-    ctx = context(robot, samples, force, alpha, targets_at, limits, solver or {}, optimized)
+    ctx = context(robot, samples, force, alpha, targets_at, limits, solver or {}, optimized, scene, clearance)
     return judge_context(ctx, REQUIREMENTS, per_interval)
 
 
@@ -218,7 +249,7 @@ def judge_plan(task: Any, q: Any, force: TaskForce, solver: dict[str, Any] | Non
     capacity or torque requirement fails and the force comes from a payload mass."""
     samples = sample_motion(task.robot, task.t, q, per_interval)
     ctx = context(task.robot, samples, force, task.weights.alpha, _task_targets(task), task.limits,
-                  solver or {}, solver is not None)
+                  solver or {}, solver is not None, task.scene, task.clearance)
     verdict = judge_context(ctx, REQUIREMENTS, per_interval)
     mass = task.payload.mass
     if mass is None or not set(verdict.failed) & {r.name for r in REQUIREMENTS if r.mass_dependent}:

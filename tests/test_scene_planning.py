@@ -1,0 +1,162 @@
+"""The scene in planning: proxies against coal, the robot's sphere cover, the clearance kernels
+against their numpy twin, and a plan that drives around a crate (issue 24)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import coal
+import numpy as np
+import pytest
+import yaml
+
+from forte.model.body_spheres import _vertices, capsule_of, primitive_centres, robot_primitives, spheres_of_capsule
+from forte.model.robot import default_robot
+from forte.model.scene import Box, Capsule, Cylinder, SceneObject, Sphere, pose_matrix, proxy_distance
+from forte.model.self_collision import arm_geometry
+from forte.planning.collision_kernels import SLOT_SIZE, build_collision_kernels
+from forte.planning.collision_slots import assign_slots, pair_distances, trajectory_distances, upright
+
+SHAPES = [Box((0.4, 0.6, 0.3)), Cylinder(0.15, 0.8), Sphere(0.2), Capsule(0.1, 0.5)]
+
+
+@pytest.mark.parametrize("shape", SHAPES, ids=lambda s: type(s).__name__)
+def test_proxy_distance_equals_coal_outside_the_body(shape):
+    """The proxy's closed-form signed distance equals coal's distance from a point (a tiny sphere)."""
+    rng = np.random.default_rng(3)
+    body = SceneObject("b", shape, pose_matrix([0.3, -0.2, 0.5, 0.2, -0.4, 1.1]))
+    geometry = body.collision_geometry()
+    T = coal.Transform3s(body.pose[:3, :3], body.pose[:3, 3])
+    points = body.pose[:3, 3] + rng.uniform(-1.0, 1.0, (200, 3))
+    ours = proxy_distance(body.proxy(), points)
+    for point, value in zip(points, ours, strict=True):
+        result = coal.DistanceResult()
+        coal.distance(geometry, T, coal.Sphere(1e-9), coal.Transform3s(np.eye(3), point), coal.DistanceRequest(),
+                      result)
+        if result.min_distance > 1e-6:  # coal's penetration depth of a point is another quantity
+            assert value == pytest.approx(result.min_distance, abs=1e-6)
+        else:
+            assert value <= 1e-6
+
+
+def test_sphere_cover_contains_every_collision_mesh_point():
+    """Points sampled on every triangle of the arm's meshes lie inside a sphere of the cover."""
+    robot = default_robot()
+    geometry = arm_geometry(robot)
+    rng = np.random.default_rng(0)
+    for obj in geometry.geom.geometryObjects:
+        g = obj.geometry
+        vertices = _vertices(g)
+        if hasattr(g, "num_tris") and g.num_tris:
+            triangles = np.array([[t[0], t[1], t[2]] for t in (g.tri_indices(i) for i in range(g.num_tris))])
+            w = rng.dirichlet(np.ones(3), size=len(triangles))
+            points = np.einsum("tk,tkd->td", w, vertices[triangles])
+        else:  # a primitive: points of the convex hull of its bounding corners
+            points = rng.dirichlet(np.ones(len(vertices)), size=500) @ vertices
+        points = np.vstack([points, vertices])
+        centres, radius = spheres_of_capsule(*capsule_of(vertices))
+        inside = np.linalg.norm(points[:, None] - centres[None], axis=2).min(axis=1) <= radius + 1e-12
+        assert inside.all(), obj.name
+        assert radius < 0.15  # a cover, not a blob
+
+
+def test_cover_moves_with_the_robot_and_holds_the_base_box():
+    robot = default_robot()
+    primitives = robot_primitives(robot)
+    base = [p for p in primitives if p.piece == "base"]
+    # the base box's corners at mid-height are inside a capsule of the grid
+    corners = np.array([[sx * 0.3, sy * 0.25, 0.2] for sx in (-1, 1) for sy in (-1, 1)])
+    q = np.r_[1.0, -0.5, 0.7, robot.home_arm]
+    world = corners @ robot.base_transform(q[:3])[:3, :3].T + np.r_[q[:2], 0]
+    centres = primitive_centres(robot, q, tuple(base))
+    gap = np.linalg.norm(world[:, None, :2] - centres[None, :, :2], axis=2) - np.array([p.radius for p in base])
+    assert (gap.min(axis=1) <= 1e-12).all()
+
+
+def test_clearance_kernel_equals_its_numpy_twin_and_its_jacobian_finite_differences():
+    robot = default_robot()
+    primitives = robot_primitives(robot)
+    rng = np.random.default_rng(1)
+    body = SceneObject("crate", Box((0.5, 0.6, 0.45)), pose_matrix([0.9, 0.2, 0.4, 0, 0, 0.6]))
+    proxy = upright(body.proxy())
+    hand = [i for i, p in enumerate(primitives) if p.frame == robot.n_arm - 1][:3]
+    kern = build_collision_kernels(robot, robot.n_arm, len(hand))
+    from forte.planning.collision_slots import _slot
+
+    params = np.concatenate([_slot(primitives[i], proxy, 0.02) for i in hand])
+    for _ in range(5):
+        q0 = np.r_[rng.uniform(-0.3, 0.3, 3), robot.home_arm + rng.uniform(-0.4, 0.4, robot.n_arm)]
+        q1 = q0 + rng.normal(0, 0.05, robot.nq)
+        z = np.r_[q0, q0, q1]
+        rows = np.array(kern["clear_rows"](z, params)).ravel()
+        c0 = primitive_centres(robot, q0, primitives)[hand]
+        c1 = primitive_centres(robot, q1, primitives)[hand]
+        d0 = pair_distances(c0, tuple(primitives[i] for i in hand), [proxy])[:, 0]
+        d1 = pair_distances(c1, tuple(primitives[i] for i in hand), [proxy])[:, 0]
+        need = 0.02 + 0.5 * np.linalg.norm(c1 - c0, axis=1)
+        assert rows[0::2] == pytest.approx(d1 - need, abs=1e-8)
+        assert rows[1::2] == pytest.approx(d0 - need, abs=1e-8)
+        J = np.array(kern["clear_jac"](z, params))
+        h = 1e-6
+        fd = np.column_stack([(np.array(kern["clear_rows"](z + h * e, params)).ravel()
+                               - np.array(kern["clear_rows"](z - h * e, params)).ravel()) / (2 * h)
+                              for e in np.eye(z.size)])
+        assert J == pytest.approx(fd, abs=1e-5)
+
+
+def test_an_empty_slot_gives_rows_that_always_hold():
+    robot = default_robot()
+    kern = build_collision_kernels(robot, 0, 2)
+    rows = np.array(kern["clear_rows"](np.zeros(3 * robot.nq), np.zeros(2 * SLOT_SIZE))).ravel()
+    assert rows == pytest.approx(np.ones(4))
+
+
+CRATE_TASK = {
+    "name": "around-the-crate",
+    "path": {"kind": "waypoints", "relative": True, "samples": 41,
+             "waypoints": [{"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 8.0, "position": [2.4, 0.0, 0.0]}]},
+    "payload": {"mass": 1.0},
+    "scene": [{"name": "crate", "box": {"size": [0.5, 0.6, 0.45]}, "pose": [1.5, 0.0, 0.225, 0, 0, 0]}],
+}
+
+
+@pytest.mark.slow
+def test_a_crate_on_the_straight_base_path_is_driven_around(tmp_path):
+    import forte
+    from forte.planning.tasks import task_from_dict
+
+    task = task_from_dict(CRATE_TASK, tmp_path / "crate.yaml")
+    guess_distances, _ = trajectory_distances(task.robot, task.nominal(), task.scene)
+    assert guess_distances.min() < 0  # the straight path drives through the crate
+    plan = forte.plan(task)
+    assert plan.solved
+    D, _ = trajectory_distances(task.robot, plan.q, task.scene)
+    assert D.min() >= task.clearance - 1e-6  # the cover keeps the clearance at every waypoint
+    assert np.abs(plan.q[:, 1]).max() > 0.5  # around it, not through it
+    free = forte.plan(task_from_dict({k: v for k, v in CRATE_TASK.items() if k != "scene"}, tmp_path / "f.yaml"))
+    assert np.abs(free.q[:, 1]).max() < 0.05  # no scene: the straight path again
+    slots = assign_slots(task.robot, plan.q, task.scene, task.clearance, True)
+    assert slots.rows > 0 and all(f.slots <= 32 for f in slots.frames)
+
+
+def test_bad_scene_entries_exit_2_with_one_line(tmp_path):
+    cases = [
+        ([{"name": "a", "box": {"size": [1, 2]}, "pose": [0] * 6}], "scene[0].box.size"),
+        ([{"name": "a", "box": {"size": [1, 1, 1]}, "sphere": {"radius": 1}, "pose": [0] * 6}], "exactly one shape"),
+        ([{"name": "a", "mesh": {"file": "nope.stl"}, "pose": [0] * 6}], "scene[0].mesh.file"),
+        ([{"name": "a", "box": {"size": [1, 1, 1]}}], "scene[0].pose"),
+        ([{"name": "a", "cylinder": {"radius": -1, "length": 1}, "pose": [0] * 6}], "scene[0].cylinder.radius"),
+        (3, "scene: expected a list"),
+    ]
+    for scene, expected in cases:
+        path = tmp_path / "bad.yaml"
+        path.write_text(yaml.safe_dump(CRATE_TASK | {"scene": scene}))
+        forte_cli = str(Path(sys.executable).parent / "forte")
+        proc = subprocess.run([forte_cli, "plan", str(path), "--out", str(tmp_path / "o")],
+                              capture_output=True, text=True, check=False)
+        assert proc.returncode == 2, proc.stderr
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and expected in lines[0], proc.stderr
+        assert not (tmp_path / "o").exists()
