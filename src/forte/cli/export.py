@@ -28,7 +28,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "export", help="write the whole-body model (base x, y, yaw + arm) as URDF or MJCF",
         description="Write the combined model: FILE.urdf (base joints base_x, base_y prismatic and base_yaw "
         "revolute, the arm mounted on them, the tool load as a link) or FILE.xml (MuJoCo MJCF of the simulation "
-        "model). The robot is the built-in one, a task's or a plan's.")
+        "model; a task's or a plan's carries its scene as static bodies scene/NAME, with the contacts of "
+        "'forte simulate'). The robot is the built-in one, a task's or a plan's.")
     e.add_argument("file", type=Path, metavar="FILE", help="FILE.urdf or FILE.xml")
     src = e.add_mutually_exclusive_group()
     src.add_argument("--task", type=Path, help="use this task file's robot")
@@ -53,14 +54,17 @@ def run_robot_export(args: argparse.Namespace) -> int:
                                 f"expected one of {', '.join(ROBOT_FORMATS)}")
     if args.file.is_dir() or not args.file.parent.is_dir():
         raise InvalidInputError(f"{args.file}: expected a file name in an existing folder")
+    scene = None
     if args.task is not None:
         from forte.planning.tasks import load_task
 
-        robot = load_task(args.task).robot
+        task = load_task(args.task)
+        robot, scene = task.robot, task.scene
     elif args.plan is not None:
         from forte.io.plandir import read_plan_dir
 
-        robot = read_plan_dir(args.plan).robot
+        plan = read_plan_dir(args.plan)
+        robot, scene = plan.robot, plan.scene
     else:
         from forte.model.robot import default_robot
 
@@ -69,12 +73,15 @@ def run_robot_export(args: argparse.Namespace) -> int:
         from forte.io.export import whole_body_urdf
 
         text = whole_body_urdf(robot)
+        scene_note = f"; the scene's {len(scene.objects)} bodies are in the MJCF (.xml) only" if scene else ""
     else:
         from forte.execution.model import whole_body_mjcf
 
-        text = whole_body_mjcf(robot)
+        # a task's or a plan's model is the one 'forte simulate' builds: its scene, contacts on
+        text = whole_body_mjcf(robot, scene=scene)
+        scene_note = f" and {len(scene.objects)} scene bodies" if scene else ""
     args.file.write_text(text)
     if not args.quiet:
-        print(f"wrote {args.file} ({robot.name}: base_x, base_y, base_yaw + {robot.n_arm} arm joints)",
+        print(f"wrote {args.file} ({robot.name}: base_x, base_y, base_yaw + {robot.n_arm} arm joints{scene_note})",
               file=sys.stderr)
     return 0

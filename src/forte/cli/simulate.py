@@ -1,8 +1,8 @@
 """``forte simulate PLAN_DIR``: execute a plan in MuJoCo with the Section 3.1 controllers.
 
 Exit codes: 0 when the verdict is success, 1 when it is failure (``sim.json`` says why and
-when), 2 for user errors (missing/malformed plan directory or gains file, rendering or display
-unavailable).
+when; a touch of the plan's scene or of the floor is one: the line names the bodies), 2 for
+user errors (missing/malformed plan directory or gains file, rendering or display unavailable).
 
 Controller gains: the defaults of :mod:`forte.execution.gains` (Franka's on the Panda, the
 bandwidth rule ``K_i = M_ii (2 pi f)^2``, ``D_i = 2 zeta sqrt(K_i M_ii)`` on other arms);
@@ -147,9 +147,21 @@ def run(args: argparse.Namespace) -> int:
               f"{r['replans']} re-plans ({r['replans_failed']} not converged){latency}", file=sys.stderr)
     if result.success:
         return 0
-    print(f"failure at t = {result.failure_time:.3f} s: {result.reason} ({result.detail}); "
+    print(f"failure at t = {result.failure_time:.3f} s: {result.reason} ({result.detail}){_touched(result)}; "
           f"wrote {out}/sim.csv, {out}/sim.json", file=sys.stderr)
     return 1
+
+
+def _touched(result: Any, shown: int = 3) -> str:
+    """The pairs that touched (robot body - world body, first time, peak force), for the failure
+    line (nothing when the failure's own detail names the only one)."""
+    pairs = result.summary.get("contacts") or []
+    if not pairs or (result.reason == "contact" and len(pairs) == 1):
+        return ""
+    text = ", ".join(f"{c['robot']}-{c['world']} from t = {c['first_time']:.3f} s (peak {c['peak_force_N']:.1f} N)"
+                     for c in pairs[:shown])
+    more = f" and {len(pairs) - shown} more" if len(pairs) > shown else ""
+    return f"; {len(pairs)} pair{'s' if len(pairs) > 1 else ''} touched: {text}{more}"
 
 
 def _check_arguments(args: argparse.Namespace) -> None:

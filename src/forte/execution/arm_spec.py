@@ -6,7 +6,8 @@
 * the arm joints keep their range limits, lose damping and friction loss (Pinocchio's ``rnea``
   models neither) and get the reflected rotor inertia as ``armature``;
 * ``package://example-robot-data/...`` mesh URIs point to the installed share folder; every
-  geometry has contacts off, and without ``meshes`` every geometry is dropped.
+  geometry is kept massless with contacts off (:func:`forte.execution.contact.enable_robot_contacts`
+  switches them on), and without ``meshes`` every geometry is dropped.
 
 Bodies and joints keep their URDF names; :func:`forte.execution.model.build_sim_model` attaches
 the arm under the prefix :data:`ARM_PREFIX`.
@@ -34,12 +35,17 @@ def _urdf_text(robot: MobileManipulator, meshes: bool) -> str:
     text = text.replace("package://example-robot-data/robots/", str(example_robot_data_dir()) + "/")
     if "package://" in text and meshes:
         raise SimulationError(
-            f"urdf: {robot.urdf_path} refers to package:// meshes outside example-robot-data; "
-            "simulate without meshes (meshes=False)"
+            f"urdf: {robot.urdf_path} refers to package:// meshes outside example-robot-data; MuJoCo "
+            "cannot load them for rendering or for contact with a scene (simulate without either)"
         )
     if robot.hand_mass is not None:
         text = _with_link_mass(text, robot.hand_link, robot.hand_mass)
     return text
+
+
+def geometry_loadable(robot: MobileManipulator) -> bool:
+    """Whether MuJoCo can load the URDF's geometry (no ``package://`` URI outside example-robot-data)."""
+    return "package://" not in _urdf_text(robot, False)
 
 
 def _with_link_mass(text: str, link: str, mass: float) -> str:
@@ -56,7 +62,8 @@ def load_arm_spec(robot: MobileManipulator, meshes: bool, rotor: FloatArray) -> 
 
     Args:
         robot: The robot whose URDF and arm joints are used.
-        meshes: Keep the URDF geometry (contacts off) instead of dropping it.
+        meshes: Keep the URDF geometry (massless, contacts off) instead of dropping it: for
+            rendering, or for contact with the scene.
         rotor: Reflected rotor inertia of each arm joint (kg m^2), set as the joint armature.
 
     Raises:

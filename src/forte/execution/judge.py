@@ -4,10 +4,16 @@ The payload is welded to the end effector in the simulation (:mod:`forte.executi
 it can never fall off; a *payload drop* is judged from the motion instead: the end effector
 sagging more than :attr:`Thresholds.drop_sag` below the plan, or tilting more than
 :attr:`Thresholds.drop_tilt` away from the planned orientation, while a payload is carried.
+
+A touch is a failure: any contact between the robot and the scene or the floor
+(:mod:`forte.execution.contact`) fails the run with reason ``"contact"`` at its first time, and
+every pair that touched is recorded (:attr:`Judge.contacts`: the robot's body, the world's body,
+the first time, the peak normal force).
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -51,7 +57,7 @@ class SimResult:
     Attributes:
         success: No failure criterion was met.
         reason: ``None`` on success, else ``"payload drop"``, ``"end-effector sag"``,
-            ``"torque saturation"``, ``"tracking loss"`` or ``"unstable"``.
+            ``"torque saturation"``, ``"tracking loss"``, ``"contact"`` or ``"unstable"``.
         failure_time: Simulated time (s) at which the criterion was met (``None`` on success).
         detail: One human-readable sentence on the failure.
         log: Recorded columns (name -> array), also written to ``sim.csv``.
@@ -92,11 +98,28 @@ class Judge:
         self.reason: str | None = None
         self.time: float | None = None
         self.detail = ""
+        self.contacts: dict[tuple[str, str], dict[str, Any]] = {}
 
     def fail(self, t: float, reason: str, detail: str) -> None:
         """Record a failure at time ``t`` unless an earlier one was recorded."""
         if self.reason is None:
             self.reason, self.time, self.detail = reason, t, detail
+
+    def touch(self, t: float, touches: Iterable[tuple[str, str, float]]) -> None:
+        """Record the robot-versus-world contacts at time ``t``: ``(robot body, world body, normal
+        force N)`` triples (:func:`forte.execution.contact.touches`); the first fails the run."""
+        for robot, world, force in touches:
+            pair = self.contacts.get((robot, world))
+            if pair is None:
+                self.contacts[(robot, world)] = {"robot": robot, "world": world, "first_time": t,
+                                                 "first_force_N": force, "peak_force_N": force}
+                self.fail(t, "contact", f"{robot} touched {world} at t = {t:.3f} s, normal force {force:.1f} N")
+            else:
+                pair["peak_force_N"] = max(pair["peak_force_N"], force)
+
+    def contact_list(self) -> list[dict[str, Any]]:
+        """Every pair that touched, in the order of their first contact."""
+        return sorted(self.contacts.values(), key=lambda c: c["first_time"])
 
     def step(self, t: float, ee_err: FloatArray, tilt: float, saturated: FloatArray) -> None:
         """Judge one control step.

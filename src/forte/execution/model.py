@@ -10,8 +10,8 @@ agreement ~1e-12 Nm):
 * the arm as prepared by :func:`forte.execution.arm_spec.load_arm_spec`: joints that Pinocchio
   locks (the Panda's fingers) fixed at their locked value, no joint damping or friction loss
   (the URDF has damping 0.003 that Pinocchio's ``rnea`` does not model), joint range limits
-  active (a real arm has them), contacts off (self-contacts between collision meshes would add
-  huge forces), geometry only with ``meshes=True`` (for rendering);
+  active (a real arm has them), geometry only with ``meshes=True`` (for rendering) or a
+  ``scene``; self-contacts always off (between collision meshes they would add huge forces);
 * every arm joint gets the reflected motor (rotor) inertia ``armature`` (default
   :data:`ARM_ARMATURE`, 0.1 kg m^2 per joint as in MuJoCo Menagerie's Panda). The URDF's
   rigid-body model has none, but a geared, torque-controlled arm does, and it matters for the
@@ -31,6 +31,11 @@ agreement ~1e-12 Nm):
   ``v_base_x/y/yaw`` with gain ``kv`` on the base joints (the base is velocity-controlled,
   paper Section 3.1): force ``kv (v_cmd - qdot)``, integrated implicitly (``implicitfast``).
 
+* with a ``scene`` (:class:`forte.model.scene.Scene`, possibly empty): the scene's static
+  bodies, and contacts on between the robot (the arm's URDF collision geometry, the base box,
+  the payload sphere; all massless) and the scene, and between the arm and the floor
+  (:mod:`forte.execution.contact`). Without one (None) the robot touches nothing.
+
 Gravity is ``[0, 0, -robot.gravity]``; the time step defaults to 1 ms (1 kHz control).
 """
 
@@ -45,8 +50,10 @@ import pinocchio as pin
 
 from forte.exceptions import InvalidInputError, SimulationError
 from forte.execution.arm_spec import ARM_PREFIX, load_arm_spec
+from forte.execution.contact import add_scene, enable_robot_contacts
 from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT
 from forte.model.robot import N_BASE, MobileManipulator, ToolLoad
+from forte.model.scene import Scene
 from forte.validation import FloatArray, as_positive, as_vector
 
 #: Default base mass (kg) and yaw inertia (kg m^2): a MOCA-like omnidirectional platform.
@@ -129,6 +136,7 @@ class SimModel:
         ee_site: Id of the site at the end-effector frame.
         payload_body: Body id of the payload (-1 when none).
         armature: Reflected rotor inertia of each arm joint (kg m^2), in the model's ``M_a``.
+        scene: The scene built in (None: contacts off, the robot touches nothing).
     """
 
     robot: MobileManipulator
@@ -142,6 +150,7 @@ class SimModel:
     ee_site: int
     payload_body: int
     armature: FloatArray
+    scene: Scene | None = None
     _jacp: FloatArray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -204,6 +213,7 @@ def build_sim_model(
     base_inertia: tuple[float, float, float] = BASE_INERTIA,
     base_kv: tuple[float, float, float] = BASE_KV,
     armature: Any = ARM_ARMATURE,
+    scene: Scene | None = None,
 ) -> SimModel:
     """Build the MuJoCo model of ``robot`` carrying a welded payload of ``payload_mass`` kg.
 
@@ -218,16 +228,18 @@ def build_sim_model(
         base_inertia: Principal inertia of the base body (kg m^2).
         base_kv: Gains of the base's velocity actuators: slides (N s/m) and yaw (N m s/rad).
         armature: Reflected rotor inertia of the arm joints (kg m^2; one value or one per joint).
+        scene: Static bodies and contacts on (the floor too, even for an empty scene); None:
+            no contact at all.
 
     Raises:
-        SimulationError: when the URDF cannot be turned into a MuJoCo model.
+        SimulationError: when the URDF or the scene cannot be turned into a MuJoCo model.
     """
     payload_mass = as_positive(payload_mass, "mass", allow_zero=True)
     rotor = armature_vector(armature, robot.n_arm)
     spec = build_sim_spec(robot, payload_mass, payload_com=payload_com, payload_radius=payload_radius,
                           meshes=meshes, timestep=timestep, base_mass=base_mass, base_inertia=base_inertia,
-                          base_kv=base_kv, armature=rotor)
-    return _index_model(robot, _compile(spec), payload_mass, rotor)
+                          base_kv=base_kv, armature=rotor, scene=scene)
+    return _index_model(robot, _compile(spec), payload_mass, rotor, scene)
 
 
 def build_sim_spec(
@@ -242,13 +254,14 @@ def build_sim_spec(
     base_inertia: tuple[float, float, float] = BASE_INERTIA,
     base_kv: tuple[float, float, float] = BASE_KV,
     armature: Any = ARM_ARMATURE,
+    scene: Scene | None = None,
 ) -> mujoco.MjSpec:
     """The ``MjSpec`` that :func:`build_sim_model` compiles (same arguments)."""
     payload_mass = as_positive(payload_mass, "mass", allow_zero=True)
     timestep = as_positive(timestep, "timestep")
     com = as_vector(payload_com, "payload_com", 3)
     rotor = armature_vector(armature, robot.n_arm)
-    arm = load_arm_spec(robot, meshes, rotor)
+    arm = load_arm_spec(robot, meshes or scene is not None, rotor)
     spec = _world_spec(robot, timestep)
     base = _add_base(spec, robot, base_mass, base_inertia)
     frame = base.add_frame(pos=robot.mount[:3, 3].tolist(), quat=_rot_to_quat(robot.mount[:3, :3]).tolist())
@@ -258,6 +271,9 @@ def build_sim_spec(
     frame.attach_body(root, ARM_PREFIX, "")
     _add_end_effector(spec, robot, payload_mass, com, payload_radius)
     _add_actuators(spec, robot, base_kv)
+    if scene is not None:
+        add_scene(spec, scene)
+        enable_robot_contacts(spec, base)
     return spec
 
 
@@ -268,13 +284,15 @@ def _compile(spec: mujoco.MjSpec) -> mujoco.MjModel:
         raise SimulationError(f"simulation model: MuJoCo compile failed: {exc}") from exc
 
 
-def whole_body_mjcf(robot: MobileManipulator, payload_mass: float = 0.0, meshes: bool = True) -> str:
+def whole_body_mjcf(robot: MobileManipulator, payload_mass: float = 0.0, meshes: bool = True,
+                    scene: Scene | None = None) -> str:
     """The simulation model of ``robot`` (base joints ``base_x``, ``base_y``, ``base_yaw``, the arm
-    under :data:`ARM_PREFIX`, torque motors and base velocity actuators) as MJCF text.
+    under :data:`ARM_PREFIX`, torque motors and base velocity actuators) as MJCF text; with a
+    ``scene``, its static bodies ``scene/<name>`` and the contacts of ``forte simulate``.
 
     Mesh files are referenced by absolute path, so the file loads from anywhere on this machine.
     """
-    spec = build_sim_spec(robot, payload_mass, meshes=meshes)
+    spec = build_sim_spec(robot, payload_mass, meshes=meshes, scene=scene)
     _compile(spec)  # to_xml needs a compiled spec
     return spec.to_xml()
 
@@ -288,7 +306,7 @@ def _world_spec(robot: MobileManipulator, timestep: float) -> mujoco.MjSpec:
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.compiler.autolimits = True
     world = spec.worldbody
-    world.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5, 5, 0.1], rgba=[0.85, 0.85, 0.85, 1],
+    world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5, 5, 0.1], rgba=[0.85, 0.85, 0.85, 1],
                    contype=0, conaffinity=0)
     world.add_light(pos=[0, 0, 4], dir=[0, 0, -1])
     return spec
@@ -355,7 +373,7 @@ def _add_actuators(spec: mujoco.MjSpec, robot: MobileManipulator, base_kv: tuple
 
 
 def _index_model(robot: MobileManipulator, model: mujoco.MjModel, payload_mass: float,
-                 rotor: FloatArray) -> SimModel:
+                 rotor: FloatArray, scene: Scene | None) -> SimModel:
     """Look up the joint, actuator, site and body ids of a compiled model."""
     names = (*BASE_JOINTS, *(robot.arm_joints or ()))
     jids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n if i < N_BASE else ARM_PREFIX + n)
@@ -373,5 +391,5 @@ def _index_model(robot: MobileManipulator, model: mujoco.MjModel, payload_mass: 
         arm_act=np.array(acts), base_act=np.array(bacts),
         ee_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "ee"),
         payload_body=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "payload"),
-        armature=rotor,
+        armature=rotor, scene=scene,
     )

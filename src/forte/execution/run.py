@@ -16,7 +16,13 @@ applied at the end effector.
 the end-effector error ``ee_err_x/y/z`` (``p - p_d``, world frame) and its norm ``ee_err``;
 the simulated whole-body joint positions ``x_b, y_b, yaw, q1..qn`` (the names of
 ``trajectory.csv``; yaw not wrapped) and velocities ``dx_b, dy_b, dyaw, dq1..dqn``.
-``sim.json`` holds the verdict, the summary statistics and the gains used.
+``sim.json`` holds the verdict, the summary statistics and the gains used, and the contacts:
+the plan's scene is built into the model (:mod:`forte.execution.contact`), a touch of the scene
+or the floor fails the run (reason ``contact``), ``contact_checked`` says whether contacts were
+on (off only for a robot whose URDF geometry MuJoCo cannot load, without a scene) and
+``contacts`` lists every pair that touched: ``robot`` (a link, ``base`` or ``payload``),
+``world`` (a scene body or ``floor``), ``first_time`` (s), ``first_force_N`` and
+``peak_force_N`` (the normal force summed over the pair's contact points).
 """
 
 from __future__ import annotations
@@ -33,16 +39,18 @@ import mujoco
 import numpy as np
 
 from forte.exceptions import InvalidInputError
+from forte.execution.arm_spec import ARM_PREFIX, geometry_loadable
+from forte.execution.contact import touches
 from forte.execution.control import ArmCommand, ArmImpedance, BaseAdmittance, ControlGains, Reference
 from forte.execution.gains import default_gains, describe_gains, gains_from_mapping, sampled_loop_radius_at
 from forte.execution.judge import Judge, SimResult, Thresholds
 from forte.execution.model import SimModel, build_sim_model
 from forte.execution.reference import plan_reference
 from forte.execution.render import FrameRecorder, FrameSink, LiveViewer
+from forte.execution.run_log import RunLog
 from forte.io.outputs import atomic_write
 from forte.io.plandir import read_plan_dir
 from forte.model.robot import N_BASE, MobileManipulator, with_torque_limits
-from forte.model.trajectory import trajectory_header
 from forte.planning.planner import Plan
 from forte.validation import FloatArray, as_positive, payload_mass
 
@@ -52,80 +60,6 @@ def check_mass(mass: Any) -> float:
     if mass is None:
         raise InvalidInputError("mass: expected a number >= 0 kg, got None")
     return payload_mass(mass, "mass", allow_zero=True)
-
-
-class _RunLog:
-    """Statistics over every control step and the log columns of every ``record_every``-th one."""
-
-    def __init__(self, steps: int, record_every: int, nq: int, tau_max: FloatArray) -> None:
-        n = tau_max.size
-        self.tau_max = tau_max
-        self.rec_idx = list(range(0, steps, max(1, int(record_every))))
-        if self.rec_idx[-1] != steps - 1:
-            self.rec_idx.append(steps - 1)
-        nrec = len(self.rec_idx)
-        self.q_err = np.zeros((nrec, nq))
-        self.q = np.zeros((nrec, nq))
-        self.dq = np.zeros((nrec, nq))
-        self.tau = np.zeros((nrec, n))
-        self.sat = np.zeros((nrec, n))
-        self.ee = np.zeros((nrec, 3))
-        self.sat_window = np.zeros(n, dtype=bool)
-        self.sat_steps = np.zeros(n)
-        self.max_ratio = np.zeros(n)
-        self.ee_err_max = 0.0
-        self.ee_sq = 0.0
-        self.qa_err_max = 0.0
-        self.rows = 0
-
-    def add(self, k: int, q: FloatArray, dq: FloatArray, q_d: FloatArray, ee_err: FloatArray,
-            cmd: ArmCommand) -> None:
-        """Account for control step ``k`` (state ``q, dq``, reference ``q_d``, command ``cmd``)."""
-        # Saturation is OR-ed over each recording window so no event is lost.
-        self.sat_window |= cmd.saturated
-        self.sat_steps += cmd.saturated
-        self.max_ratio = np.maximum(self.max_ratio, np.abs(cmd.tau_raw) / self.tau_max)
-        e_norm = float(np.linalg.norm(ee_err))
-        self.ee_err_max = max(self.ee_err_max, e_norm)
-        self.ee_sq += e_norm**2
-        self.qa_err_max = max(self.qa_err_max, float(np.abs(q_d[N_BASE:] - q[N_BASE:]).max()))
-        r = self.rows
-        if r < len(self.rec_idx) and k == self.rec_idx[r]:
-            e_q = q_d - q
-            e_q[2] = (e_q[2] + np.pi) % (2 * np.pi) - np.pi
-            self.q_err[r], self.tau[r], self.sat[r], self.ee[r] = e_q, cmd.tau, self.sat_window, ee_err
-            self.q[r], self.dq[r] = q, dq
-            self.sat_window[:] = False
-            self.rows += 1
-
-    def columns(self, t: FloatArray) -> dict[str, FloatArray]:
-        """The recorded rows as named columns (see the module docstring)."""
-        r, n = self.rows, self.tau_max.size
-        log: dict[str, FloatArray] = {"t": t[self.rec_idx[:r]]}
-        for i, name in enumerate(trajectory_header(n)[1:]):
-            log[f"e_{name}"] = self.q_err[:r, i]
-        for i in range(n):
-            log[f"tau{i + 1}"] = self.tau[:r, i]
-        for i in range(n):
-            log[f"sat{i + 1}"] = self.sat[:r, i]
-        for i, axis in enumerate("xyz"):
-            log[f"ee_err_{axis}"] = self.ee[:r, i]
-        log["ee_err"] = np.linalg.norm(self.ee[:r], axis=1)
-        for i, name in enumerate(trajectory_header(n)[1:]):
-            log[name] = self.q[:r, i]
-        for i, name in enumerate(trajectory_header(n)[1:]):
-            log[f"d{name}"] = self.dq[:r, i]
-        return log
-
-    def summary(self, steps_run: int) -> dict[str, Any]:
-        """Error and torque statistics over the ``steps_run`` steps simulated."""
-        return {
-            "max_ee_error_m": self.ee_err_max,
-            "rms_ee_error_m": float(np.sqrt(self.ee_sq / max(steps_run, 1))),
-            "max_arm_joint_error_rad": self.qa_err_max,
-            "max_torque_ratio": self.max_ratio.tolist(),
-            "saturation_fraction": (self.sat_steps / max(steps_run, 1)).tolist(),
-        }
 
 
 class _ControlStep:
@@ -186,8 +120,9 @@ def run_simulation(
     dt = sim.timestep
     control = _ControlStep(sim, gains, reaction_force)
     judge = Judge(th, dt, sim.robot.n_arm, sim.payload_mass > 0)
-    log = _RunLog(reference.t.size, record_every, sim.robot.nq, control.arm.tau_max)
+    log = RunLog(reference.t.size, record_every, sim.robot.nq, control.arm.tau_max)
     sim.set_state(reference.q[0])
+    contacts = sim.scene is not None
     start = time.perf_counter()
     steps_run = 0
     for k in range(reference.t.size):
@@ -205,6 +140,8 @@ def run_simulation(
         if stop_on_failure and judge.reason is not None:
             break
         mujoco.mj_step(sim.model, sim.data)
+        if contacts and sim.data.ncon:  # the contacts of the state at step k
+            judge.touch(k * dt, touches(sim.model, sim.data, ARM_PREFIX))
         if after_step is not None:
             after_step(k, q, dq)
     wall = time.perf_counter() - start
@@ -216,6 +153,8 @@ def run_simulation(
         "payload_mass": sim.payload_mass,
         **log.summary(steps_run),
         "thresholds": asdict(th),
+        "contact_checked": contacts,
+        "contacts": judge.contact_list(),
     }
     return SimResult(judge.reason is None, judge.reason, judge.time,
                      judge.detail or "all criteria met", log.columns(reference.t), summary)
@@ -307,7 +246,9 @@ def simulate_plan(
     # the robot's end-effector load that the plan's force includes (tool_force_mass) is carried
     # physically with the payload: one welded body of both masses
     carried = (true_mass or 0.0) + (robot.tool_force_mass if plan.payload.mass is not None else 0.0)
-    sim = build_sim_model(robot, carried, meshes=offscreen or viewer, timestep=timestep)
+    # contact with the scene and the floor, unless the URDF's geometry cannot be loaded and there is no scene
+    scene = plan.scene if plan.scene or geometry_loadable(robot) else None
+    sim = build_sim_model(robot, carried, meshes=offscreen or viewer, timestep=timestep, scene=scene)
     gains = _resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
     reference_kind, reference = reference, _plan_reference(plan, sim.timestep, hold, force_share, kind=reference)
     recorder = FrameRecorder(sim, _optional_path(frames_dir), _optional_path(video), fps) if offscreen else None

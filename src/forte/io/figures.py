@@ -21,6 +21,8 @@ from forte.capability.metrics import ellipsoid_axes
 from forte.capability.polytope import facets, halfspaces, residual_margins, trajectory_rfp, vertices
 from forte.exceptions import InvalidInputError
 from forte.io.figure_processes import run_split, take_worker
+from forte.model.description import BASE_BOX_HALF_XY
+from forte.model.scene import Box, Capsule, Cylinder, Mesh, SceneObject, mesh_vertices
 from forte.planning.methods import METHODS
 from forte.planning.planner import Plan
 
@@ -304,17 +306,83 @@ def plot_comparison(results: list[Plan], path: Path) -> None:
     plt.close(fig)
 
 
+def footprint(obj: SceneObject, samples: int = 48) -> np.ndarray:
+    """The outline (M x 2, counter-clockwise) of a scene body seen from above: the convex hull of
+    its corners, of its end circles (cylinder, capsule, sphere) or of its vertices (mesh)."""
+    s, R, p = obj.shape, obj.pose[:3, :3], obj.pose[:3, 3]
+    a = np.linspace(0, 2 * np.pi, samples, endpoint=False)
+    circle = np.column_stack([np.cos(a), np.sin(a), np.zeros_like(a)])
+    if isinstance(s, Box):
+        local = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * np.asarray(s.size) / 2
+    elif isinstance(s, Mesh):
+        local = mesh_vertices(s)
+    elif isinstance(s, Cylinder):  # its end circles
+        local = np.vstack([s.radius * circle + [0, 0, z] for z in (-s.length / 2, s.length / 2)])
+    else:  # sphere, capsule: a ball seen from above is a disk around its centre's projection
+        half = s.length / 2 if isinstance(s, Capsule) else 0.0
+        centres = np.array([[0, 0, -half], [0, 0, half]]) @ R.T + p
+        return _hull(np.vstack([c[:2] + s.radius * circle[:, :2] for c in centres]))
+    return _hull((local @ R.T + p)[:, :2])
+
+
+def _hull(points: np.ndarray) -> np.ndarray:
+    """Convex hull of 2-D points, counter-clockwise (Andrew's monotone chain)."""
+    pts = sorted(map(tuple, np.round(points, 12)))
+
+    def chain(seq: list[tuple[float, float]]) -> list[tuple[float, float]]:
+        out: list[tuple[float, float]] = []
+        for p in seq:
+            while len(out) >= 2 and ((out[-1][0] - out[-2][0]) * (p[1] - out[-2][1])
+                                     - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])) <= 0:
+                out.pop()
+            out.append(p)
+        return out
+
+    lower, upper = chain(pts), chain(pts[::-1])
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def plot_scene(plan: Plan, path: Path) -> None:
+    """Top-down view: the scene's footprints, the base path with the base box at the start and
+    the end, and the end-effector path (x, y in the world frame)."""
+    plt = pyplot()
+    color, label = style(plan.method)
+    fig, ax = plt.subplots(figsize=(6, 5), layout="constrained")
+    for obj in plan.scene.objects:
+        outline = footprint(obj)
+        ax.fill(*outline.T, color="0.75", edgecolor="0.35", lw=0.8)
+        ax.annotate(obj.name, obj.pose[:2, 3], ha="center", va="center", fontsize=7)
+    box = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [-1, -1]]) * BASE_BOX_HALF_XY
+    for k, ls in ((0, ":"), (-1, "-")):
+        x, y, yaw = plan.q[k, :3]
+        R = np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
+        ax.plot(*(box @ R.T + [x, y]).T, color="k", ls=ls, lw=0.8)
+    ax.plot(plan.q[:, 0], plan.q[:, 1], color="k", lw=1.2, label="base path (box: start dotted, end solid)")
+    ee = np.array([plan.robot.ee_position(q) for q in plan.q])
+    ax.plot(ee[:, 0], ee[:, 1], color=color, lw=1.2, label=f"end effector ({label})")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title("scene seen from above (grey: the bodies' footprints)", fontsize=9)
+    ax.grid(alpha=0.3)
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", ncol=2, fontsize=8, frameon=False)
+    _save(fig, path)
+    plt.close(fig)
+
+
 def plan_figures(plan: Plan, directory: Path) -> None:
-    """The four figures of a plan directory (in the format of :func:`figure_format`): by the
+    """The four figures of a plan directory (in the format of :func:`figure_format`), and
+    ``scene`` (:func:`plot_scene`) when the plan has one: by the
     figure worker when one waits (:func:`forte.io.figure_processes.figure_worker`), else here,
     two groups in two processes where :func:`~forte.io.figure_processes.run_split` can fork
     (about 0.3 s of CPU time each)."""
     worker = take_worker()
     if worker is not None and worker.draw(plan, directory, _FORMAT.get()):
         return
+    scene = [lambda: plot_scene(plan, figure_path(directory, "scene"))] if plan.scene else []
     run_split([
         [lambda: plot_polytope(plan, figure_path(directory, "rfp_worst")),
          lambda: plot_manipulability([plan], figure_path(directory, "manipulability"))],
         [lambda: plot_ellipsoid(plan, figure_path(directory, "ellipsoid")),
-         lambda: plot_capacity([plan], figure_path(directory, "capacity"))],
+         lambda: plot_capacity([plan], figure_path(directory, "capacity")), *scene],
     ])

@@ -120,8 +120,9 @@ def fill_plan_dir(plan: Plan, directory: Path, figures: bool = True) -> None:
 
 def write_plan_dir(plan_dir: str | Path, robot: MobileManipulator, t: Any, q: Any, *, mass: float | None = None,
                    force: Any = None, radius: Any = 10.0, method: str = "manual", status: str = "success",
-                   extra: dict[str, Any] | None = None) -> Path:
-    """Write a plan directory for waypoints ``q`` (N x nq) at times ``t`` given by hand.
+                   extra: dict[str, Any] | None = None, scene: Scene | None = None) -> Path:
+    """Write a plan directory for waypoints ``q`` (N x nq) at times ``t`` given by hand (among
+    the bodies of ``scene``, recorded in plan.json).
 
     ``force`` (N x 3, world frame) defaults to ``(m + m_tool) (a - g)`` of the end-effector
     waypoints (``m_tool``: the robot's ``tool_force_mass``) when ``mass`` is given
@@ -141,7 +142,8 @@ def write_plan_dir(plan_dir: str | Path, robot: MobileManipulator, t: Any, q: An
     payload = Payload(mass=float(mass), source="given") if mass else Payload(source="none")
     verdict = judge(robot, times, Q, tf, CapabilityParameters().alpha)
     plan = Plan(method=method, robot=robot, t=times, q=Q, force=tf, payload=payload,
-                solved=status == "success", status=status, solver=dict(extra or {}), verdict=verdict)
+                solved=status == "success", status=status, solver=dict(extra or {}), verdict=verdict,
+                scene=scene or Scene())
     replace_directory(lambda d: fill_plan_dir(plan, d, figures=False), Path(plan_dir))
     return Path(plan_dir)
 

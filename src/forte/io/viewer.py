@@ -5,6 +5,9 @@
 - ``world/robot/<geometry>/mesh``: the robot's meshes (the STL collision meshes of the URDF, which
   Rerun reads; COLLADA visual meshes are not), posed at every waypoint by Pinocchio's forward
   kinematics of the whole-body URDF (:func:`forte.io.export.whole_body_urdf`);
+- ``world/scene/<name>``: the plan's scene (:mod:`forte.model.scene`), each body posed once
+  (static): boxes, cylinders, spheres (ellipsoids), capsules, and meshes as the triangles the
+  planner's loader (coal) reads;
 - ``world/base_path`` and ``world/ee_path``: the base (x, y on the floor) and end-effector paths;
 - ``world/force``: the desired force at the end effector, drawn at :data:`FORCE_SCALE` m per N;
 - ``force_space/rfp``: the residual force polytope ``{f : A f <= b}`` of the waypoint (N), with
@@ -30,11 +33,14 @@ from forte.capability.polytope import trajectory_rfp
 from forte.exceptions import InvalidInputError
 from forte.io.export import whole_body_urdf
 from forte.io.plandir import read_metrics, read_plan_dir
+from forte.model.scene import Box, Capsule, Cylinder, Scene, Sphere, mesh_vertices
 from forte.planning.methods import METHODS
 
 #: Length of the force arrow in the robot scene (m per N).
 FORCE_SCALE = 0.005
 MESH_SUFFIXES = (".stl", ".obj", ".glb", ".gltf")
+#: Colour of the scene's bodies (RGBA, 0-255).
+SCENE_COLOR = [150, 120, 90, 200]
 
 
 def _rerun() -> Any:
@@ -96,6 +102,7 @@ def record_plan(plan_dir: str | Path, save: str | Path | None = None, spawn: boo
                 static=True)
         if not np.allclose(scale, 1.0):
             rec.log(f"world/robot/{name}/mesh", rr.Transform3D(scale=scale.tolist()), static=True)
+    _log_scene(rec, rr, plan.scene)
     ee = np.array([robot.ee_position(q) for q in plan.q])
     base = np.column_stack([plan.q[:, :2], np.zeros(len(plan.q))])
     rec.log("world/base_path", rr.LineStrips3D([base], colors=[[90, 90, 90]]), static=True)
@@ -138,6 +145,28 @@ def record_plan(plan_dir: str | Path, save: str | Path | None = None, spawn: boo
         rec.disconnect()
         return save
     return None
+
+
+def _log_scene(rec: Any, rr: Any, scene: Scene) -> None:
+    """The scene's bodies as static entities ``world/scene/<name>``, posed by their 4x4 poses."""
+    for obj in scene.objects:
+        path = f"world/scene/{rr.escape_entity_path_part(obj.name)}"
+        rec.log(path, rr.Transform3D(translation=obj.pose[:3, 3], mat3x3=obj.pose[:3, :3]), static=True)
+        s, style = obj.shape, {"colors": [SCENE_COLOR], "fill_mode": "solid", "labels": [obj.name]}
+        if isinstance(s, Box):
+            shape = rr.Boxes3D(half_sizes=[np.asarray(s.size) / 2], **style)
+        elif isinstance(s, Sphere):
+            shape = rr.Ellipsoids3D(half_sizes=[[s.radius] * 3], **style)
+        elif isinstance(s, Cylinder):
+            shape = rr.Cylinders3D(lengths=[s.length], radii=[s.radius], **style)
+        elif isinstance(s, Capsule):  # Rerun's capsule starts at the origin; forte's is centred
+            shape = rr.Capsules3D(lengths=[s.length], radii=[s.radius], translations=[[0, 0, -s.length / 2]], **style)
+        else:
+            g = obj.collision_geometry()
+            triangles = [[g.tri_indices(i)[j] for j in range(3)] for i in range(g.num_tris)]
+            shape = rr.Mesh3D(vertex_positions=mesh_vertices(s), triangle_indices=triangles,
+                              albedo_factor=[c / 255 for c in SCENE_COLOR])
+        rec.log(f"{path}/shape", shape, static=True)
 
 
 def _series_styles(rec: Any, rr: Any, color: str) -> None:
