@@ -25,6 +25,7 @@ from forte.model.scene import Scene
 from forte.model.trajectory import backward_differences
 from forte.planning.collision_slots import assign_slots, missing_pairs
 from forte.planning.ik import initial_guess
+from forte.planning.scene_guess import clear_start
 from forte.planning.methods import METHODS, Method, get_method, method_names
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
 from forte.planning.requirements import TRACKING_ORIENTATION_TOL, orientation_errors
@@ -180,10 +181,17 @@ def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]
 
 def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:
     """The optimizer's initial guess: the nominal trajectory for taught configurations (the
-    authors' joint-space interpolation), else IK along the path / onto the pose."""
+    authors' joint-space interpolation), else IK along the path / onto the pose; with a scene,
+    base poses that keep the robot clear of it where :func:`~forte.planning.scene_guess.clear_start`
+    finds them."""
     if task.knots is not None:
-        return task.nominal() if nominal is None else nominal
-    return initial_guess(task)
+        guess = task.nominal() if nominal is None else nominal
+    else:
+        guess = initial_guess(task)
+    if task.scene:  # a start clear of the scene where the search finds one (forte.planning.scene_guess)
+        clear = clear_start(task, guess)
+        return guess if clear is None else clear
+    return guess
 
 
 def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None,

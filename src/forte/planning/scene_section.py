@@ -39,7 +39,7 @@ def scene_section(reader: Reader, base: Path) -> Scene:
 
         path = Path(str(reader.get("scene_file")))
         try:
-            objects += read_scene_file(path if path.is_absolute() else base / path)
+            objects += read_scene_file((path if path.is_absolute() else base / path).resolve())
         except ForteError as exc:
             raise reader.error("scene_file", str(exc)) from exc
     names = [o.name for o in objects]
@@ -95,7 +95,7 @@ def _shape(r: Reader, kind: str, base: Path) -> Any:
         else r.vector("scale", 3)
     if np.any(scale <= 0):
         raise r.error("scale", f"expected scale factors > 0, got {scale.tolist()}")
-    path = Path(file) if Path(file).is_absolute() else base / file
+    path = (Path(file) if Path(file).is_absolute() else base / file).resolve()  # plan.json: from anywhere
     mesh = Mesh(path, tuple(map(float, scale)))
     try:
         SceneObject("check", mesh, np.eye(4)).proxy()  # reads the file: errors now, not mid-plan
