@@ -25,10 +25,10 @@ from forte.model.scene import Scene
 from forte.model.trajectory import backward_differences
 from forte.planning.collision_slots import assign_slots, missing_pairs
 from forte.planning.ik import initial_guess
-from forte.planning.scene_guess import clear_start
 from forte.planning.methods import METHODS, Method, get_method, method_names
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
 from forte.planning.requirements import TRACKING_ORIENTATION_TOL, orientation_errors
+from forte.planning.scene_guess import clear_start
 from forte.planning.tasks import Task
 from forte.planning.verdict import SOLVER_FAILED, Verdict, arm_acceleration_ratios, capacity_shortfall, judge_plan
 from forte.settings import CapabilityParameters
