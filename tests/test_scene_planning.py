@@ -122,6 +122,25 @@ CRATE_TASK = {
 }
 
 
+def _exact_clearance_along_the_motion(plan) -> float:
+    """The smallest exact clearance (coal, real meshes) over the waypoints and the executed spline."""
+    from forte.model.clearance import clearances
+    from forte.planning.motion_samples import sample_motion
+
+    samples = sample_motion(plan.robot, plan.t, plan.q)
+    return float(clearances(plan.robot, plan.scene, samples.q).distance.min())
+
+
+def _simulated_without_contact(plan, tmp_path: Path) -> None:
+    from forte.execution.run import simulate_plan
+    from forte.io.plandir import write_plan
+
+    directory = write_plan(plan, tmp_path / plan.task.name, figures=False)
+    result = simulate_plan(directory, hold=0.3, write=False)
+    assert result.success, result.detail  # a touch of the scene or the floor would fail it (reason "contact")
+    assert result.summary.get("contacts", []) == []
+
+
 @pytest.mark.slow
 def test_a_crate_on_the_straight_base_path_is_driven_around(tmp_path):
     import forte
@@ -131,14 +150,56 @@ def test_a_crate_on_the_straight_base_path_is_driven_around(tmp_path):
     guess_distances, _ = trajectory_distances(task.robot, task.nominal(), task.scene)
     assert guess_distances.min() < 0  # the straight path drives through the crate
     plan = forte.plan(task)
-    assert plan.solved
+    assert plan.feasible, plan.verdict
     D, _ = trajectory_distances(task.robot, plan.q, task.scene)
     assert D.min() >= task.clearance - 1e-6  # the cover keeps the clearance at every waypoint
+    assert _exact_clearance_along_the_motion(plan) >= task.clearance  # and the meshes, between waypoints too
     assert np.abs(plan.q[:, 1]).max() > 0.5  # around it, not through it
+    _simulated_without_contact(plan, tmp_path)
     free = forte.plan(task_from_dict({k: v for k, v in CRATE_TASK.items() if k != "scene"}, tmp_path / "f.yaml"))
     assert np.abs(free.q[:, 1]).max() < 0.05  # no scene: the straight path again
     slots = assign_slots(task.robot, plan.q, task.scene, task.clearance, True)
     assert slots.rows > 0 and all(f.slots <= 32 for f in slots.frames)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["table-to-shelf", "through-the-doorway"])
+def test_the_shelf_and_doorway_examples_plan_clear_and_execute_without_contact(name, tmp_path):
+    import forte
+    from forte.planning.tasks import load_task
+
+    task = load_task(Path(__file__).resolve().parents[1] / "examples" / "tasks" / f"{name}.yaml")
+    plan = forte.plan(task)
+    assert plan.feasible, plan.verdict
+    assert _exact_clearance_along_the_motion(plan) >= task.clearance
+    _simulated_without_contact(plan, tmp_path)
+
+
+def test_the_clear_start_keeps_a_clear_guess_and_finds_one_around_the_crate(tmp_path):
+    from forte.planning.ik import initial_guess
+    from forte.planning.scene_guess import clear_start
+    from forte.planning.tasks import task_from_dict
+
+    task = task_from_dict(CRATE_TASK, tmp_path / "crate.yaml")
+    straight = initial_guess(task)
+    start = clear_start(task, straight)
+    assert start is not None
+    D, _ = trajectory_distances(task.robot, start, task.scene)
+    assert D.min() >= task.clearance  # clear at every waypoint
+    assert start[0] == pytest.approx(task.q_init)  # from the fixed first configuration
+    far = task_from_dict(CRATE_TASK | {"scene": [{"name": "crate", "box": {"size": [0.5, 0.6, 0.45]},
+                                                  "pose": [1.5, 3.0, 0.225, 0, 0, 0]}]}, tmp_path / "far.yaml")
+    assert clear_start(far, straight) is straight  # nothing near: the usual start, untouched
+
+
+def test_a_wall_through_the_goal_leaves_no_clear_start(tmp_path):
+    from forte.planning.ik import initial_guess
+    from forte.planning.scene_guess import clear_start
+    from forte.planning.tasks import task_from_dict
+
+    wall = {"name": "wall", "box": {"size": [0.1, 4.0, 2.0]}, "pose": [3.19, 0.0, 1.0, 0, 0, 0]}
+    task = task_from_dict(CRATE_TASK | {"scene": [wall]}, tmp_path / "wall.yaml")
+    assert clear_start(task, initial_guess(task)) is None
 
 
 def test_bad_scene_entries_exit_2_with_one_line(tmp_path):
