@@ -221,3 +221,18 @@ def test_bad_scene_entries_exit_2_with_one_line(tmp_path):
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and expected in lines[0], proc.stderr
         assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
+def test_the_replanner_keeps_clear_of_the_scene_after_a_mass_change_and_a_shift(tmp_path):
+    from forte.planning.replan import Replanner
+    from forte.planning.tasks import task_from_dict
+
+    task = task_from_dict(CRATE_TASK, tmp_path / "crate.yaml")
+    replanner = Replanner(task)
+    for result in (replanner.replan(mass=2.5), replanner.shift(4), replanner.replan(mass=0.5)):
+        assert result.plan.solved
+        assert result.plan.scene == task.scene
+        D, _ = trajectory_distances(task.robot, result.plan.q, task.scene)
+        assert D.min() >= task.clearance - 1e-6
+        assert result.plan.metrics and result.plan.verdict is not None

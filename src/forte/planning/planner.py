@@ -166,7 +166,7 @@ def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]
     force = coarse.force()
     nominal = coarse.nominal()
     if task.scene:  # clear of the scene already: the fine solve starts outside the bodies
-        sol = _solve_in_scene(coarse, method, force, start_guess(coarse, nominal), nominal, task.solver)[1]
+        sol = solve_in_scene(coarse, method, force, start_guess(coarse, nominal), nominal, task.solver)[1]
     else:
         opt = TrajectoryOptimizer(task.robot, coarse.n, method, task.weights, options=task.solver,
                                   limits=task.limits)
@@ -207,7 +207,7 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         # a near-optimal start: begin with a small barrier parameter
         options = replace(options, extra={"mu_strategy": "monotone", "mu_init": 1e-4} | options.extra)
     if task.scene:
-        opt, sol, info["clearance_rows"] = _solve_in_scene(task, method, force, q_guess, nominal, options)
+        opt, sol, info["clearance_rows"] = solve_in_scene(task, method, force, q_guess, nominal, options)
     else:
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
                                   options=options, limits=task.limits)
@@ -233,18 +233,19 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
 SCENE_ROUNDS = 3
 
 
-def _solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatArray, nominal: FloatArray,
-                    options: Any) -> tuple[TrajectoryOptimizer, SolverResult, dict[str, Any]]:
+def solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatArray, nominal: FloatArray,
+                   options: Any, keep_multipliers: bool = False) -> tuple[TrajectoryOptimizer, SolverResult, dict]:
     """Solve with clearance rows for the pairs the broad phase finds near ``q_guess``; while the
     solution brings a pair within the clearance that had no rows, solve again from it with those
-    pairs added (at most :data:`SCENE_ROUNDS` times)."""
+    pairs added (at most :data:`SCENE_ROUNDS` times). Returns the last problem, its solution and
+    the rounds' facts."""
     fix = task.mode != "hold"
     extra: set[tuple[int, int, int]] = set()
     start, rounds = q_guess, []
     for _ in range(SCENE_ROUNDS + 1):
         slots = assign_slots(task.robot, start, task.scene, task.clearance, fix, extra)
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=fix, options=options,
-                                  limits=task.limits, slots=slots)
+                                  limits=task.limits, slots=slots, keep_multipliers=keep_multipliers)
         sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, start, nominal)
         missing = missing_pairs(task.robot, sol.q, task.scene, task.clearance, slots)
         rounds.append({"rows": slots.rows, "slots": {f.frame: f.slots for f in slots.frames},

@@ -18,6 +18,11 @@ keeps the best of ``solver.hold_starts`` starts, a re-plan continues from the la
 trajectory, the guess and the multipliers are shifted by whole waypoints and the tail holds the
 last target, so ``N`` and the compiled problem stay the same.
 
+With a scene, the problem carries clearance rows for the pairs near the last solution
+(:mod:`forte.planning.collision_slots`): a re-plan after a change keeps them and starts warm; when
+its solution brings another pair close, or after a shift (the pairs move with the horizon), the
+rows are assigned again and that problem is solved cold.
+
 Converged means IPOPT's ``Solve_Succeeded`` (its ``tol`` on the scaled KKT error, no
 "acceptable level" exit) with the constraint violation within ``constraint_tol``. A warm try that
 does not converge is retried once from the cold initial guess; if that fails too the result says
@@ -46,10 +51,11 @@ import numpy as np
 from forte.exceptions import InvalidInputError
 from forte.force.taskforce import TaskForce
 from forte.planning.blas import single_threaded_blas
+from forte.planning.collision_slots import assign_slots, missing_pairs
 from forte.planning.layout import shift_rows
 from forte.planning.methods import get_method
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer
-from forte.planning.planner import Plan, evaluate, resolve_payload, start_guess
+from forte.planning.planner import Plan, evaluate, resolve_payload, solve_in_scene, start_guess
 from forte.planning.tasks import Task
 from forte.planning.verdict import judge_plan
 from forte.validation import FloatArray
@@ -69,13 +75,15 @@ class ReplanResult(NamedTuple):
 
 
 class Problem(NamedTuple):
-    """A changed problem: the task, its force, nominal trajectory, primal guess and multipliers."""
+    """A changed problem: the task, its force, nominal trajectory, primal guess and multipliers
+    (``None``: a cold solve), and the NLP to solve it with (``None``: the re-planner's)."""
 
     task: Task
     force: TaskForce
     nominal: FloatArray
     guess: FloatArray
-    warm: tuple[FloatArray, FloatArray]
+    warm: tuple[FloatArray, FloatArray] | None
+    optimizer: TrajectoryOptimizer | None = None
 
 
 def converged(sol: SolverResult) -> bool:
@@ -97,12 +105,17 @@ class Replanner:
         if not self.method.optimized:
             raise InvalidInputError(f"method: re-planning needs an optimized method, got '{self.method.name}'")
         self.task = resolve_payload(task, estimator_options)
-        self.optimizer = TrajectoryOptimizer(
-            task.robot, task.n, self.method, task.weights, fix_initial=task.mode != "hold",
-            options=task.solver, limits=task.limits, keep_multipliers=True)
         self.force = self.task.force()
         self.nominal = self.task.nominal()  # the planner's nominal trajectory, shifted with the horizon
-        first = self._solve(self.task, self.force, self.nominal, start_guess(self.task, self.nominal), None)
+        guess = start_guess(self.task, self.nominal)
+        if self.task.scene:  # clearance rows for the pairs near the first solution (planner.solve_in_scene)
+            self.optimizer, first, _ = solve_in_scene(self.task, self.method, self.force, guess, self.nominal,
+                                                      task.solver, keep_multipliers=True)
+        else:
+            self.optimizer = TrajectoryOptimizer(
+                task.robot, task.n, self.method, task.weights, fix_initial=task.mode != "hold",
+                options=task.solver, limits=task.limits, keep_multipliers=True)
+            first = self._solve(self.task, self.force, self.nominal, guess, None)
         if not converged(first):
             raise InvalidInputError(f"re-planning: the first solve failed ({first.status}); nothing to warm-start")
         self.last = first
@@ -158,6 +171,11 @@ class Replanner:
         if mass is not None:
             task = task.with_payload(task.payload.with_mass(mass, source="replan"))
         force = task.force()
+        if task.scene:  # the pairs near the shifted horizon get the rows: a new NLP, solved cold
+            slots = assign_slots(task.robot, guess, task.scene, task.clearance, True)
+            opt = TrajectoryOptimizer(task.robot, task.n, self.method, task.weights, options=task.solver,
+                                      limits=task.limits, keep_multipliers=True, slots=slots)
+            return Problem(task, force, shift_rows(self.nominal, steps), guess, None, opt)
         warm = self.optimizer.shifted_multipliers(self.last.lam_x, self.last.lam_g, steps)
         return Problem(task, force, shift_rows(self.nominal, steps), guess, warm)
 
@@ -167,20 +185,29 @@ class Replanner:
         start = time.perf_counter()
         with single_threaded_blas():
             pb = change()
-            sol, used_warm = self._solve(pb.task, pb.force, pb.nominal, pb.guess, pb.warm), True
+            opt = pb.optimizer or self.optimizer
+            sol, used_warm = self._solve(pb.task, pb.force, pb.nominal, pb.guess, pb.warm, opt), pb.warm is not None
             iterations, solve_s = sol.iterations, sol.solve_time
+            if converged(sol) and pb.task.scene and missing_pairs(pb.task.robot, sol.q, pb.task.scene,
+                                                                  pb.task.clearance, opt.slots):
+                # the solution came close to a pair without rows: solve again with it (cold)
+                opt, sol, _ = solve_in_scene(pb.task, self.method, pb.force, sol.q, pb.nominal, pb.task.solver,
+                                             keep_multipliers=True)
+                used_warm, iterations, solve_s = False, iterations + sol.iterations, solve_s + sol.solve_time
             if not converged(sol):  # one cold retry before giving up
                 cold = start_guess(pb.task, pb.nominal)
-                sol, used_warm = self._solve(pb.task, pb.force, pb.nominal, cold, None), False
+                sol, used_warm = self._solve(pb.task, pb.force, pb.nominal, cold, None, opt), False
                 iterations, solve_s = iterations + sol.iterations, solve_s + sol.solve_time
             metrics = evaluate(pb.task.robot, sol.q, pb.task.t, pb.force, pb.task.weights.capability_params)
         ok = converged(sol)
         if ok:
             self.task, self.force, self.nominal, self.last = pb.task, pb.force, pb.nominal, sol
+            self.optimizer = opt
         plan = Plan(method=self.method.name, robot=pb.task.robot, t=pb.task.t, q=sol.q, force=pb.force,
                     payload=pb.task.payload, metrics=metrics, solved=ok, status=sol.status,
                     solver={"iterations": iterations, "warm": used_warm, "solve_time_s": solve_s,
-                            "status": sol.status, "constraint_violation": sol.constraint_violation}, task=pb.task)
+                            "status": sol.status, "constraint_violation": sol.constraint_violation}, task=pb.task,
+                    scene=pb.task.scene)
         latency = time.perf_counter() - start
         plan.solver["latency_s"] = latency
         # judged after the latency is taken, at the waypoints only (a few ms at N = 41): the loop's budget
@@ -188,5 +215,7 @@ class Replanner:
         return ReplanResult(plan, latency, iterations, used_warm, solve_s)
 
     def _solve(self, task: Task, force: TaskForce, nominal: FloatArray, guess: FloatArray,
-               warm: tuple[FloatArray, FloatArray] | None) -> SolverResult:
-        return self.optimizer.solve(task.t, task.targets, force.f, force.r, task.q_init, guess, nominal, warm=warm)
+               warm: tuple[FloatArray, FloatArray] | None, optimizer: TrajectoryOptimizer | None = None
+               ) -> SolverResult:
+        opt = optimizer or self.optimizer
+        return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, guess, nominal, warm=warm)
