@@ -236,3 +236,21 @@ def test_the_replanner_keeps_clear_of_the_scene_after_a_mass_change_and_a_shift(
         D, _ = trajectory_distances(task.robot, result.plan.q, task.scene)
         assert D.min() >= task.clearance - 1e-6
         assert result.plan.metrics and result.plan.verdict is not None
+
+
+def test_a_wall_through_the_path_is_found_before_any_solve(tmp_path):
+    """The hand's own parts cross the wall at a target pose: no motion can keep clear, so the
+    optimizer is not run; the verdict is infeasible and names the wall."""
+    import forte
+    from forte.planning.planner import blocked_path
+    from forte.planning.tasks import task_from_dict
+
+    wall = {"name": "wall", "box": {"size": [0.1, 4.0, 2.0]}, "pose": [2.5, 0.0, 1.0, 0, 0, 0]}
+    task = task_from_dict(CRATE_TASK | {"scene": [wall]}, tmp_path / "wall.yaml")
+    reason = blocked_path(task)
+    assert reason is not None and "from wall" in reason
+    plan = forte.plan(task)
+    assert not plan.feasible and not plan.solved and plan.status == reason
+    assert "clearance" in plan.verdict.failed
+    assert " vs wall " in plan.verdict.violations[plan.verdict.failed.index("clearance")].detail
+    assert blocked_path(task_from_dict(CRATE_TASK, tmp_path / "crate.yaml")) is None  # the crate is passable

@@ -202,6 +202,39 @@ class ClearanceChecker:
         return float(d), np.array(result.getNearestPoint1()), np.array(result.getNearestPoint2())
 
 
+def path_clearances(robot: MobileManipulator, scene: Scene, targets: Any) -> Clearances:
+    """The clearance of the parts rigid with the end effector (the hand, the fingers: every part
+    on the end effector's joint) with the end effector at each target pose (K x 4 x 4). The rest
+    of the robot cannot change it: where it is below the task's clearance, no plan of the path is
+    clear. Parts elsewhere and the base count as infinitely far."""
+    checker = ClearanceChecker(robot, scene)
+    targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+    k = len(targets)
+    out = Clearances(np.full(k, np.inf), ("",) * k, ("",) * k, np.full((k, 3), np.nan), np.full((k, 3), np.nan))
+    if checker._arm is None or not checker.bodies:
+        return out
+    ee = robot.model.frames[robot.ee_frame_id]
+    joint = robot.model.names[ee.parentJoint]
+    objs = checker._arm.geom.geometryObjects
+    rigid = [i for i, obj in enumerate(objs) if checker._arm.model.names[obj.parentJoint] == joint]
+    if not rigid:
+        return out
+    joint_from_ee = np.linalg.inv(ee.placement.homogeneous)
+    local = np.array([objs[i].placement.homogeneous for i in rigid])
+    distance, robot_names, body_names = out.distance.copy(), list(out.robot), list(out.body)
+    wr, wb = out.witness_robot.copy(), out.witness_body.copy()
+    for k_, T_ee in enumerate(targets):
+        T = np.repeat(np.eye(4)[None], len(checker.parts), axis=0)
+        T[rigid] = T_ee @ joint_from_ee @ local
+        for i in rigid:
+            for b in range(len(checker.bodies)):
+                d, p1, p2 = checker._distance(T, i * len(checker.bodies) + b)
+                if d < distance[k_]:
+                    distance[k_], wr[k_], wb[k_] = d, p1, p2
+                    robot_names[k_], body_names[k_] = checker.parts[i].name, checker.bodies[b].name
+    return Clearances(distance, tuple(robot_names), tuple(body_names), wr, wb)
+
+
 def clearances(robot: MobileManipulator, scene: Scene, Q: Any) -> Clearances:
     """The clearance of every configuration ``Q`` (K x nq) of ``robot`` in ``scene``."""
     return ClearanceChecker(robot, scene).evaluate(Q)

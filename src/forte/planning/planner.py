@@ -229,6 +229,23 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
     return sol, info
 
 
+def blocked_path(task: Task) -> str | None:
+    """Why no plan of ``task`` can keep its clearance, or ``None``: the parts rigid with the end
+    effector (the hand, the fingers) come closer to a scene body than the clearance at a target
+    pose of the path itself (:func:`forte.model.clearance.path_clearances`), so the optimizer is
+    not run (it could only fail, slowly)."""
+    if not task.scene:
+        return None
+    from forte.model.clearance import path_clearances
+
+    found = path_clearances(task.robot, task.scene, task.targets)
+    k = found.closest()
+    if found.distance[k] >= task.clearance:
+        return None
+    return (f"path blocked: at t = {task.t[k]:.3g} s the path puts {found.robot[k]} {found.distance[k]:.3g} m "
+            f"from {found.body[k]} (clearance {task.clearance:g} m)")
+
+
 #: Solves from the last solution when it brought a pair close that had no clearance rows.
 SCENE_ROUNDS = 3
 
@@ -376,7 +393,12 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
     force = task.force()
     start = time.perf_counter()
     info: dict[str, Any] = {}
-    if spec.optimized:
+    blocked = blocked_path(task) if spec.optimized else None
+    if blocked is not None:  # no motion can clear the scene: nothing to optimize
+        q, solved, status = start_guess(task) if guess is None else guess, False, blocked
+        info = {"status": status, "success": False, "path_blocked": True}
+        verdict = judge_plan(task, q, force)
+    elif spec.optimized:
         sol, info = _optimize(task, spec, force, guess)
         verdict = judge_plan(task, sol.q, force, info)
         sol, info, verdict = _refine(task, spec, force, sol, info, verdict)
