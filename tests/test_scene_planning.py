@@ -254,3 +254,33 @@ def test_a_wall_through_the_path_is_found_before_any_solve(tmp_path):
     assert "clearance" in plan.verdict.failed
     assert " vs wall " in plan.verdict.violations[plan.verdict.failed.index("clearance")].detail
     assert blocked_path(task_from_dict(CRATE_TASK, tmp_path / "crate.yaml")) is None  # the crate is passable
+
+
+def test_self_collision_kernel_equals_its_numpy_twin_and_the_pairs_skip_structural_overlaps():
+    from forte.planning.collision_kernels import SELF_SIZE
+    from forte.planning.collision_slots import _self_slot
+    from forte.planning.self_pairs import HOME_GAP, self_distances, self_pairs
+
+    robot = default_robot()
+    primitives = robot_primitives(robot)
+    pairs = self_pairs(robot)
+    home = primitive_centres(robot, robot.home(), primitives)
+    assert pairs and self_distances(home, primitives, pairs).min() >= HOME_GAP
+    assert all(primitives[a].frame > primitives[b].frame for a, b in pairs)
+    hand_vs_base = [(a, b) for a, b in pairs if primitives[a].piece == "panda_hand" and primitives[b].piece == "base"]
+    assert hand_vs_base  # the hand is kept off the base
+    chosen = hand_vs_base[:2]
+    frame, other = primitives[chosen[0][0]].frame + 1, primitives[chosen[0][1]].frame + 1
+    kern = build_collision_kernels(robot, frame, len(chosen), other)
+    params = np.concatenate([_self_slot(primitives[a], primitives[b]) for a, b in chosen])
+    assert params.size == len(chosen) * SELF_SIZE
+    rng = np.random.default_rng(5)
+    for _ in range(4):
+        q0 = np.r_[rng.uniform(-0.3, 0.3, 3), robot.home_arm + rng.uniform(-0.5, 0.5, robot.n_arm)]
+        q1 = q0 + rng.normal(0, 0.05, robot.nq)
+        rows = np.array(kern["clear_rows"](np.r_[q0, q0, q1], params)).ravel()
+        c0, c1 = primitive_centres(robot, q0, primitives), primitive_centres(robot, q1, primitives)
+        d0, d1 = self_distances(c0, primitives, tuple(chosen)), self_distances(c1, primitives, tuple(chosen))
+        rel = np.array([np.linalg.norm((c1[a] - c1[b]) - (c0[a] - c0[b])) for a, b in chosen])
+        assert rows[0::2] == pytest.approx(d1 - rel / 2, abs=1e-8)
+        assert rows[1::2] == pytest.approx(d0 - rel / 2, abs=1e-8)

@@ -7,8 +7,8 @@ sphere, ``half_height = 0``) swollen by ``radius``.
 
 How the cover is built, and why it contains the real geometry:
 
-- **Arm links** (the URDF's collision meshes): a capsule per mesh, its axis the vertices'
-  principal direction through their mean, its segment spanning their projections (shortened
+- **Arm links** (the URDF's collision meshes): a capsule per link (over all its meshes), its
+  axis the vertices' principal direction through their mean, its segment spanning their projections (shortened
   while that shrinks its volume), its radius ``R`` the largest distance of a vertex to the
   segment. The capsule is convex and holds every vertex, so it holds the mesh (every point of
   a triangle is a convex combination of its vertices). The capsule is then covered by ``k``
@@ -101,21 +101,29 @@ def arm_primitives(robot: Any) -> list[Primitive]:
     if geometry is None:
         return []
     mount = pin.SE3(robot.mount[:3, :3].copy(), robot.mount[:3, 3].copy())
-    out = []
+    links: dict[str, tuple[int, list[FloatArray]]] = {}
     for obj in geometry.geom.geometryObjects:
         vertices = _vertices(obj.geometry)
         if vertices is None:
             continue
-        placement = obj.placement
-        joint = obj.parentJoint
+        placement, joint = obj.placement, obj.parentJoint
         if joint == 0:  # on the arm's root link: fixed to the base, through the mount
             placement, frame = mount * placement, BASE_FRAME
         else:
             frame = robot.model.getJointId(geometry.model.names[joint]) - 1
         points = vertices @ placement.rotation.T + placement.translation
-        centres, radius = spheres_of_capsule(*capsule_of(points))
-        out += [Primitive(frame, c, 0.0, radius, obj.name) for c in centres]
+        links.setdefault(link_of(obj.name), (frame, []))[1].append(points)
+    out = []
+    for link, (frame, parts) in links.items():  # one capsule per link, over all its pieces
+        centres, radius = spheres_of_capsule(*capsule_of(np.vstack(parts)))
+        out += [Primitive(frame, c, 0.0, radius, link) for c in centres]
     return out
+
+
+def link_of(geometry_name: str) -> str:
+    """The link a URDF collision geometry belongs to: Pinocchio names them ``<link>_<index>``."""
+    stem, _, index = geometry_name.rpartition("_")
+    return stem if stem and index.isdigit() else geometry_name
 
 
 def _vertices(shape: Any) -> FloatArray | None:

@@ -58,6 +58,17 @@ for _name, _size in (("centre_a", 3), ("half_a", 1), ("radius_a", 1), ("origin",
 #: Length of one slot's parameter vector.
 SLOT_SIZE = _offset
 
+#: A self-collision slot's parameters: primitive ``a``'s centre (its frame's axes) and radius,
+#: primitive ``b``'s centre (its frame's axes), vertical half length and radius, the clearance
+#: and the in-use flag.
+SELF_FIELDS: dict[str, tuple[int, int]] = {}
+_offset = 0
+for _name, _size in (("centre_a", 3), ("radius_a", 1), ("centre_b", 3), ("half_b", 1), ("radius_b", 1),
+                     ("margin", 1), ("active", 1)):
+    SELF_FIELDS[_name] = (_offset, _size)
+    _offset += _size
+SELF_SIZE = _offset
+
 
 def _norm(v: Any) -> Any:
     return ca.sqrt(ca.sumsqr(v) + EPS**2) - EPS
@@ -92,19 +103,35 @@ def slot_distance(frame: tuple[Any, Any], s: dict[str, Any]) -> tuple[Any, Any]:
     return value, d
 
 
-def build_collision_kernels(robot: Any, frame: int, slots: int) -> dict[str, ca.Function]:
+def self_distance(frame_a: tuple[Any, Any], frame_b: tuple[Any, Any], s: dict[str, Any]) -> tuple[Any, Any]:
+    """``(D(q), x_a - x_b)`` of a self-collision slot: primitive ``a`` (a sphere) against ``b``
+    (a sphere, or a vertical capsule on the base), at the frames of ``q``."""
+    xa = frame_a[0] @ s["centre_a"] + frame_a[1]
+    xb = frame_b[0] @ s["centre_b"] + frame_b[1]
+    d = xa - xb
+    dz = d[2] - ca.fmin(ca.fmax(d[2], -s["half_b"]), s["half_b"])
+    return _norm(ca.vertcat(d[0], d[1], dz)) - s["radius_a"] - s["radius_b"], d
+
+
+def build_collision_kernels(robot: Any, frame: int, slots: int, other: int | None = None) -> dict[str, ca.Function]:
     """SX kernels of ``slots`` slots whose primitives hang on ``frame`` (0: the base's, ``j + 1``:
-    arm joint ``j``'s), on the stage window ``z = [q_{k-2}; q_{k-1}; q_k]``."""
+    arm joint ``j``'s), on the stage window ``z = [q_{k-2}; q_{k-1}; q_k]``: against scene bodies,
+    or with ``other`` against the robot's own primitives on frame ``other`` (self-collision)."""
     twin, nq = CasadiTwin(robot), robot.nq
     z = ca.SX.sym("z", 3 * nq)
-    now_frame, before_frame = world_frames(twin, z[2 * nq:])[frame], world_frames(twin, z[nq:2 * nq])[frame]
-    P = ca.SX.sym("slots", SLOT_SIZE * slots)
+    frames_now, frames_before = world_frames(twin, z[2 * nq:]), world_frames(twin, z[nq:2 * nq])
+    fields, size = (SLOT_FIELDS, SLOT_SIZE) if other is None else (SELF_FIELDS, SELF_SIZE)
+    P = ca.SX.sym("slots", size * slots)
     rows = []
     for i in range(slots):
-        v = P[i * SLOT_SIZE:(i + 1) * SLOT_SIZE]
-        s = {name: v[o:o + n] for name, (o, n) in SLOT_FIELDS.items()}
-        now, d_now = slot_distance(now_frame, s)
-        before, d_before = slot_distance(before_frame, s)
+        v = P[i * size:(i + 1) * size]
+        s = {name: v[o:o + n] for name, (o, n) in fields.items()}
+        if other is None:
+            now, d_now = slot_distance(frames_now[frame], s)
+            before, d_before = slot_distance(frames_before[frame], s)
+        else:
+            now, d_now = self_distance(frames_now[frame], frames_now[other], s)
+            before, d_before = self_distance(frames_before[frame], frames_before[other], s)
         need = s["margin"] + 0.5 * _norm(d_now - d_before)
         off = 1 - s["active"]
         rows += [s["active"] * (now - need) + off, s["active"] * (before - need) + off]
@@ -119,37 +146,51 @@ def build_collision_kernels(robot: Any, frame: int, slots: int) -> dict[str, ca.
 
 
 class CollisionKernels(NamedTuple):
-    """One frame's clearance rows (2 per slot), their Jacobian and Lagrangian Hessian in ``z``."""
+    """One frame's clearance rows (2 per slot), their Jacobian and Lagrangian Hessian in ``z``
+    (``other``: the second frame of self-collision slots, ``None`` for scene slots)."""
 
     rows: ca.Function
     jac: ca.Function
     hess: ca.Function
     frame: int
     slots: int
+    other: int | None = None
+
+    @property
+    def name(self) -> str:
+        return f"clear{self.frame}" if self.other is None else f"self{self.frame}_{self.other}"
+
+    @property
+    def size(self) -> int:
+        """Parameters per waypoint."""
+        return self.slots * (SLOT_SIZE if self.other is None else SELF_SIZE)
 
 
-def load_collision_kernels(robot: Any, frame: int, slots: int, options: SolverOptions) -> CollisionKernels:
-    """The kernels of ``slots`` slots on ``frame``, compiled to C and cached like the stage kernels."""
+def load_collision_kernels(robot: Any, frame: int, slots: int, options: SolverOptions,
+                           other: int | None = None) -> CollisionKernels:
+    """The kernels of ``slots`` slots on ``frame`` (against ``other``'s primitives when given),
+    compiled to C and cached like the stage kernels."""
     from forte.planning import kernels as stage
 
     compiler = shutil.which("gcc") or shutil.which("cc")
     if options.codegen and compiler:
-        key = hashlib.sha256(repr((__version__, robot.fingerprint, frame, slots, ca.__version__,
+        key = hashlib.sha256(repr((__version__, robot.fingerprint, frame, slots, other, ca.__version__,
                                    Path(__file__).read_bytes(), stage._source_digest())).encode()).hexdigest()[:20]
-        lib = stage.cache_root(options) / f"clearance_f{frame}_{slots}_{key}.so"
+        tag = f"f{frame}" if other is None else f"f{frame}-{other}"
+        lib = stage.cache_root(options) / f"clearance_{tag}_{slots}_{key}.so"
         fns = stage._load_verified(lib, names=KERNEL_NAMES)
         if fns is None:
             try:
                 with progress.step(f"compiling clearance kernels to C (frame {frame}, {slots} pairs, once)", 3.0):
-                    stage._compile(build_collision_kernels(robot, frame, slots), lib, compiler)
+                    stage._compile(build_collision_kernels(robot, frame, slots, other), lib, compiler)
                 fns = stage._load_verified(lib, quiet=False, names=KERNEL_NAMES)
             except OSError as exc:
                 stage.notice(f"cannot build the clearance kernels in {lib.parent} ({exc}); using CasADi's "
                              "virtual machine (slower, same results)")
         if fns is not None:
-            return CollisionKernels(*(fns[n] for n in KERNEL_NAMES), frame, slots)
-    fns = build_collision_kernels(robot, frame, slots)
-    return CollisionKernels(*(fns[n] for n in KERNEL_NAMES), frame, slots)
+            return CollisionKernels(*(fns[n] for n in KERNEL_NAMES), frame, slots, other)
+    fns = build_collision_kernels(robot, frame, slots, other)
+    return CollisionKernels(*(fns[n] for n in KERNEL_NAMES), frame, slots, other)
 
 
 def bucket(pairs: int) -> int:

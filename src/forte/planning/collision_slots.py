@@ -19,7 +19,8 @@ import numpy as np
 
 from forte.model.body_spheres import Primitive, primitive_centres, robot_primitives
 from forte.model.scene import Proxy, Scene
-from forte.planning.collision_kernels import SLOT_BUCKETS, SLOT_FIELDS, SLOT_SIZE, bucket
+from forte.planning.collision_kernels import SELF_FIELDS, SELF_SIZE, SLOT_BUCKETS, SLOT_FIELDS, SLOT_SIZE, bucket
+from forte.planning.self_pairs import SELF_ACTIVATION, SELF_MARGIN, self_distances, self_pairs
 from forte.validation import FloatArray
 
 #: A pair gets rows when its cover distance is below the clearance plus this (m).
@@ -28,14 +29,16 @@ ACTIVATION = 0.10
 
 class FrameSlots(NamedTuple):
     """The clearance rows of one frame in one solve: ``slots`` per waypoint; ``values``
-    (N x slots * SLOT_SIZE) their NLP parameters; ``keep`` (N x 2 slots) the rows written into
-    the NLP; ``pairs``: ``(k, slot) -> (primitive, body)``."""
+    (N x slots * slot size) their NLP parameters; ``keep`` (N x 2 slots) the rows written into
+    the NLP; ``pairs``: ``(k, slot) -> (primitive, body)`` (a self pair's body: ``-1 -
+    primitive``); ``other``: the second frame of self-collision slots, ``None`` for the scene."""
 
     frame: int
     slots: int
     values: FloatArray
     keep: FloatArray
     pairs: dict[tuple[int, int], tuple[int, int]]
+    other: int | None = None
 
 
 class Slots(NamedTuple):
@@ -97,45 +100,61 @@ def pair_distances(centres: FloatArray, primitives: tuple[Primitive, ...], proxi
 def trajectory_distances(robot: object, q: FloatArray, scene: Scene) -> tuple[FloatArray, tuple[Primitive, ...]]:
     """Cover distances (N x P x M) along a trajectory (N x nq) and the primitives."""
     primitives = robot_primitives(robot)
-    centres = np.stack([primitive_centres(robot, qk, primitives) for qk in np.atleast_2d(q)])
-    return pair_distances(centres, primitives, [upright(p) for p in scene.proxies()]), primitives
+    return pair_distances(_centres(robot, q, primitives), primitives, [upright(p) for p in scene.proxies()]), primitives
+
+
+def _centres(robot: object, q: FloatArray, primitives: tuple[Primitive, ...]) -> FloatArray:
+    return np.stack([primitive_centres(robot, qk, primitives) for qk in np.atleast_2d(q)])
 
 
 def assign_slots(robot: object, q: FloatArray, scene: Scene, clearance: float, fix_initial: bool,
                  extra: set[tuple[int, int, int]] | None = None) -> Slots:
-    """Slots for the solve that starts from ``q`` (N x nq); ``extra``: ``(k, primitive, body)``
-    triples that must get rows (found on an earlier solution)."""
-    D, primitives = trajectory_distances(robot, q, scene)
+    """Slots for the solve that starts from ``q`` (N x nq): the scene pairs within the clearance
+    plus :data:`ACTIVATION`, the robot's own pairs (:func:`forte.planning.self_pairs.self_pairs`)
+    within :data:`~forte.planning.self_pairs.SELF_ACTIVATION`; ``extra``: ``(k, primitive, body)``
+    triples that must get rows (found on an earlier solution; a self pair's ``body`` is
+    ``-1 - primitive``)."""
+    primitives = robot_primitives(robot)
+    centres = _centres(robot, q, primitives)
+    D = pair_distances(centres, primitives, [upright(p) for p in scene.proxies()])
+    pairs_self = self_pairs(robot)
+    S = self_distances(centres, primitives, pairs_self)
     n = D.shape[0]
-    near = [set(zip(*np.nonzero(D[k] < clearance + ACTIVATION), strict=True)) for k in range(n)]
+    index_self = {pair: i for i, pair in enumerate(pairs_self)}
+    near = [set(zip(*np.nonzero(D[k] < clearance + ACTIVATION), strict=True))
+            | {(a, -1 - b) for a, b in np.asarray(pairs_self, dtype=int).reshape(-1, 2)[S[k] < SELF_ACTIVATION]}
+            for k in range(n)]
     for k, p, m in extra or ():
         near[k].add((p, m))
+
+    def score(k: int, p: int, m: int) -> float:
+        values = D[:, p, m] if m >= 0 else S[:, index_self[(p, -1 - m)]]
+        return float(min(values[k], values[k - 1] if k else np.inf))
+
     first = 1 if fix_initial and n > 1 else 0
-    chosen: list[dict[int, list[tuple[float, int, int]]]] = []
+    chosen: list[dict[tuple[int, int], list[tuple[float, int, int]]]] = []
     for k in range(n):
-        pairs = near[k] | (near[k - 1] if k else set()) if k >= first else set()
-        by_frame: dict[int, list[tuple[float, int, int]]] = {}
-        for p, m in pairs:
-            score = min(D[k, p, m], D[k - 1, p, m] if k else np.inf)
-            by_frame.setdefault(primitives[p].frame + 1, []).append((score, int(p), int(m)))
-        chosen.append(by_frame)
+        groups: dict[tuple[int, int], list[tuple[float, int, int]]] = {}
+        for p, m in (near[k] | (near[k - 1] if k else set())) if k >= first else set():
+            key = (primitives[p].frame + 1, -1 if m >= 0 else primitives[-1 - m].frame + 1)
+            groups.setdefault(key, []).append((score(k, int(p), int(m)), int(p), int(m)))
+        chosen.append(groups)
     proxies = [upright(p) for p in scene.proxies()]
     frames = []
-    for frame in range(robot.n_arm + 1):
-        most = max((len(by.get(frame, ())) for by in chosen), default=0)
-        if most == 0:
-            continue
-        size = min(bucket(most), SLOT_BUCKETS[-1])
-        values = np.zeros((n, size * SLOT_SIZE))
+    for key in sorted({key for groups in chosen for key in groups}):
+        size = min(bucket(max(len(groups.get(key, ())) for groups in chosen)), SLOT_BUCKETS[-1])
+        width = SLOT_SIZE if key[1] < 0 else SELF_SIZE
+        values = np.zeros((n, size * width))
         keep = np.zeros((n, 2 * size), dtype=bool)
         pairs = {}
-        for k, by_frame in enumerate(chosen):
-            for j, (_, p, m) in enumerate(sorted(by_frame.get(frame, ()))[:size]):
-                values[k, j * SLOT_SIZE:(j + 1) * SLOT_SIZE] = _slot(primitives[p], proxies[m], clearance)
+        for k, groups in enumerate(chosen):
+            for j, (_, p, m) in enumerate(sorted(groups.get(key, ()))[:size]):
+                values[k, j * width:(j + 1) * width] = _slot(primitives[p], proxies[m], clearance) if m >= 0 \
+                    else _self_slot(primitives[p], primitives[-1 - m])
                 keep[k, 2 * j] = True
                 keep[k, 2 * j + 1] = n > 1  # one waypoint (holding): no interval, one row
                 pairs[(k, j)] = (p, m)
-        frames.append(FrameSlots(frame, size, values, keep, pairs))
+        frames.append(FrameSlots(key[0], size, values, keep, pairs, None if key[1] < 0 else key[1]))
     return Slots(tuple(frames))
 
 
@@ -152,12 +171,25 @@ def _slot(primitive: Primitive, proxy: Proxy, clearance: float) -> FloatArray:
 
 def missing_pairs(robot: object, q: FloatArray, scene: Scene, clearance: float, slots: Slots,
                   tol: float = 1e-4) -> set[tuple[int, int, int]]:
-    """``(k, primitive, body)`` triples closer than the clearance at ``q`` without a row."""
-    D, _ = trajectory_distances(robot, q, scene)
+    """``(k, primitive, body)`` triples closer than their margin at ``q`` without a row (the
+    scene's: the clearance; the robot's own pairs: :data:`~forte.planning.self_pairs.SELF_MARGIN`)."""
+    primitives = robot_primitives(robot)
+    centres = _centres(robot, q, primitives)
+    D = pair_distances(centres, primitives, [upright(p) for p in scene.proxies()])
+    pairs_self = np.asarray(self_pairs(robot), dtype=int).reshape(-1, 2)
+    S = self_distances(centres, primitives, self_pairs(robot))
     have = slots.triples()
-    out = set()
-    for k, p, m in zip(*np.nonzero(D < clearance - tol), strict=True):
-        if (int(k), int(p), int(m)) not in have:
-            out.add((int(k), int(p), int(m)))
-    return out
+    found = {(int(k), int(p), int(m)) for k, p, m in zip(*np.nonzero(D < clearance - tol), strict=True)}
+    found |= {(int(k), int(pairs_self[i, 0]), -1 - int(pairs_self[i, 1]))
+              for k, i in zip(*np.nonzero(S < SELF_MARGIN - tol), strict=True)}
+    return found - have
 
+
+def _self_slot(a: Primitive, b: Primitive) -> FloatArray:
+    v = np.zeros(SELF_SIZE)
+    fields = {"centre_a": a.centre, "radius_a": [a.radius], "centre_b": b.centre, "half_b": [b.half_height],
+              "radius_b": [b.radius], "margin": [SELF_MARGIN], "active": [1.0]}
+    for name, value in fields.items():
+        offset, size = SELF_FIELDS[name]
+        v[offset:offset + size] = value
+    return v

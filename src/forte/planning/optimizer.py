@@ -40,7 +40,7 @@ from forte.model.robot import MobileManipulator
 from forte.planning import layout
 from forte.planning.assembly import block_diagonal_pattern, dm, gather, hessian_pattern, scatter_matrix
 from forte.planning.clearance_rows import clearance_hessian, clearance_jacobian
-from forte.planning.collision_kernels import SLOT_SIZE, load_collision_kernels
+from forte.planning.collision_kernels import load_collision_kernels
 from forte.planning.collision_slots import Slots
 from forte.planning.ipopt_progress import IpoptProgress, margin_of
 from forte.planning.kernels import load_kernels
@@ -119,7 +119,8 @@ class TrajectoryOptimizer:
         self._quadratic = tuple(t for t in terms if t.kind == "quadratic")
         start = time.perf_counter()
         self.slots = slots
-        self._clear = [load_collision_kernels(robot, f.frame, f.slots, options) for f in slots.frames] if slots else []
+        self._clear = [load_collision_kernels(robot, f.frame, f.slots, options, f.other)
+                       for f in slots.frames] if slots else []
         self.kernels = load_kernels(robot, resolved, weights, options)
         self._build()
         self.build_time = time.perf_counter() - start
@@ -139,7 +140,7 @@ class TrajectoryOptimizer:
         for term in self._stage:
             sizes |= {name: size * n for name, size in term.parameters}
         for ck in self._clear:
-            sizes[f"clear{ck.frame}"] = ck.slots * SLOT_SIZE * n
+            sizes[ck.name] = ck.size * n
         spans, offset = {}, 0
         for name, size in sizes.items():
             spans[name] = (offset, size)
@@ -213,7 +214,7 @@ class TrajectoryOptimizer:
         g = ca.vertcat(ca.vec(kern.pose.map(n)(X, pd, Rd)[:, self._pose_steps.tolist()]), g_kin)
         kept = [np.flatnonzero(f.keep.ravel()) for f in self.slots.frames] if self.slots else []
         self._clear_index = np.concatenate(kept) if kept else np.array([], int)
-        clear_par = [par(f"clear{ck.frame}", ck.slots * SLOT_SIZE) for ck in self._clear]
+        clear_par = [par(ck.name, ck.size) for ck in self._clear]
         for ck, P_f, rows in zip(self._clear, clear_par, kept, strict=True):
             g = ca.vertcat(g, ca.vec(ck.rows.map(n)(Z, P_f))[rows.tolist()])
         scatter = dm(scatter_matrix(index.T.ravel(), x.numel()))
@@ -362,8 +363,8 @@ class TrajectoryOptimizer:
         }
         for term in self._stage:
             values |= {name: term.parameter_values(name, f, r) for name, _ in term.parameters}
-        for f in self.slots.frames if self.slots else ():
-            values[f"clear{f.frame}"] = f.values.ravel()
+        for f, ck in zip(self.slots.frames if self.slots else (), self._clear, strict=True):
+            values[ck.name] = f.values.ravel()
         return np.concatenate([values[name] for name in self._layout])
 
     def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,

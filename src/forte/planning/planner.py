@@ -265,7 +265,7 @@ def solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatA
                                   limits=task.limits, slots=slots, keep_multipliers=keep_multipliers)
         sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, start, nominal)
         missing = missing_pairs(task.robot, sol.q, task.scene, task.clearance, slots)
-        rounds.append({"rows": slots.rows, "slots": {f.frame: f.slots for f in slots.frames},
+        rounds.append({"rows": slots.rows, "slots": {ck.name: ck.slots for ck in opt._clear},
                        "iterations": sol.iterations, "missing_pairs": len(missing)})
         if not missing or not sol.success:
             break
