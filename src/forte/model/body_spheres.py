@@ -159,8 +159,13 @@ def primitive_centres(robot: Any, q: Any, primitives: tuple[Primitive, ...]) -> 
     q = np.asarray(q, dtype=float)
     pin.forwardKinematics(robot.model, robot.data, q[3:])
     base = robot.base_transform(q[:3])
-    out = np.empty((len(primitives), 3))
-    for i, p in enumerate(primitives):
-        local = p.centre if p.frame == BASE_FRAME else robot.data.oMi[p.frame + 1].act(p.centre)
-        out[i] = base[:3, :3] @ local + base[:3, 3]
-    return out
+    frames = np.array([p.frame + 1 for p in primitives], dtype=int)
+    local = np.array([p.centre for p in primitives]).reshape(-1, 3)
+    rotations = np.empty((robot.n_arm + 1, 3, 3))
+    offsets = np.empty((robot.n_arm + 1, 3))
+    rotations[0], offsets[0] = np.eye(3), 0.0
+    for j in range(robot.n_arm):
+        placement = robot.data.oMi[j + 1]
+        rotations[j + 1], offsets[j + 1] = placement.rotation, placement.translation
+    in_base = np.einsum("pij,pj->pi", rotations[frames], local) + offsets[frames]
+    return in_base @ base[:3, :3].T + base[:3, 3]

@@ -206,7 +206,8 @@ def path_clearances(robot: MobileManipulator, scene: Scene, targets: Any) -> Cle
     """The clearance of the parts rigid with the end effector (the hand, the fingers: every part
     on the end effector's joint) with the end effector at each target pose (K x 4 x 4). The rest
     of the robot cannot change it: where it is below the task's clearance, no plan of the path is
-    clear. Parts elsewhere and the base count as infinitely far."""
+    clear. Parts elsewhere and the base count as infinitely far; so does a body more than 1 m
+    away (bounding spheres), which no clearance forte accepts reaches."""
     checker = ClearanceChecker(robot, scene)
     targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
     k = len(targets)
@@ -223,15 +224,19 @@ def path_clearances(robot: MobileManipulator, scene: Scene, targets: Any) -> Cle
     local = np.array([objs[i].placement.homogeneous for i in rigid])
     distance, robot_names, body_names = out.distance.copy(), list(out.robot), list(out.body)
     wr, wb = out.witness_robot.copy(), out.witness_body.copy()
+    radii = np.array([checker.parts[i].radius for i in rigid])[:, None] + [b.radius for b in checker.bodies]
     for k_, T_ee in enumerate(targets):
         T = np.repeat(np.eye(4)[None], len(checker.parts), axis=0)
         T[rigid] = T_ee @ joint_from_ee @ local
-        for i in rigid:
-            for b in range(len(checker.bodies)):
-                d, p1, p2 = checker._distance(T, i * len(checker.bodies) + b)
+        centres = np.einsum("gij,gj->gi", T[rigid, :3, :3], checker._part_centres[rigid]) + T[rigid, :3, 3]
+        bound = np.linalg.norm(centres[:, None] - checker._body_centres[None], axis=-1) - radii
+        for r, b in zip(*np.nonzero(bound < min(distance[k_], 1.0)), strict=True):  # bounding spheres first
+            if bound[r, b] < distance[k_]:
+                i = rigid[r]
+                d, p1, p2 = checker._distance(T, i * len(checker.bodies) + int(b))
                 if d < distance[k_]:
                     distance[k_], wr[k_], wb[k_] = d, p1, p2
-                    robot_names[k_], body_names[k_] = checker.parts[i].name, checker.bodies[b].name
+                    robot_names[k_], body_names[k_] = checker.parts[i].name, checker.bodies[int(b)].name
     return Clearances(distance, tuple(robot_names), tuple(body_names), wr, wb)
 
 

@@ -78,29 +78,56 @@ def upright(proxy: Proxy) -> Proxy:
     return Proxy(pose, half, 0.0, 0.0)
 
 
-def pair_distances(centres: FloatArray, primitives: tuple[Primitive, ...], proxies: list[Proxy]) -> FloatArray:
+def pair_distances(centres: FloatArray, primitives: tuple[Primitive, ...], proxies: list[Proxy],
+                   cutoff: float = np.inf) -> FloatArray:
     """Cover distances (... x P x M) of primitives at ``centres`` (... x P x 3) to upright proxies:
-    the numpy twin of :func:`forte.planning.collision_kernels.slot_distance`."""
-    half_a = np.array([p.half_height for p in primitives])
-    radius = np.array([p.radius for p in primitives])
-    out = np.empty((*centres.shape[:-1], len(proxies)))
-    for m, proxy in enumerate(proxies):
-        d = centres - proxy.pose[:3, 3]
-        c, s = proxy.pose[0, 0], proxy.pose[1, 0]
-        local = np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1],
-                          d[..., 2] - np.clip(d[..., 2], -half_a, half_a)], axis=-1)
-        q = np.abs(local[..., :2]) - proxy.half[:2]
-        a = np.linalg.norm(np.maximum(q, 0), axis=-1) + np.minimum(q.max(axis=-1), 0) - proxy.rho
-        b = np.abs(local[..., 2]) - proxy.half[2]
-        ab = np.stack([a, b], axis=-1)
-        out[..., m] = np.linalg.norm(np.maximum(ab, 0), axis=-1) + np.minimum(ab.max(axis=-1), 0) - proxy.sigma
-    return out - radius[:, None]
+    the numpy twin of :func:`forte.planning.collision_kernels.slot_distance` (all pairs at once).
+
+    A body whose bounding sphere stays farther than ``cutoff`` (m) from the box around every
+    primitive gets that lower bound instead (never above the true distance): the callers only
+    compare distances with thresholds below their cutoff (the broad phase)."""
+    if not proxies:
+        return np.empty((*centres.shape[:-1], 0))
+    if np.isfinite(cutoff):
+        gap = _box_gap(centres, primitives, proxies)
+        out = np.broadcast_to(gap, (*centres.shape[:-1], len(proxies))).copy()
+        near = np.flatnonzero(gap < cutoff)
+        if near.size:
+            out[..., near] = pair_distances(centres, primitives, [proxies[m] for m in near])
+        return out
+    half_a = np.array([p.half_height for p in primitives])[:, None]
+    radius = np.array([p.radius for p in primitives])[:, None]
+    origin = np.array([p.pose[:3, 3] for p in proxies])  # M x 3
+    c, s = np.array([p.pose[0, 0] for p in proxies]), np.array([p.pose[1, 0] for p in proxies])
+    half = np.array([p.half for p in proxies])
+    rho, sigma = np.array([p.rho for p in proxies]), np.array([p.sigma for p in proxies])
+    d = centres[..., :, None, :] - origin  # ... x P x M x 3
+    x, y = c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]
+    z = d[..., 2] - np.clip(d[..., 2], -half_a, half_a)
+    qx, qy = np.abs(x) - half[:, 0], np.abs(y) - half[:, 1]
+    a = np.hypot(np.maximum(qx, 0), np.maximum(qy, 0)) + np.minimum(np.maximum(qx, qy), 0) - rho
+    b = np.abs(z) - half[:, 2]
+    return np.hypot(np.maximum(a, 0), np.maximum(b, 0)) + np.minimum(np.maximum(a, b), 0) - sigma - radius
 
 
-def trajectory_distances(robot: object, q: FloatArray, scene: Scene) -> tuple[FloatArray, tuple[Primitive, ...]]:
-    """Cover distances (N x P x M) along a trajectory (N x nq) and the primitives."""
+def _box_gap(centres: FloatArray, primitives: tuple[Primitive, ...], proxies: list[Proxy]) -> FloatArray:
+    """A lower bound (M) on every primitive's distance to each body: from the body's bounding
+    sphere to the box around all the centres grown by the largest primitive."""
+    reach = max(p.radius + p.half_height for p in primitives)
+    points = centres.reshape(-1, 3)
+    lo, hi = points.min(axis=0) - reach, points.max(axis=0) + reach
+    origin = np.array([p.pose[:3, 3] for p in proxies])
+    size = np.array([np.linalg.norm(p.half) + p.rho + p.sigma for p in proxies])
+    return np.linalg.norm(np.maximum(np.maximum(lo - origin, origin - hi), 0), axis=1) - size
+
+
+def trajectory_distances(robot: object, q: FloatArray, scene: Scene, cutoff: float = np.inf
+                         ) -> tuple[FloatArray, tuple[Primitive, ...]]:
+    """Cover distances (N x P x M) along a trajectory (N x nq) and the primitives (``cutoff``: see
+    :func:`pair_distances`)."""
     primitives = robot_primitives(robot)
-    return pair_distances(_centres(robot, q, primitives), primitives, [upright(p) for p in scene.proxies()]), primitives
+    proxies = [upright(p) for p in scene.proxies()]
+    return pair_distances(_centres(robot, q, primitives), primitives, proxies, cutoff), primitives
 
 
 def _centres(robot: object, q: FloatArray, primitives: tuple[Primitive, ...]) -> FloatArray:
@@ -116,7 +143,7 @@ def assign_slots(robot: object, q: FloatArray, scene: Scene, clearance: float, f
     ``-1 - primitive``)."""
     primitives = robot_primitives(robot)
     centres = _centres(robot, q, primitives)
-    D = pair_distances(centres, primitives, [upright(p) for p in scene.proxies()])
+    D = pair_distances(centres, primitives, [upright(p) for p in scene.proxies()], clearance + 2 * ACTIVATION)
     pairs_self = self_pairs(robot)
     S = self_distances(centres, primitives, pairs_self)
     n = D.shape[0]
@@ -175,7 +202,7 @@ def missing_pairs(robot: object, q: FloatArray, scene: Scene, clearance: float, 
     scene's: the clearance; the robot's own pairs: :data:`~forte.planning.self_pairs.SELF_MARGIN`)."""
     primitives = robot_primitives(robot)
     centres = _centres(robot, q, primitives)
-    D = pair_distances(centres, primitives, [upright(p) for p in scene.proxies()])
+    D = pair_distances(centres, primitives, [upright(p) for p in scene.proxies()], clearance + ACTIVATION)
     pairs_self = np.asarray(self_pairs(robot), dtype=int).reshape(-1, 2)
     S = self_distances(centres, primitives, self_pairs(robot))
     have = slots.triples()

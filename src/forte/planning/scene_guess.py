@@ -49,7 +49,7 @@ WINDOW_DISTANCE = 0.05
 def clear_start(task: Any, guess: FloatArray) -> FloatArray | None:
     """A start clear of ``task.scene`` (see the module docstring), ``guess`` when it is clear
     already, or ``None``."""
-    D, _ = trajectory_distances(task.robot, guess, task.scene)
+    D, _ = trajectory_distances(task.robot, guess, task.scene, task.clearance + WINDOW_DISTANCE + 0.05)
     if D.min() >= task.clearance:
         return guess
     fixed_first = task.mode != "hold"
@@ -57,28 +57,31 @@ def clear_start(task: Any, guess: FloatArray) -> FloatArray | None:
     near = np.zeros(len(guess), dtype=bool)
     for k in close:  # search around the waypoints that come close; elsewhere keep the usual start
         near[max(k - WINDOW, 0):k + WINDOW + 1] = True
-    candidates = [_candidates(task, k, guess, only_guess=(fixed_first and k == 0) or not near[k])
+    seeds: dict[int, FloatArray] = {}  # each ring position's last arm: the next waypoint's IK starts there
+    candidates = [_candidates(task, k, guess, (fixed_first and k == 0) or not near[k], seeds)
                   for k in range(len(guess))]
     if any(not c for c in candidates):
         return None
     return _chain(task, candidates, guess)
 
 
-def _candidates(task: Any, k: int, guess: FloatArray, only_guess: bool) -> list[FloatArray]:
+def _candidates(task: Any, k: int, guess: FloatArray, only_guess: bool,
+                seeds: dict[int, FloatArray]) -> list[FloatArray]:
     robot, target = task.robot, task.targets[k]
     tries = [guess[k]]
     if not only_guess:
         angles = np.tile(np.linspace(-np.pi, np.pi, ANGLES, endpoint=False), len(RINGS))
         radii = np.repeat(RINGS, ANGLES)
         starts = np.column_stack([target[0, 3] - radii * np.cos(angles), target[1, 3] - radii * np.sin(angles),
-                                  angles, np.tile(guess[k, N_BASE:], (angles.size, 1))])
-        for start in starts[_base_clear(task, starts)]:  # the arm's IK only where the base fits
-            in_base = np.linalg.inv(robot.base_transform(start[:N_BASE])) @ target
-            arm = _arm_ik(robot, in_base, start[N_BASE:])
+                                  angles])
+        for i in np.flatnonzero(_base_clear(task, starts)):  # the arm's IK only where the base fits
+            in_base = np.linalg.inv(robot.base_transform(starts[i])) @ target
+            arm = _arm_ik(robot, in_base, seeds.get(int(i), guess[k, N_BASE:]))
             if arm is not None:
-                tries.append(np.r_[start[:N_BASE], arm])
+                seeds[int(i)] = arm
+                tries.append(np.concatenate([starts[i], arm]))
     tries = np.array(tries)
-    D, _ = trajectory_distances(robot, tries, task.scene)
+    D, _ = trajectory_distances(robot, tries, task.scene, task.clearance + 0.05)
     clear = D.min(axis=(1, 2)) >= task.clearance + 0.01
     if only_guess:  # the fixed first configuration, or a waypoint far from every body
         return [tries[0]] if clear[0] or k == 0 else []
@@ -92,14 +95,17 @@ def _arm_ik(robot: Any, target: FloatArray, seed: FloatArray, iterations: int = 
     model, data, frame = robot.model, robot.data, robot.ee_frame_id
     q = seed.copy()
     goal = pin.SE3(target[:3, :3].copy(), target[:3, 3].copy())
+    damping = 1e-6 * np.eye(6)
+    err = np.empty(6)
     for _ in range(iterations):
         pin.framesForwardKinematics(model, data, q)
         current = data.oMf[frame]
-        err = np.r_[goal.translation - current.translation, pin.log3(goal.rotation @ current.rotation.T)]
-        if np.linalg.norm(err) < 1e-6:
+        err[:3] = goal.translation - current.translation
+        err[3:] = pin.log3(goal.rotation @ current.rotation.T)
+        if err @ err < 1e-12:
             break
         J = pin.computeFrameJacobian(model, data, q, frame, pin.LOCAL_WORLD_ALIGNED)
-        q = np.clip(q + J.T @ np.linalg.solve(J @ J.T + 1e-6 * np.eye(6), err), robot.lower, robot.upper)
+        q = np.clip(q + J.T @ np.linalg.solve(J @ J.T + damping, err), robot.lower, robot.upper)
     pin.framesForwardKinematics(model, data, q)
     current = data.oMf[frame]
     if np.linalg.norm(goal.translation - current.translation) > 1e-3 or \
@@ -119,7 +125,7 @@ def _base_clear(task: Any, starts: FloatArray) -> FloatArray:
     world = np.stack([starts[:, None, 0] + c[:, None] * local[:, 0] - s[:, None] * local[:, 1],
                       starts[:, None, 1] + s[:, None] * local[:, 0] + c[:, None] * local[:, 1],
                       np.broadcast_to(local[:, 2], (len(starts), len(base)))], axis=-1)
-    D = pair_distances(world, base, [upright(p) for p in task.scene.proxies()])
+    D = pair_distances(world, base, [upright(p) for p in task.scene.proxies()], task.clearance + 0.05)
     return D.min(axis=(1, 2)) >= task.clearance + 0.01
 
 
