@@ -60,6 +60,8 @@ REDUCED: list[tuple[str, str, str]] = [
      "72 cells, ~95 s on 2 cores; Ray itself is tested in test_sweep.py"),
     ("python benchmarks/verdict_vs_mujoco.py", "--tasks hold --masses 2.7 --workers 1",
      "78 plans and runs, ~2.5 min on 2 cores; one case of the table here"),
+    ("python benchmarks/scene_vs_mujoco.py", "--tasks around-the-crate --methods forte quintic --workers 1",
+     "42 plans and runs, ~2 min on 2 cores; four rows of the table here"),
 ]
 
 #: Blocks the default run leaves to ``-m docs_full``: (document, text of one of its commands, reason).
