@@ -111,7 +111,9 @@ def test_arm_parts_follow_the_planners_kinematics_and_the_panda_meshes_are_conve
         placed = data.oMi[model.getJointId(joint)] if obj.parentJoint else pin.SE3(robot.mount)
         np.testing.assert_allclose(T[i], base @ placed.homogeneous @ obj.placement.homogeneous, atol=1e-12)
     height = robot.mount[2, 3]
-    np.testing.assert_allclose(T[-1][:3, 3], base[:3, :3] @ [0, 0, height / 2] + base[:3, 3], atol=1e-12)
+    np.testing.assert_allclose(T[-2][:3, 3], base[:3, :3] @ [0, 0, height / 2] + base[:3, 3], atol=1e-12)
+    np.testing.assert_allclose(T[-1], robot.ee_pose(q), atol=1e-12)  # the payload sphere, at the end effector
+    assert [p.name for p in checker.parts[-2:]] == ["base", "payload"]
     assert max(checker.hull_excess.values()) < 1e-3
     mesh = checker._arm.geom.geometryObjects[4].geometry  # panda_link4's triangle mesh
     rng = np.random.default_rng(0)

@@ -284,3 +284,24 @@ def test_self_collision_kernel_equals_its_numpy_twin_and_the_pairs_skip_structur
         rel = np.array([np.linalg.norm((c1[a] - c1[b]) - (c0[a] - c0[b])) for a, b in chosen])
         assert rows[0::2] == pytest.approx(d1 - rel / 2, abs=1e-8)
         assert rows[1::2] == pytest.approx(d0 - rel / 2, abs=1e-8)
+
+
+def test_the_payload_sphere_is_part_of_the_robot_for_the_planner_and_the_check(tmp_path):
+    """A small body right at a target end-effector position, between the fingers: only the payload
+    (the sphere MuJoCo's hand holds) touches it, and both the cover and the exact check see it."""
+    from forte.model.description import PAYLOAD_RADIUS
+    from forte.planning.planner import blocked_path
+    from forte.planning.tasks import task_from_dict
+
+    task = task_from_dict(CRATE_TASK, tmp_path / "crate.yaml")
+    primitives = robot_primitives(task.robot)
+    payload = [p for p in primitives if p.piece == "payload"]
+    assert len(payload) == 1 and payload[0].radius == PAYLOAD_RADIUS
+    at = task.targets[20][:3, 3]
+    pebble = {"name": "pebble", "sphere": {"radius": 0.005}, "pose": [*at.tolist(), 0, 0, 0]}
+    blocked = task_from_dict(CRATE_TASK | {"scene": [pebble]}, tmp_path / "pebble.yaml")
+    reason = blocked_path(blocked)
+    assert reason is not None and "payload" in reason and "pebble" in reason
+    index = next(i for i, p in enumerate(primitives) if p.piece == "payload")
+    centre = primitive_centres(task.robot, task.nominal()[20], primitives)[index]
+    assert centre == pytest.approx(at, abs=1e-6)

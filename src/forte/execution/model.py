@@ -51,7 +51,7 @@ import pinocchio as pin
 from forte.exceptions import InvalidInputError, SimulationError
 from forte.execution.arm_spec import ARM_PREFIX, load_arm_spec
 from forte.execution.contact import add_scene, enable_robot_contacts
-from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT
+from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT, PAYLOAD_RADIUS
 from forte.model.robot import N_BASE, MobileManipulator, ToolLoad
 from forte.model.scene import Scene
 from forte.validation import FloatArray, as_positive, as_vector
@@ -206,7 +206,7 @@ def build_sim_model(
     payload_mass: float = 0.0,
     *,
     payload_com: Any = (0.0, 0.0, 0.0),
-    payload_radius: float = 0.05,
+    payload_radius: float = PAYLOAD_RADIUS,
     meshes: bool = False,
     timestep: float = 1e-3,
     base_mass: float = BASE_MASS,
@@ -247,7 +247,7 @@ def build_sim_spec(
     payload_mass: float = 0.0,
     *,
     payload_com: Any = (0.0, 0.0, 0.0),
-    payload_radius: float = 0.05,
+    payload_radius: float = PAYLOAD_RADIUS,
     meshes: bool = False,
     timestep: float = 1e-3,
     base_mass: float = BASE_MASS,

@@ -20,7 +20,7 @@ How the cover is built, and why it contains the real geometry:
   mount): vertical capsules from z = 0 to the mount height on a grid of the footprint, each of
   the radius of its grid cell's half diagonal, so the cells' circles cover the rectangle.
 
-:func:`cover_margin` reports how far the cover reaches beyond each piece (tested).
+- **The payload**: its sphere (:func:`payload_primitive`), exactly.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT
+from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT, PAYLOAD_RADIUS
 from forte.validation import FloatArray
 
 #: Frame index of a primitive fixed to the base.
@@ -120,6 +120,13 @@ def arm_primitives(robot: Any) -> list[Primitive]:
     return out
 
 
+def payload_primitive(robot: Any) -> Primitive:
+    """The payload's sphere (:data:`~forte.model.description.PAYLOAD_RADIUS`, centred at the end
+    effector) on the end effector's joint: the shape MuJoCo's hand holds."""
+    frame = robot.model.frames[robot.ee_frame_id]
+    return Primitive(frame.parentJoint - 1, np.array(frame.placement.translation), 0.0, PAYLOAD_RADIUS, "payload")
+
+
 def link_of(geometry_name: str) -> str:
     """The link a URDF collision geometry belongs to: Pinocchio names them ``<link>_<index>``."""
     stem, _, index = geometry_name.rpartition("_")
@@ -146,11 +153,12 @@ _CACHE: dict[str, tuple[Primitive, ...]] = {}
 
 
 def robot_primitives(robot: Any) -> tuple[Primitive, ...]:
-    """The robot's cover: the base's capsules, then the arm's spheres (cached per robot)."""
+    """The robot's cover: the base's capsules, the arm's spheres, the payload's sphere (cached
+    per robot)."""
     key = robot.fingerprint + str(robot.urdf_path)
     if key not in _CACHE:
         height = max(float(robot.mount[2, 3]), BASE_BOX_MIN_HEIGHT)
-        _CACHE[key] = tuple(base_primitives(height) + arm_primitives(robot))
+        _CACHE[key] = tuple(base_primitives(height) + arm_primitives(robot) + [payload_primitive(robot)])
     return _CACHE[key]
 
 

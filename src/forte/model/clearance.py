@@ -10,9 +10,9 @@
   never reports more clearance than there is (:attr:`ClearanceChecker.hull_excess` says by how
   much each hull is larger);
 - the base box (:data:`~forte.model.description.BASE_BOX_HALF_XY`, from the floor up to the arm's
-  mount), named ``base``.
-
-A payload or tool the hand carries is not geometry here (it has no shape in the description).
+  mount), named ``base``;
+- the payload, a sphere of :data:`~forte.model.description.PAYLOAD_RADIUS` at the end effector
+  (the body MuJoCo's hand holds), named ``payload``.
 
 **Signed distances.** Convex pairs (every robot part against a box, cylinder, sphere or capsule)
 get coal's GJK distance, and when they overlap its EPA penetration depth, negated: the true
@@ -37,14 +37,15 @@ from typing import Any, NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT
+from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT, PAYLOAD_RADIUS
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
 from forte.model.self_collision import ArmGeometry
 from forte.validation import FloatArray
 
-#: The name of the base box among the robot's parts.
+#: The names of the base box and the payload among the robot's parts.
 BASE_PART = "base"
+PAYLOAD_PART = "payload"
 
 
 class Part(NamedTuple):
@@ -128,7 +129,10 @@ class ClearanceChecker:
         self.robot, self.scene = robot, scene
         self._arm = _arm(str(robot.urdf_path), tuple(robot.arm_joints or ()))
         box, self._base_offset = base_box(robot)
-        self.parts: tuple[Part, ...] = (*(self._arm.parts if self._arm else ()), _part(BASE_PART, box))
+        import coal
+
+        self.parts: tuple[Part, ...] = (*(self._arm.parts if self._arm else ()), _part(BASE_PART, box),
+                                        _part(PAYLOAD_PART, coal.Sphere(PAYLOAD_RADIUS)))
         self._part_centres = np.array([p.centre for p in self.parts])
         self.bodies = tuple(_part(o.name, o.collision_geometry()) for o in scene.objects)
         import coal
@@ -155,8 +159,9 @@ class ClearanceChecker:
             model, geom = self._arm.model, self._arm.geom
             pin.forwardKinematics(model, self._data, np.ascontiguousarray(q[N_BASE:]))
             pin.updateGeometryPlacements(model, self._data, geom, self._geom_data)
-            out[:-1] = base @ self.robot.mount @ np.array([m.homogeneous for m in self._geom_data.oMg])
-        out[-1] = base @ self._base_offset
+            out[:-2] = base @ self.robot.mount @ np.array([m.homogeneous for m in self._geom_data.oMg])
+        out[-2] = base @ self._base_offset
+        out[-1] = self.robot.ee_pose(q)
         return out
 
     def evaluate(self, Q: Any) -> Clearances:
@@ -204,7 +209,7 @@ class ClearanceChecker:
 
 def path_clearances(robot: MobileManipulator, scene: Scene, targets: Any) -> Clearances:
     """The clearance of the parts rigid with the end effector (the hand, the fingers: every part
-    on the end effector's joint) with the end effector at each target pose (K x 4 x 4). The rest
+    on the end effector's joint; the payload) with the end effector at each target pose (K x 4 x 4). The rest
     of the robot cannot change it: where it is below the task's clearance, no plan of the path is
     clear. Parts elsewhere and the base count as infinitely far; so does a body more than 1 m
     away (bounding spheres), which no clearance forte accepts reaches."""
@@ -213,15 +218,14 @@ def path_clearances(robot: MobileManipulator, scene: Scene, targets: Any) -> Cle
     k = len(targets)
     out = Clearances(np.full(k, np.inf), ("",) * k, ("",) * k, np.full((k, 3), np.nan), np.full((k, 3), np.nan))
     if checker._arm is None or not checker.bodies:
-        return out
+        return out  # no arm geometry: the payload alone is not worth a check
     ee = robot.model.frames[robot.ee_frame_id]
     joint = robot.model.names[ee.parentJoint]
     objs = checker._arm.geom.geometryObjects
     rigid = [i for i, obj in enumerate(objs) if checker._arm.model.names[obj.parentJoint] == joint]
-    if not rigid:
-        return out
     joint_from_ee = np.linalg.inv(ee.placement.homogeneous)
-    local = np.array([objs[i].placement.homogeneous for i in rigid])
+    local = np.array([objs[i].placement.homogeneous for i in rigid] + [ee.placement.homogeneous])
+    rigid.append(len(checker.parts) - 1)  # the payload, at the end effector
     distance, robot_names, body_names = out.distance.copy(), list(out.robot), list(out.body)
     wr, wb = out.witness_robot.copy(), out.witness_body.copy()
     radii = np.array([checker.parts[i].radius for i in rigid])[:, None] + [b.radius for b in checker.bodies]

@@ -39,6 +39,9 @@ N_BASE = 3
 BASE_BOX_HALF_XY: tuple[float, float] = (0.3, 0.25)
 #: The base box's height when the mount is lower than this (m).
 BASE_BOX_MIN_HEIGHT = 0.05
+#: Radius (m) of the payload's shape: a sphere centred at the end-effector frame, the body
+#: MuJoCo's hand holds and the part the planner's cover and the clearance check carry.
+PAYLOAD_RADIUS = 0.05
 STANDARD_GRAVITY = 9.81
 
 
