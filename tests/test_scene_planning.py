@@ -305,3 +305,21 @@ def test_the_payload_sphere_is_part_of_the_robot_for_the_planner_and_the_check(t
     index = next(i for i, p in enumerate(primitives) if p.piece == "payload")
     centre = primitive_centres(task.robot, task.nominal()[20], primitives)[index]
     assert centre == pytest.approx(at, abs=1e-6)
+
+
+def test_a_hold_keeps_clear_of_a_lamp_over_the_arm(tmp_path):
+    """Holding (one waypoint, every start of the multi-start solve): one row per pair, no interval."""
+    import forte
+    from forte.model.clearance import clearances
+    from forte.planning.tasks import load_task
+
+    hold = yaml.safe_load((Path(__file__).resolve().parents[1] / "examples" / "tasks" / "hold.yaml").read_text())
+    hold["scene"] = [{"name": "lamp", "sphere": {"radius": 0.08}, "pose": [0.62, 0.0, 1.25, 0, 0, 0]}]
+    path = tmp_path / "hold.yaml"
+    path.write_text(yaml.safe_dump(hold))
+    task = load_task(path, mass=1.0)
+    D, _ = trajectory_distances(task.robot, task.teaching[None], task.scene)
+    assert D.min() < task.clearance  # the taught posture's elbow is under the lamp
+    plan = forte.plan(task)
+    assert plan.feasible, plan.verdict
+    assert clearances(task.robot, task.scene, plan.q).distance.min() >= task.clearance

@@ -213,7 +213,12 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
                                   options=options, limits=task.limits)
         sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess, nominal)
     if task.mode == "hold" and guess is None and options.hold_starts > 1:
-        sol, info["starts"] = _best_of_starts(opt, task, force, sol, nominal)
+        def solve_from(q: FloatArray) -> SolverResult:
+            if task.scene:  # each start gets the rows of the pairs near it (and near its solution)
+                return solve_in_scene(task, method, force, q, nominal, options)[1]
+            return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q, nominal)
+
+        sol, info["starts"] = _best_of_starts(solve_from, task, sol)
     info |= {
         "status": sol.status, "success": sol.success, "iterations": sol.iterations,
         "objective": sol.objective, "constraint_violation": sol.constraint_violation,
@@ -286,10 +291,10 @@ def hold_starts(task: Task) -> FloatArray:
     return np.vstack([q0, starts])
 
 
-def _best_of_starts(opt: TrajectoryOptimizer, task: Task, force: TaskForce, first: SolverResult,
-                    nominal: FloatArray) -> tuple[SolverResult, dict[str, Any]]:
-    """Solve the hold problem from every start of :func:`hold_starts`; the converged result with
-    the lowest objective (``first`` is the solve from the first start).
+def _best_of_starts(solve_from: Callable[[FloatArray], SolverResult], task: Task, first: SolverResult
+                    ) -> tuple[SolverResult, dict[str, Any]]:
+    """Solve the hold problem from every start of :func:`hold_starts` (``solve_from(q)``, q 1 x nq);
+    the converged result with the lowest objective (``first`` is the solve from the first start).
 
     The orientation equality ``vee(R_d^T R - R^T R_d) = 0`` also holds with the hand turned by pi
     about some axis, and a start can converge there (the holding sweep's rfp-radius at capability
@@ -297,7 +302,7 @@ def _best_of_starts(opt: TrajectoryOptimizer, task: Task, force: TaskForce, firs
     (``facts["upside_down"]`` counts them)."""
     results = [first]
     for q in hold_starts(task)[1:]:
-        results.append(opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q[None, :], nominal))
+        results.append(solve_from(q[None, :]))
     converged = [i for i, r in enumerate(results) if r.success]
     upright = [i for i in converged if _upright(task, results[i].q)]
     best = min(upright or converged, key=lambda i: results[i].objective) if converged else 0
