@@ -242,7 +242,7 @@ def test_a_wall_through_the_path_is_found_before_any_solve(tmp_path):
     """The hand's own parts cross the wall at a target pose: no motion can keep clear, so the
     optimizer is not run; the verdict is infeasible and names the wall."""
     import forte
-    from forte.planning.planner import blocked_path
+    from forte.planning.scene_solve import blocked_path
     from forte.planning.tasks import task_from_dict
 
     wall = {"name": "wall", "box": {"size": [0.1, 4.0, 2.0]}, "pose": [2.5, 0.0, 1.0, 0, 0, 0]}
@@ -290,7 +290,7 @@ def test_the_payload_sphere_is_part_of_the_robot_for_the_planner_and_the_check(t
     """A small body right at a target end-effector position, between the fingers: only the payload
     (the sphere MuJoCo's hand holds) touches it, and both the cover and the exact check see it."""
     from forte.model.description import PAYLOAD_RADIUS
-    from forte.planning.planner import blocked_path
+    from forte.planning.scene_solve import blocked_path
     from forte.planning.tasks import task_from_dict
 
     task = task_from_dict(CRATE_TASK, tmp_path / "crate.yaml")

@@ -23,12 +23,12 @@ from forte.model.clearance import clearances
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import backward_differences
-from forte.planning.collision_slots import assign_slots, missing_pairs
 from forte.planning.ik import initial_guess
 from forte.planning.methods import METHODS, Method, get_method, method_names
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
 from forte.planning.requirements import TRACKING_ORIENTATION_TOL, orientation_errors
 from forte.planning.scene_guess import clear_start
+from forte.planning.scene_solve import blocked_path, solve_in_scene
 from forte.planning.tasks import Task
 from forte.planning.verdict import SOLVER_FAILED, Verdict, arm_acceleration_ratios, capacity_shortfall, judge_plan
 from forte.settings import CapabilityParameters
@@ -232,51 +232,6 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         starts["chosen_iterations"], starts["chosen_solve_time_s"] = sol.iterations, sol.solve_time
         info["iterations"], info["solve_time_s"] = starts["iterations"], starts["solve_time_s"]
     return sol, info
-
-
-def blocked_path(task: Task) -> str | None:
-    """Why no plan of ``task`` can keep its clearance, or ``None``: the parts rigid with the end
-    effector (the hand, the fingers) come closer to a scene body than the clearance at a target
-    pose of the path itself (:func:`forte.model.clearance.path_clearances`), so the optimizer is
-    not run (it could only fail, slowly)."""
-    if not task.scene:
-        return None
-    from forte.model.clearance import path_clearances
-
-    found = path_clearances(task.robot, task.scene, task.targets)
-    k = found.closest()
-    if found.distance[k] >= task.clearance:
-        return None
-    return (f"path blocked: at t = {task.t[k]:.3g} s the path puts {found.robot[k]} {found.distance[k]:.3g} m "
-            f"from {found.body[k]} (clearance {task.clearance:g} m)")
-
-
-#: Solves from the last solution when it brought a pair close that had no clearance rows.
-SCENE_ROUNDS = 3
-
-
-def solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatArray, nominal: FloatArray,
-                   options: Any, keep_multipliers: bool = False) -> tuple[TrajectoryOptimizer, SolverResult, dict]:
-    """Solve with clearance rows for the pairs the broad phase finds near ``q_guess``; while the
-    solution brings a pair within the clearance that had no rows, solve again from it with those
-    pairs added (at most :data:`SCENE_ROUNDS` times). Returns the last problem, its solution and
-    the rounds' facts."""
-    fix = task.mode != "hold"
-    extra: set[tuple[int, int, int]] = set()
-    start, rounds = q_guess, []
-    for _ in range(SCENE_ROUNDS + 1):
-        slots = assign_slots(task.robot, start, task.scene, task.clearance, fix, extra)
-        opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=fix, options=options,
-                                  limits=task.limits, slots=slots, keep_multipliers=keep_multipliers)
-        sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, start, nominal)
-        missing = missing_pairs(task.robot, sol.q, task.scene, task.clearance, slots)
-        rounds.append({"rows": slots.rows, "slots": {ck.name: ck.slots for ck in opt._clear},
-                       "iterations": sol.iterations, "missing_pairs": len(missing)})
-        if not missing or not sol.success:
-            break
-        extra |= missing | slots.triples()
-        start = sol.q
-    return opt, sol, {"rounds": rounds}
 
 
 def hold_starts(task: Task) -> FloatArray:

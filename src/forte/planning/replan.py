@@ -55,7 +55,8 @@ from forte.planning.collision_slots import assign_slots, missing_pairs
 from forte.planning.layout import shift_rows
 from forte.planning.methods import get_method
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer
-from forte.planning.planner import Plan, evaluate, resolve_payload, solve_in_scene, start_guess
+from forte.planning.planner import Plan, evaluate, resolve_payload, start_guess
+from forte.planning.scene_solve import solve_in_scene
 from forte.planning.tasks import Task
 from forte.planning.verdict import judge_plan
 from forte.validation import FloatArray
