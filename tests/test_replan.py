@@ -65,6 +65,19 @@ def test_shift_moves_the_horizon_and_holds_the_last_target(task):
         planner.shift(0)
 
 
+def test_a_shifted_plan_is_judged_against_the_shifted_path(task):
+    """The shifted task's path (the verdict's tracking reference) samples exactly the shifted
+    targets, twice over; before, it stayed the original path and every shifted plan failed
+    tracking (0.45 m on the crate task)."""
+    planner = Replanner(task)
+    for steps in (3, 2):
+        result = planner.shift(steps)
+        assert result.plan.solved
+        path = planner.task.targets_at(planner.task.t)
+        np.testing.assert_allclose(path, planner.task.targets, atol=1e-12)
+        assert "tracking" not in result.plan.verdict.failed
+
+
 def test_a_replan_that_does_not_converge_is_never_a_success(task):
     planner = Replanner(task)
     good = planner.last.q.copy()

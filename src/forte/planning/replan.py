@@ -168,7 +168,7 @@ class Replanner:
         if profile is not None:  # a given profile moves with the horizon, like the path
             profile = TaskForce(profile.t, shift_rows(profile.f, steps), shift_rows(profile.r, steps))
         task = replace(self.task, targets=targets, q_init=guess[0].copy(), force_ramp_elapsed=elapsed,
-                       force_profile=profile)
+                       force_profile=profile, targets_at=_shifted_path(self.task, steps))
         if mass is not None:
             task = task.with_payload(task.payload.with_mass(mass, source="replan"))
         force = task.force()
@@ -220,3 +220,24 @@ class Replanner:
                ) -> SolverResult:
         opt = optimizer or self.optimizer
         return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, guess, nominal, warm=warm)
+
+
+def _shifted_path(task: Task, steps: int) -> Callable[[FloatArray], FloatArray] | None:
+    """The task's path moved ``steps`` waypoints forward in time, holding its end: what the shifted
+    targets sample (:func:`~forte.planning.layout.shift_rows`), so the verdict judges a shifted
+    plan against the path it follows. A path that ends at rest holds its final pose from the
+    third-last sample time on (:func:`forte.planning.paths.ending_at_rest`), here too."""
+    path = task.targets_at
+    if path is None:
+        return None
+    t, delta, end = task.t, float(task.t[steps] - task.t[0]), float(task.t[-1])
+    final = task.targets[-1]
+    hold_from = float(t[-3]) if len(t) >= 3 and np.allclose(task.targets[-3], final) else np.inf
+
+    def at(ts: FloatArray) -> FloatArray:
+        shifted = np.minimum(np.asarray(ts, dtype=float) + delta, end)
+        out = path(shifted)
+        out[shifted >= hold_from - 1e-9] = final  # 1 ns: t_i + delta is t_{i+steps} up to rounding
+        return out
+
+    return at
