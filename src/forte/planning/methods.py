@@ -42,6 +42,7 @@ from typing import Any
 from forte.exceptions import InvalidInputError, TaskFileError
 from forte.planning.costs import COST_TERMS, CostTerm, make_terms
 from forte.planning.ik import initial_guess
+from forte.planning.plugins import load_plugins
 from forte.planning.tasks import MODES
 from forte.settings import AUTHORS_TRAJECTORY_SETS, CostWeights
 from forte.validation import FloatArray
@@ -166,12 +167,15 @@ def get_method(name: str | Method) -> Method:
     if isinstance(name, Method):
         return name
     if name not in METHODS:
+        load_plugins()  # an installed package's method (forte.planning.plugins)
+    if name not in METHODS:
         raise InvalidInputError(f"method: expected one of {', '.join(METHODS)}, got '{name}'")
     return METHODS[name]
 
 
 def method_names(mode: str | None = None, optimized: bool | None = None) -> tuple[str, ...]:
     """Names of the registered methods, optionally only those for ``mode`` / (not) optimized."""
+    load_plugins()  # the installed packages' methods appear with forte's own
     return tuple(m.name for m in METHODS.values()
                  if (mode is None or mode in m.modes) and (optimized is None or m.optimized == optimized))
 

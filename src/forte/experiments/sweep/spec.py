@@ -49,6 +49,7 @@ from forte.exceptions import InvalidInputError
 from forte.experiments.common import MASS_ERROR
 from forte.planning.methods import METHODS
 from forte.planning.planner import methods_for
+from forte.planning.plugins import load_plugins
 from forte.planning.schema import Reader
 from forte.planning.tasks import Task, read_yaml, task_from_dict
 from forte.validation import MAX_HOLD_S, MAX_WAYPOINTS, payload_mass
@@ -201,6 +202,7 @@ def _methods(r: Reader) -> tuple[str, ...] | None:
     if r.get("methods") == "all":
         return None
     items = _list(r, "methods")
+    load_plugins()  # a method from an installed package (forte.planning.plugins) is a method too
     for i, m in enumerate(items or []):
         if m not in METHODS:
             raise r.error(f"methods[{i}]", f"expected one of {', '.join(METHODS)} (or methods: all), got {m!r}")
