@@ -1,0 +1,177 @@
+"""A live ROS 2 node: forte's warm re-planner answering payload estimates (``forte ros TASK.yaml``).
+
+Topics (names relative to the node's namespace; the defaults are absolute):
+
+- subscribes ``/joint_states`` (``sensor_msgs/JointState``): the robot's configuration. The first
+  plan starts from it when one arrives within ``start_timeout`` seconds (joints named as in the
+  trajectory below, in any order; missing ones keep the task's value), else from the task's own
+  initial configuration;
+- subscribes ``/forte/payload_mass`` (``std_msgs/Float64``, kg): every new mass is re-planned
+  with the warm re-planner (:class:`forte.planning.replan.Replanner`: the last primal-dual
+  solution, a few Newton steps);
+- publishes ``/forte/joint_trajectory`` (``trajectory_msgs/JointTrajectory``): joint names
+  ``base_x``, ``base_y``, ``base_yaw`` and the arm's joints; positions, velocities (backward
+  differences, the plan's own) and ``time_from_start`` per waypoint;
+- publishes ``/forte/status`` (``std_msgs/String``, JSON): ``seq`` (0 for the first plan, +1 per
+  re-plan), ``mass_kg``, ``verdict`` (``feasible`` | ``infeasible`` | ``solver-failed``),
+  ``failed`` (the requirements that failed), ``solved``, ``iterations``, ``latency_s`` (the
+  re-plan call), ``warm``.
+
+Both publishers are reliable and transient-local (depth 1): a subscriber that joins late gets the
+last plan. A re-plan that does not converge publishes its status (``solved: false``) and no
+trajectory: the last good one stands. ROS parameters ``method`` and ``waypoints`` (set from the
+command line) are declared read-only. SIGINT (Ctrl-C) stops spinning, destroys the node and shuts
+rclpy down; the command exits 0.
+
+Needs the ``ros`` extra (``pip install -e '.[ros]'``: the ``ros-rclpy``, ``ros-rmw-fastrtps-cpp``
+and message wheels from PyPI; no ROS installation).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from typing import Any
+
+import numpy as np
+
+from forte.exceptions import ForteError, InvalidInputError
+from forte.model.description import N_BASE
+from forte.model.trajectory import backward_differences
+from forte.planning.planner import Plan
+from forte.planning.replan import Replanner
+from forte.planning.tasks import Task
+
+#: The base joints' names in the published trajectory and the joint states read.
+BASE_JOINT_NAMES = ("base_x", "base_y", "base_yaw")
+
+
+def joint_names(task: Task) -> list[str]:
+    """The trajectory's joint names: the base's, then the arm's."""
+    return [*BASE_JOINT_NAMES, *(task.robot.arm_joints or ())]
+
+
+def require_rclpy() -> Any:
+    """rclpy, or one clear line on how to get it."""
+    try:
+        import rclpy
+    except ImportError as exc:
+        raise ForteError("forte ros needs rclpy: pip install -e '.[ros]' (the ros-rclpy wheels from PyPI; "
+                         f"no ROS installation needed) ({exc})") from None
+    return rclpy
+
+
+def trajectory_message(plan: Plan, names: list[str]) -> Any:
+    """The plan as a ``trajectory_msgs/JointTrajectory``."""
+    from builtin_interfaces.msg import Duration
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    msg = JointTrajectory()
+    msg.joint_names = list(names)
+    qd = backward_differences(plan.q, plan.t)[0]
+    for tk, qk, vk in zip(plan.t - plan.t[0], plan.q, qd, strict=True):
+        point = JointTrajectoryPoint()
+        point.positions, point.velocities = [float(v) for v in qk], [float(v) for v in vk]
+        seconds = int(np.floor(tk))
+        point.time_from_start = Duration(sec=seconds, nanosec=int(round((tk - seconds) * 1e9)) % 1_000_000_000)
+        msg.points.append(point)
+    return msg
+
+
+def status_document(plan: Plan, seq: int, mass: float | None, latency: float, warm: bool, iterations: int
+                    ) -> dict[str, Any]:
+    """The JSON of ``/forte/status``."""
+    verdict = plan.verdict
+    return {"seq": seq, "mass_kg": mass, "verdict": plan.label, "failed": list(verdict.failed) if verdict else [],
+            "solved": bool(plan.solved), "iterations": int(iterations), "latency_s": float(latency), "warm": warm}
+
+
+def start_from(task: Task, names: list[str], state_names: list[str], positions: list[float]) -> np.ndarray:
+    """The task's initial configuration with the joints a ``JointState`` names replaced."""
+    q = np.array(task.q_init, dtype=float)
+    index = {name: i for i, name in enumerate(names)}
+    for name, value in zip(state_names, positions, strict=False):
+        if name in index and np.isfinite(value):
+            q[index[name]] = float(value)
+    return q
+
+
+def run_node(task: Task, method: str = "forte", start_timeout: float = 2.0, node_name: str = "forte") -> int:
+    """Plan ``task``, publish it, and re-plan on every payload mass until SIGINT (returns 0)."""
+    rclpy = require_rclpy()
+    from rclpy.executors import ExternalShutdownException
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64, String
+    from trajectory_msgs.msg import JointTrajectory
+
+    rclpy.init()
+    node = rclpy.create_node(node_name)
+    try:
+        node.declare_parameters("", [("method", method), ("waypoints", int(task.n))])
+        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        traj_pub = node.create_publisher(JointTrajectory, "/forte/joint_trajectory", latched)
+        status_pub = node.create_publisher(String, "/forte/status", latched)
+        names = joint_names(task)
+        state: dict[str, Any] = {}
+        node.create_subscription(JointState, "/joint_states",
+                                 lambda m: state.update(names=list(m.name), positions=list(m.position)), 10)
+        deadline = time.monotonic() + start_timeout
+        while not state and time.monotonic() < deadline:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        if state:
+            task = _with_start(task, start_from(task, names, state["names"], state["positions"]))
+        start = time.perf_counter()
+        replanner = Replanner(task, method)
+        first = replanner.replan()  # the first plan as a re-plan result (its verdict and facts)
+        seq = 0
+
+        def publish(result_plan: Plan, mass: float | None, latency: float, warm: bool, iterations: int) -> None:
+            if result_plan.solved:
+                traj_pub.publish(trajectory_message(result_plan, names))
+            status_pub.publish(String(data=json.dumps(status_document(result_plan, seq, mass, latency, warm,
+                                                                      iterations))))
+
+        publish(first.plan, task.payload.mass, time.perf_counter() - start, False, first.iterations)
+
+        def on_mass(msg: Any) -> None:
+            nonlocal seq
+            mass = float(msg.data)
+            seq += 1
+            try:
+                result = replanner.replan(mass=mass)
+            except ForteError as exc:  # a mass forte rejects (negative, absurd): say so, keep the last plan
+                status_pub.publish(String(data=json.dumps({"seq": seq, "mass_kg": mass, "error": str(exc)})))
+                return
+            publish(result.plan, mass, result.latency_s, result.warm, result.iterations)
+
+        node.create_subscription(Float64, "/forte/payload_mass", on_mass, 10)
+        node.get_logger().info(f"planned {task.name} with {method}; waiting for /forte/payload_mass")
+        try:
+            rclpy.spin(node)
+        except (KeyboardInterrupt, ExternalShutdownException):
+            pass
+    finally:
+        node.destroy_node()
+        if rclpy.ok():
+            rclpy.try_shutdown()
+    return 0
+
+
+def _with_start(task: Task, q: np.ndarray) -> Task:
+    """``task`` starting from ``q`` when its end-effector pose is the path's start (1 mm), else
+    unchanged with a warning: the path is fixed, a start elsewhere cannot follow it."""
+    from dataclasses import replace
+
+    ee = task.robot.ee_pose(q)
+    if np.linalg.norm(ee[:3, 3] - task.targets[0][:3, 3]) > 1e-3:
+        import warnings
+
+        gap = float(np.linalg.norm(ee[:3, 3] - task.targets[0][:3, 3]))
+        warnings.warn(f"/joint_states: the robot's end effector is {gap:.3f} m from the task's start; planning "
+                      "from the task's initial configuration", stacklevel=2)
+        return task
+    if q.shape != (task.robot.nq,) or q.size < N_BASE:
+        raise InvalidInputError("/joint_states: expected the whole-body configuration")
+    return replace(task, q_init=q)
