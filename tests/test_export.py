@@ -13,6 +13,7 @@ import pytest
 from forte.cli.main import main
 from forte.io.export import BASE_JOINTS, MCAP_TOPIC, whole_body_urdf
 from forte.io.plandir import METRIC_COLUMNS, read_plan_dir, write_plan, write_plan_dir
+from forte.model.description import mesh_package_dirs
 from forte.model.robot import MOCA_TOOL, MobileManipulator, default_robot
 from forte.planning.planner import plan
 from forte.planning.tasks import load_task
@@ -118,7 +119,8 @@ def _check_urdf(robot: MobileManipulator, path: Path, q: np.ndarray) -> None:
     tau = pin.rnea(model, data, q, np.zeros(model.nv), np.zeros(model.nv))
     n = robot.n_arm
     np.testing.assert_allclose(tau[3:], robot.rnea(q[3:], np.zeros(n), np.zeros(n)), atol=1e-9)
-    geom = pin.buildGeomFromUrdf(model, str(path), pin.GeometryType.VISUAL)  # mesh files resolve
+    geom = pin.buildGeomFromUrdf(model, str(path), pin.GeometryType.VISUAL,  # mesh files resolve
+                                 package_dirs=mesh_package_dirs())
     assert geom.ngeoms > 0
 
 

@@ -38,7 +38,7 @@ def test_plan_writes_every_output(tmp_path):
     assert doc["robot"]["torque_limits"] == [60, 60, 60, 60, 12, 12, 12]
     # alpha has one place in plan.json: the capability parameters
     assert doc["weights"]["capability_params"]["alpha"] == 0.9 and doc["robot"]["tool"]["mass"] > 0  # authors' set
-    assert "alpha" not in doc["robot"] and doc["generator"] == "forte" and doc["format_version"] == 3
+    assert "alpha" not in doc["robot"] and doc["generator"] == "forte" and doc["format_version"] == 4
     assert doc["solver"]["iterations"] > 0 and doc["solver"]["constraint_violation"] < 1e-6
     assert doc["weights"]["preset"] == "forte-trajectory" and doc["weights"]["capability"] == 5.0
     assert "casadi" in doc["versions"]

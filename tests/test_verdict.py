@@ -156,7 +156,7 @@ def test_plan_json_records_the_verdict_and_the_cli_exit_codes(tmp_path, capsys):
     code = main(["plan", str(LIFT), "--method", "quintic", "--out", str(out), "--no-figures", "--quiet", "--no-bound"])
     err = capsys.readouterr().err
     doc = json.loads((out / "plan.json").read_text())
-    assert code == 1 and doc["status"] == INFEASIBLE and doc["format_version"] == 3
+    assert code == 1 and doc["status"] == INFEASIBLE and doc["format_version"] == 4
     assert [v["requirement"] for v in doc["verdict"]["failed"]][:2] == ["capacity", "torque"]
     assert err.count("\n") == 1 and err.startswith("forte: error: quintic: infeasible: capacity:"), err
     assert (out / "trajectory.csv").is_file()  # kept for inspection

@@ -27,7 +27,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     e = rsub.add_parser(
         "export", help="write the whole-body model (base x, y, yaw + arm) as URDF or MJCF",
         description="Write the combined model: FILE.urdf (base joints base_x, base_y prismatic and base_yaw "
-        "revolute, the arm mounted on them, the tool load as a link) or FILE.xml (MuJoCo MJCF of the simulation "
+        "revolute, the arm mounted on them, the base's mass and inertia, the tool load as a link; meshes as "
+        "package://example-robot-data/... URIs, resolved against example-robot-data's share folder) "
+        "or FILE.xml (MuJoCo MJCF of the simulation "
         "model; a task's or a plan's carries its scene as static bodies scene/NAME, with the contacts of "
         "'forte simulate'). The robot is the built-in one, a task's or a plan's.")
     e.add_argument("file", type=Path, metavar="FILE", help="FILE.urdf or FILE.xml")
@@ -72,7 +74,7 @@ def run_robot_export(args: argparse.Namespace) -> int:
     if suffix == ".urdf":
         from forte.io.export import whole_body_urdf
 
-        text = whole_body_urdf(robot)
+        text = whole_body_urdf(robot, mesh_uris="package")  # package:// meshes: the file travels
         scene_note = f"; the scene's {len(scene.objects)} bodies are in the MJCF (.xml) only" if scene else ""
     else:
         from forte.execution.model import whole_body_mjcf

@@ -51,14 +51,19 @@ import pinocchio as pin
 from forte.exceptions import InvalidInputError, SimulationError
 from forte.execution.arm_spec import ARM_PREFIX, load_arm_spec
 from forte.execution.contact import add_scene, enable_robot_contacts
-from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT, PAYLOAD_RADIUS
+from forte.model.description import (
+    BASE_BOX_HALF_XY,
+    BASE_BOX_MIN_HEIGHT,
+    BASE_INERTIA,
+    BASE_MASS,
+    PAYLOAD_RADIUS,
+)
 from forte.model.robot import N_BASE, MobileManipulator, ToolLoad
 from forte.model.scene import Scene
 from forte.validation import FloatArray, as_positive, as_vector
 
-#: Default base mass (kg) and yaw inertia (kg m^2): a MOCA-like omnidirectional platform.
-BASE_MASS = 60.0
-BASE_INERTIA = (2.5, 2.5, 3.0)
+# The base mass and inertia (BASE_MASS, BASE_INERTIA) are the model layer's (forte.model.description):
+# the exported URDF carries the same.
 #: Velocity-actuator gains of the base joints: slides (N s/m) and yaw (N m s/rad). With the base
 #: mass above, the velocity loop has a time constant of ~ m / kv = 30 ms.
 BASE_KV = (2000.0, 2000.0, 400.0)

@@ -37,7 +37,7 @@ import pinocchio as pin
 
 from forte.exceptions import InvalidInputError, OutputError, RobotModelError
 from forte.io.plandir import read_metrics, read_plan_dir
-from forte.model.description import set_urdf_link_mass
+from forte.model.description import BASE_INERTIA, BASE_MASS, ERD_PACKAGE_PREFIX, set_urdf_link_mass
 from forte.model.robot import EE_FRAME_NAME, MobileManipulator, example_robot_data_dir
 from forte.model.trajectory import backward_differences
 from forte.validation import FloatArray
@@ -270,8 +270,12 @@ def whole_body_urdf(robot: MobileManipulator, mesh_uris: str = "file") -> str:
     locks become fixed joints at their locked value; ``robot.hand_mass`` replaces the mass of
     ``robot.hand_link`` (inertia scaled alike); with ``robot.ee_offset`` the end effector is a
     link ``forte_ee`` fixed to ``robot.ee_frame`` at that offset; the tool load is a link
-    ``forte_tool`` fixed to the end-effector link. ``mesh_uris="file"`` rewrites example-robot-data's
-    ``package://`` mesh URIs to ``file://`` paths of the installed meshes; ``"package"`` keeps them.
+    ``forte_tool`` fixed to the end-effector link; the base link ``mobile_base`` carries the
+    simulator's base mass and inertia (:data:`~forte.model.description.BASE_MASS`, ``BASE_INERTIA``).
+    ``mesh_uris="file"`` rewrites example-robot-data's ``package://`` mesh URIs to ``file://`` paths of
+    the installed meshes (this machine only); ``"package"`` keeps them (``forte robot export``: the
+    file travels; resolve ``package://example-robot-data`` against its ``share`` folder,
+    :func:`forte.model.description.mesh_package_dirs`, or a ROS workspace that has the package).
 
     Raises:
         RobotModelError: the arm URDF cannot be parsed, or it already uses a name this adds.
@@ -302,10 +306,12 @@ def whole_body_urdf(robot: MobileManipulator, mesh_uris: str = "file") -> str:
     added: list[ET.Element] = [ET.Element("link", name=BASE_LINKS[0])]
     for i, (name, kind, axis) in enumerate(chain):
         link = ET.Element("link", name=BASE_LINKS[i + 1])
-        if i == len(chain) - 1:  # a small inertia so that tools that need one accept the link
+        if i == len(chain) - 1:  # the base body: the simulator's mass and inertia, about the base origin
             inertial = ET.SubElement(link, "inertial")
-            ET.SubElement(inertial, "mass", value="1e-3")
-            ET.SubElement(inertial, "inertia", ixx="1e-6", iyy="1e-6", izz="1e-6", ixy="0", ixz="0", iyz="0")
+            ET.SubElement(inertial, "origin", xyz="0 0 0", rpy="0 0 0")
+            ET.SubElement(inertial, "mass", value=repr(float(BASE_MASS)))
+            ixx, iyy, izz = (repr(float(v)) for v in BASE_INERTIA)
+            ET.SubElement(inertial, "inertia", ixx=ixx, iyy=iyy, izz=izz, ixy="0", ixz="0", iyz="0")
         joint = ET.Element("joint", name=name, type=kind)
         ET.SubElement(joint, "parent", link=BASE_LINKS[i])
         ET.SubElement(joint, "child", link=BASE_LINKS[i + 1])
@@ -344,10 +350,9 @@ def whole_body_urdf(robot: MobileManipulator, mesh_uris: str = "file") -> str:
     for i, el in enumerate(added):
         root.insert(i, el)
     if mesh_uris == "file":
-        prefix = "package://example-robot-data/robots/"
         for mesh in root.iter("mesh"):
             name = mesh.get("filename", "")
-            if name.startswith(prefix):
-                mesh.set("filename", (example_robot_data_dir() / name[len(prefix):]).resolve().as_uri())
+            if name.startswith(ERD_PACKAGE_PREFIX):
+                mesh.set("filename", (example_robot_data_dir() / name[len(ERD_PACKAGE_PREFIX):]).resolve().as_uri())
     ET.indent(root)
     return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"

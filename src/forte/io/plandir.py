@@ -9,6 +9,8 @@ A plan directory holds
   before the scene, is still read, without that column);
 - ``plan.json``: :func:`plan_document`, with ``"generator": "forte"`` and
   ``"format_version"`` (:data:`FORMAT_VERSION`);
+- ``robot.urdf``: the robot's URDF as planned, named and hashed in plan.json's ``robot`` block, so
+  the directory reads the same wherever it is moved (:mod:`forte.io.robot_file`);
 - figures (PNG), when asked for.
 
 :func:`write_plan` is the only writer and :func:`read_plan_dir` the only reader. Writing goes to a
@@ -38,6 +40,7 @@ from forte.io.outputs import (
     output_lock,
     replace_directory,
 )
+from forte.io.robot_file import store_robot, stored_description
 from forte.model.robot import MobileManipulator, robot_from_description
 from forte.model.scene import Scene, scene_from_json
 from forte.model.trajectory import trajectory_header
@@ -63,7 +66,9 @@ COMPARISON_FILE = "comparison.json"
 #: Version of the plan.json schema; 1 is the unversioned layout of forte 0.1 (still read).
 #: 3: ``status`` is the verdict's label (``feasible | infeasible | solver-failed``; 2 wrote
 #: ``success | failure`` for the solver alone) and ``verdict`` records every failed requirement.
-FORMAT_VERSION = 3
+#: 4: the robot's URDF is stored beside plan.json (``robot.urdf_file``, ``robot.urdf_sha256``) and
+#: ``robot.urdf`` is ``erd:<path>`` for example-robot-data's (3 wrote an absolute path; still read).
+FORMAT_VERSION = 4
 #: ``status`` values of a directory that holds an executable plan (``success``: format 1-2).
 GOOD_STATUSES = ("feasible", "success")
 METRIC_COLUMNS = ("t", "fx", "fy", "fz", "radius", "d", "directional_capacity", "capacity_margin",
@@ -111,7 +116,9 @@ def fill_plan_dir(plan: Plan, directory: Path, figures: bool = True) -> None:
     if plan.metrics:
         write_csv(directory / METRICS_FILE, list(METRIC_COLUMNS),
                   np.column_stack([plan.metrics[c] for c in METRIC_COLUMNS]))
-    atomic_write(directory / PLAN_FILE, json.dumps(plan_document(plan), indent=2) + "\n")
+    doc = plan_document(plan)
+    doc["robot"] = store_robot(plan.robot, directory)
+    atomic_write(directory / PLAN_FILE, json.dumps(doc, indent=2) + "\n")
     if figures and plan.metrics:
         from forte.io.figures import plan_figures  # matplotlib only when figures are drawn
 
@@ -225,7 +232,9 @@ def read_plan_dir(plan_dir: str | Path) -> Plan:
     if not isinstance(meta, dict) or not isinstance(meta.get("robot"), dict):
         raise TaskFileError(f"{plan_path}: field 'robot': expected the robot description object")
     try:
-        robot = robot_from_description(meta["robot"])
+        robot = robot_from_description(stored_description(root, meta["robot"]))
+    except TaskFileError:
+        raise
     except Exception as exc:  # noqa: BLE001 - any malformed field (Pinocchio raises its own types) is bad input
         raise TaskFileError(f"{plan_path}: field 'robot': expected the description forte wrote, "
                             f"{type(exc).__name__}: {exc}") from None

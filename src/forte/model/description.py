@@ -43,6 +43,13 @@ BASE_BOX_MIN_HEIGHT = 0.05
 #: MuJoCo's hand holds and the part the planner's cover and the clearance check carry.
 PAYLOAD_RADIUS = 0.05
 STANDARD_GRAVITY = 9.81
+#: Mass (kg) and principal inertia about its origin (kg m^2) of the base body: a MOCA-like
+#: omnidirectional platform; MuJoCo's base body and the exported URDF's ``mobile_base`` link.
+BASE_MASS = 60.0
+BASE_INERTIA: tuple[float, float, float] = (2.5, 2.5, 3.0)
+#: Prefix of the mesh URIs of example-robot-data's descriptions (``package://`` resolves it
+#: against :func:`mesh_package_dirs`).
+ERD_PACKAGE_PREFIX = "package://example-robot-data/robots/"
 
 
 def example_robot_data_dir() -> Path:
@@ -55,6 +62,21 @@ def example_robot_data_dir() -> Path:
     if not root.is_dir():  # pragma: no cover
         raise RobotModelError(f"example-robot-data found, but {root} does not exist")
     return root
+
+
+def mesh_package_dirs() -> list[str]:
+    """Folders that ``package://example-robot-data/...`` URIs resolve against (Pinocchio's
+    ``package_dirs``): the ``share`` folder of the installed example-robot-data."""
+    return [str(example_robot_data_dir().parents[1])]
+
+
+def urdf_reference(path: Path) -> str:
+    """How a description names its URDF: ``erd:<path inside example-robot-data>`` for one of that
+    package's (valid wherever it is installed), else the path itself."""
+    try:
+        return "erd:" + path.resolve().relative_to(example_robot_data_dir().resolve()).as_posix()
+    except ValueError:
+        return str(path)
 
 
 def resolve_urdf(urdf: str | Path) -> Path:

@@ -56,6 +56,7 @@ from forte.model.description import (
     _link_inertial,
     example_robot_data_dir,
     resolve_urdf,
+    urdf_reference,
 )
 from forte.validation import FloatArray, as_array, as_positive, as_vector
 
@@ -245,7 +246,7 @@ class MobileManipulator:
         """Everything needed to rebuild this model (for plan.json and cache keys)."""
         return {
             "name": self.name,
-            "urdf": str(self.urdf_path),
+            "urdf": urdf_reference(self.urdf_path),  # erd:<path> for example-robot-data's: portable
             "urdf_sha256": hashlib.sha256(self.urdf_path.read_bytes()).hexdigest(),
             "ee_frame": self.ee_frame,
             "arm_joints": list(self.arm_joints or ()),

@@ -17,6 +17,8 @@ from typing import Any, NamedTuple
 import numpy as np
 import pinocchio as pin
 
+from forte.model.description import mesh_package_dirs
+
 
 class Contact(NamedTuple):
     """The first colliding pair of a configuration: the two geometries' names."""
@@ -67,8 +69,12 @@ class ArmGeometry:
 
 
 def _package_dirs(urdf: Path) -> list[str]:
-    """Folders that ``package://NAME/...`` mesh URIs resolve against (the ``share`` above the URDF)."""
-    return [str(p) for p in urdf.resolve().parents if p.name == "share"] or [str(urdf.resolve().parents[2])]
+    """Folders that ``package://NAME/...`` mesh URIs resolve against: the ``share`` above the URDF
+    (else the folder two above it), then example-robot-data's (a description stored in a plan
+    directory names its meshes ``package://example-robot-data/...``)."""
+    parents = urdf.resolve().parents
+    here = [str(p) for p in parents if p.name == "share"] or [str(parents[min(2, len(parents) - 1)])]
+    return here + [d for d in mesh_package_dirs() if d not in here]
 
 
 @lru_cache(maxsize=8)
