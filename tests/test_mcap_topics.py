@@ -15,7 +15,8 @@ from forte.cli.main import main
 from forte.io import ros_messages as ros
 from forte.io.export import BASE_JOINTS, BASE_LINKS, whole_body_urdf
 from forte.io.mcap_export import FORCE_SCALE, RATE_HZ, TOPICS, TRAJECTORY_TOPIC, sample_times
-from forte.io.plandir import read_plan_dir, write_plan
+from forte.io.plandir import read_plan_dir, write_plan, write_plan_dir
+from forte.model.robot import default_robot
 from forte.model.trajectory import clamped_spline
 from forte.planning.planner import plan
 from forte.planning.tasks import load_task
@@ -23,15 +24,12 @@ from forte.planning.tasks import load_task
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 
 
-@pytest.fixture(scope="module")
-def bag(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
-    """The lift at 12 waypoints (quintic: fast, with a force), exported and read back."""
+def _export(plan_dir: Path) -> dict[str, Any]:
+    """``forte export PLAN_DIR X.mcap`` read back: every decoded message by topic, in file order."""
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
-    root = tmp_path_factory.mktemp("mcap")
-    plan_dir = write_plan(plan(load_task(LIFT, waypoints=12), "quintic"), root / "lift", figures=False)
-    out = root / "lift.mcap"
+    out = plan_dir.parent / f"{plan_dir.name}.mcap"
     assert main(["export", str(plan_dir), str(out), "--quiet"]) == 0
     topics: dict[str, list] = defaultdict(list)
     log_times = []
@@ -44,6 +42,13 @@ def bag(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
             topics[channel.topic].append((message.log_time, decoded))
             log_times.append(message.log_time)
     return {"plan": read_plan_dir(plan_dir), "topics": topics, "log_times": log_times, "summary": summary}
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """The lift at 12 waypoints (quintic: fast, with a force), exported and read back."""
+    root = tmp_path_factory.mktemp("mcap")
+    return _export(write_plan(plan(load_task(LIFT, waypoints=12), "quintic"), root / "lift", figures=False))
 
 
 def _seconds(stamp: Any) -> float:
@@ -198,3 +203,23 @@ def test_msgdef_holds_each_dependency_once() -> None:
         "geometry_msgs/Point", "geometry_msgs/Quaternion", "geometry_msgs/Vector3", "std_msgs/ColorRGBA",
         "builtin_interfaces/Duration", "sensor_msgs/CompressedImage", "visualization_msgs/UVCoordinate",
         "visualization_msgs/MeshFile")}
+
+
+def test_a_turning_base_and_a_single_waypoint(tmp_path: Path) -> None:
+    """The base turns by 2.5 rad in 1 s (the lift barely turns): /tf follows it; a one-waypoint plan
+    (a hold) gives one sample of each stream."""
+    robot = default_robot()
+    base = [(0.0, 0.0, 0.0), (0.3, -0.2, 1.0), (0.5, 0.1, 2.5)]
+    turn = _export(write_plan_dir(tmp_path / "turn", robot, [0.0, 0.5, 1.0], [robot.home(b) for b in base], mass=1.0))
+    counts = {topic: len(msgs) for topic, msgs in turn["topics"].items()}
+    assert counts["/tf"] == counts["/joint_states"] == 51 and counts["/forte/markers"] == 3  # 50 Hz, 0.5 s on it
+    static = turn["topics"]["/tf_static"][0][1]
+    tf = [m for _, m in turn["topics"]["/tf"]]
+    for k, i in enumerate((0, 25, 50)):
+        poses = _world_poses(static, tf[i])
+        np.testing.assert_allclose(poses[BASE_LINKS[-1]], robot.base_transform(np.array(base[k])), atol=1e-12)
+        np.testing.assert_allclose(poses["forte_ee"], robot.ee_pose(robot.home(base[k])), atol=1e-9)
+    yaw = [np.arctan2(*_world_poses(static, m)[BASE_LINKS[-1]][[1, 0], 0]) for m in tf]
+    assert np.all(np.diff(yaw) >= -1e-12) and yaw[-1] == pytest.approx(2.5)  # turns one way, no jump
+    hold = _export(write_plan_dir(tmp_path / "hold", robot, [0.0], [robot.home()], mass=1.0))
+    assert {topic: len(msgs) for topic, msgs in hold["topics"].items()} == {topic: 1 for topic in TOPICS}
