@@ -11,7 +11,8 @@ import pinocchio as pin
 import pytest
 
 from forte.cli.main import main
-from forte.io.export import BASE_JOINTS, MCAP_TOPIC, whole_body_urdf
+from forte.io.export import BASE_JOINTS, whole_body_urdf
+from forte.io.mcap_export import TRAJECTORY_TOPIC as MCAP_TOPIC
 from forte.io.plandir import METRIC_COLUMNS, read_plan_dir, write_plan, write_plan_dir
 from forte.model.description import mesh_package_dirs
 from forte.model.robot import MOCA_TOOL, MobileManipulator, default_robot
@@ -82,11 +83,11 @@ def test_mcap_joint_trajectory_round_trip(plan_dir: Path, tmp_path: Path) -> Non
     with open(out, "rb") as fh:
         reader = make_reader(fh, decoder_factories=[DecoderFactory()])
         summary = reader.get_summary()
-        decoded = [m.decoded_message for m in reader.iter_decoded_messages()]
-    (schema,) = summary.schemas.values()
-    (channel,) = summary.channels.values()
+        decoded = [m.decoded_message for m in reader.iter_decoded_messages(topics=[MCAP_TOPIC])]
+    (channel,) = [c for c in summary.channels.values() if c.topic == MCAP_TOPIC]  # the other topics: test_mcap_topics
+    schema = summary.schemas[channel.schema_id]
     assert (schema.name, schema.encoding) == ("trajectory_msgs/msg/JointTrajectory", "ros2msg")
-    assert (channel.topic, channel.message_encoding) == (MCAP_TOPIC, "cdr")
+    assert channel.message_encoding == "cdr"
     (msg,) = decoded
     ref = read_plan_dir(plan_dir)
     assert list(msg.joint_names) == [*BASE_JOINTS, *ref.robot.arm_joints]

@@ -13,10 +13,11 @@ ROBOT_FORMATS = (".urdf", ".xml")
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "export", help="export a plan: .npz, .csv or .mcap (ROS 2 trajectory_msgs/JointTrajectory)",
+        "export", help="export a plan: .npz, .csv or .mcap (ROS 2 bag: trajectory, robot, tf, joint states, markers)",
         description="Write the plan in PLAN_DIR to FILE; the format is FILE's suffix: .npz (t, q, qd, qdd, joint "
-        "names, units, force, metrics), .csv (named columns, units in a comment line) or .mcap (one ROS 2 "
-        "trajectory_msgs/msg/JointTrajectory on /forte/joint_trajectory). Velocities and accelerations are the "
+        "names, units, force, metrics), .csv (named columns, units in a comment line) or .mcap (ROS 2 topics: "
+        "/forte/joint_trajectory, /robot_description, /tf_static, /tf, /joint_states at 50 Hz, /forte/markers with "
+        "the force and the RFP per waypoint). Trajectory velocities and accelerations are the "
         "plan's backward differences from rest.")
     p.add_argument("plan_dir", type=Path, metavar="PLAN_DIR", help="output folder of 'forte plan'")
     p.add_argument("file", type=Path, metavar="FILE", help="FILE.npz, FILE.csv or FILE.mcap")

@@ -8,9 +8,10 @@ Plans (:func:`export_plan`, format from the file suffix):
 - ``.csv``: one row per waypoint, columns ``t``, ``<joint>``, ``<joint>.velocity``,
   ``<joint>.acceleration``; comment lines (``#``) above the header give the plan and the unit of
   every column;
-- ``.mcap``: one ROS 2 ``trajectory_msgs/msg/JointTrajectory`` on the topic
-  :data:`MCAP_TOPIC` (CDR, ``ros2msg`` schema), written with ``mcap-ros2-support``; ``ros2 bag``
-  (rosbag2's MCAP storage) and Foxglove read it.
+- ``.mcap``: ROS 2 topics (CDR, ``ros2msg`` schemas), written with ``mcap-ros2-support``; ``ros2 bag``
+  (rosbag2's MCAP storage) and Foxglove read it: the ``trajectory_msgs/JointTrajectory``, the
+  robot description, ``/tf_static`` and ``/tf``, ``/joint_states`` and the force and RFP markers
+  (:mod:`forte.io.mcap_export`).
 
 Velocities and accelerations are the plan's own: the backward differences from rest the planner
 optimizes (:func:`forte.model.trajectory.backward_differences`), ``v_k = (q_k - q_{k-1}) / dt``,
@@ -45,38 +46,10 @@ from forte.validation import FloatArray
 #: Names of the base joints (the same in the URDF, the MJCF and every export).
 BASE_JOINTS = ("base_x", "base_y", "base_yaw")
 PLAN_FORMATS = (".npz", ".csv", ".mcap")
-MCAP_TOPIC = "/forte/joint_trajectory"
 #: Links the whole-body URDF adds below the arm's root.
 BASE_LINKS = ("mobile_world", "mobile_base_x", "mobile_base_y", "mobile_base")
 #: Bound of the base joints in the URDF (a planar base is unbounded; URDF needs numbers).
 BASE_RANGE = 1000.0
-
-#: ``trajectory_msgs/msg/JointTrajectory`` and its dependencies, as rosbag2 stores them.
-JOINT_TRAJECTORY_MSGDEF = """\
-std_msgs/Header header
-string[] joint_names
-JointTrajectoryPoint[] points
-================================================================================
-MSG: std_msgs/Header
-builtin_interfaces/Time stamp
-string frame_id
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-================================================================================
-MSG: trajectory_msgs/JointTrajectoryPoint
-float64[] positions
-float64[] velocities
-float64[] accelerations
-float64[] effort
-builtin_interfaces/Duration time_from_start
-================================================================================
-MSG: builtin_interfaces/Duration
-int32 sec
-uint32 nanosec
-"""
-
 
 @dataclass
 class ExportedPlan:
@@ -92,6 +65,7 @@ class ExportedPlan:
     units: tuple[str, ...]  # position unit per joint: m or rad
     force: dict[str, FloatArray] = field(default_factory=dict)  # t, f, r
     metrics: dict[str, FloatArray] = field(default_factory=dict)
+    robot: MobileManipulator | None = None  # the plan's robot (the MCAP's description and transforms)
 
     @property
     def velocity_units(self) -> tuple[str, ...]:
@@ -123,13 +97,13 @@ def plan_data(plan_dir: str | Path) -> ExportedPlan:
     force = {} if plan.force is None else {"t": plan.force.t, "f": plan.force.f, "r": plan.force.r}
     return ExportedPlan(method=plan.method, status=plan.status, t=plan.t, q=plan.q, qd=qd, qdd=qdd,
                         joint_names=joint_names(plan.robot), units=joint_units(plan.robot), force=force,
-                        metrics=read_metrics(plan_dir))
+                        metrics=read_metrics(plan_dir), robot=plan.robot)
 
 
 def export_plan(plan_dir: str | Path, path: str | Path) -> Path:
     """Write the plan in ``plan_dir`` to ``path``; the format is the suffix (:data:`PLAN_FORMATS`)."""
     path = Path(path)
-    writers = {".npz": write_npz, ".csv": write_csv_export, ".mcap": write_mcap}
+    writers = {".npz": write_npz, ".csv": write_csv_export, ".mcap": _write_mcap}
     suffix = path.suffix.lower()
     if suffix not in writers:
         raise InvalidInputError(f"{path}: unknown export format {path.suffix or '(no suffix)'}; expected one of "
@@ -145,6 +119,12 @@ def _check_target(path: Path) -> None:
         raise OutputError(f"{path}: is a directory; expected a file name")
     if not path.parent.is_dir():
         raise OutputError(f"{path}: folder {path.parent} does not exist")
+
+
+def _write_mcap(data: ExportedPlan, path: Path) -> None:
+    from forte.io.mcap_export import write_mcap
+
+    write_mcap(data, path)
 
 
 def write_npz(data: ExportedPlan, path: Path) -> None:
@@ -180,31 +160,6 @@ def write_csv_export(data: ExportedPlan, path: Path) -> None:
              "# units: " + ",".join(units), ",".join(names)]
     lines += [",".join(repr(float(v)) for v in row) for row in rows]
     path.write_text("\n".join(lines) + "\n")
-
-
-def _duration(seconds: float) -> dict[str, int]:
-    ns = int(round(seconds * 1e9))
-    return {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
-
-
-def write_mcap(data: ExportedPlan, path: Path) -> None:
-    """The ``.mcap`` export: one ``trajectory_msgs/msg/JointTrajectory`` (see the module docstring)."""
-    try:
-        from mcap_ros2.writer import Writer
-    except ImportError as exc:
-        raise InvalidInputError("MCAP export needs the 'mcap-ros2-support' package: "
-                                "pip install 'forte[export]'") from exc
-    t0 = float(data.t[0])
-    points = [{"positions": data.q[k].tolist(), "velocities": data.qd[k].tolist(),
-               "accelerations": data.qdd[k].tolist(), "effort": [],
-               "time_from_start": _duration(float(data.t[k]) - t0)} for k in range(data.t.size)]
-    message = {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": BASE_LINKS[0]},
-               "joint_names": list(data.joint_names), "points": points}
-    with open(path, "wb") as fh:
-        writer = Writer(fh)
-        schema = writer.register_msgdef("trajectory_msgs/msg/JointTrajectory", JOINT_TRAJECTORY_MSGDEF)
-        writer.write_message(topic=MCAP_TOPIC, schema=schema, message=message, log_time=0, publish_time=0)
-        writer.finish()
 
 
 # -- the robot ------------------------------------------------------------------------------------
