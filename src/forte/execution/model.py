@@ -69,6 +69,9 @@ from forte.validation import FloatArray, as_positive, as_vector
 BASE_KV = (2000.0, 2000.0, 400.0)
 #: Reflected rotor inertia of each arm joint (kg m^2), MuJoCo Menagerie's Panda value.
 ARM_ARMATURE = 0.1
+#: Reflected inertia (kg, kg m^2) of each base joint of a ``base: fixed`` robot: the base is welded
+#: in effect (the arm's reactions move it by nanometres), while ``qpos[:3]`` keeps its meaning.
+FIXED_BASE_ARMATURE = 1e9
 #: Names of the base joints in the MuJoCo model, in planner order ``[x, y, yaw]``.
 BASE_JOINTS = ("base_x", "base_y", "base_yaw")
 
@@ -321,9 +324,11 @@ def _add_base(spec: mujoco.MjSpec, robot: MobileManipulator, mass: float,
               inertia: tuple[float, float, float]) -> Any:
     """The base body with its slide x, slide y and yaw hinge joints and a box up to the mount."""
     base = spec.worldbody.add_body(name="base", mass=mass, inertia=list(inertia), explicitinertial=True)
-    base.add_joint(name="base_x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0])
-    base.add_joint(name="base_y", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0])
-    base.add_joint(name="base_yaw", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
+    # a fixed base is welded: its joints keep their qpos slots but carry an immovable inertia
+    weld = {"armature": FIXED_BASE_ARMATURE} if robot.base == "fixed" else {}
+    base.add_joint(name="base_x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0], **weld)
+    base.add_joint(name="base_y", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0], **weld)
+    base.add_joint(name="base_yaw", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1], **weld)
     height = max(float(robot.mount[2, 3]), BASE_BOX_MIN_HEIGHT)
     base.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[*BASE_BOX_HALF_XY, height / 2], pos=[0, 0, height / 2],
                   rgba=[0.3, 0.3, 0.35, 1], contype=0, conaffinity=0, mass=0.0)

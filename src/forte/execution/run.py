@@ -85,6 +85,8 @@ class _ControlStep:
         cmd = self.arm.command(q[N_BASE:], dq[N_BASE:], q_d[N_BASE:], ref.dq[k, N_BASE:],
                                ref.ddq[k, N_BASE:], J, f_d)
         v_cmd = self.base.command(q[:N_BASE], dq[:N_BASE], q_d[:N_BASE], ref.dq[k, :N_BASE])
+        if sim.robot.base == "fixed":  # a fixed base is held: its velocity actuators commanded zero
+            v_cmd = np.zeros(N_BASE)
         d.ctrl[sim.arm_act] = cmd.tau
         d.ctrl[sim.base_act] = v_cmd
         if self.reaction_force:

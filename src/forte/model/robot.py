@@ -60,6 +60,9 @@ from forte.model.description import (
 )
 from forte.validation import FloatArray, as_array, as_positive, as_vector
 
+#: How the base may move: ``holonomic`` (the default), ``differential`` (no lateral velocity), ``fixed``.
+BASE_MODES: tuple[str, ...] = ("holonomic", "differential", "fixed")
+
 
 def _rot_z(yaw: float) -> FloatArray:
     c, s = np.cos(yaw), np.sin(yaw)
@@ -91,6 +94,10 @@ class MobileManipulator:
         hand_link: The URDF link ``hand_mass`` applies to.
         tool_force_mass: Mass (kg) added to the payload in the required force
             ``f = (m_payload + m_tool)(a - g)``, not in the arm dynamics.
+        base: How the base moves (:data:`BASE_MODES`): ``holonomic`` (x, y, yaw free),
+            ``differential`` (no lateral velocity in the base frame) or ``fixed`` (it stays at
+            the initial configuration's base). Not part of the kinematics or the kernels: the
+            planner imposes it with bounds and rows (:mod:`forte.planning.base_rows`).
     """
 
     urdf: str | Path
@@ -107,8 +114,11 @@ class MobileManipulator:
     hand_mass: float | None = None
     hand_link: str = "panda_hand"
     tool_force_mass: float = 0.0
+    base: str = "holonomic"
 
     def __post_init__(self) -> None:
+        if self.base not in BASE_MODES:
+            raise InvalidInputError(f"base: expected one of {', '.join(BASE_MODES)}, got {self.base!r}")
         self.urdf_path = resolve_urdf(self.urdf)
         self.gravity = as_positive(self.gravity, "gravity")
         mount = as_array(self.mount, "mount", (4, 4))
@@ -262,6 +272,7 @@ class MobileManipulator:
             "hand_mass": self.hand_mass,
             "hand_link": self.hand_link,
             "tool_force_mass": self.tool_force_mass,
+            "base": self.base,
         }
 
     @cached_property
@@ -269,6 +280,7 @@ class MobileManipulator:
         """Short hash of :meth:`describe`, used to key caches of generated code."""
         desc = self.describe()
         desc.pop("urdf")
+        desc.pop("base")  # the base mode is bounds and rows outside the compiled kernels
         return hashlib.sha256(repr(sorted(desc.items())).encode()).hexdigest()[:16]
 
     # -- configuration helpers ----------------------------------------------------------
@@ -410,6 +422,7 @@ def robot_from_description(desc: dict[str, Any]) -> MobileManipulator:
             hand_mass=desc.get("hand_mass"),
             hand_link=desc.get("hand_link", "panda_hand"),
             tool_force_mass=desc.get("tool_force_mass", 0.0),
+            base=desc.get("base", "holonomic"),
         )
     except KeyError as exc:
         raise RobotModelError(f"robot description: missing field {exc}") from exc

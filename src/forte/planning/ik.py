@@ -44,7 +44,8 @@ def solve_pose(
 ) -> tuple[FloatArray, FloatArray]:
     """One waypoint: returns ``(q, final error)``."""
     q = q_start.copy()
-    winv = np.concatenate([np.full(N_BASE, 1.0 / options.base_weight), np.ones(robot.n_arm)])
+    base = 0.0 if robot.base == "fixed" else 1.0 / options.base_weight  # a fixed base: infinite weight
+    winv = np.concatenate([np.full(N_BASE, base), np.ones(robot.n_arm)])
     margin = 1e-6
     for _ in range(options.max_iterations):
         err = pose_error(robot, q, target)

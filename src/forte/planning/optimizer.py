@@ -39,6 +39,7 @@ from forte.exceptions import InvalidInputError, SolverError
 from forte.model.robot import MobileManipulator
 from forte.planning import layout
 from forte.planning.assembly import block_diagonal_pattern, dm, gather, hessian_pattern, scatter_matrix
+from forte.planning.base_rows import lateral_hessian, lateral_rows, pin_base
 from forte.planning.clearance_rows import clearance_hessian, clearance_jacobian
 from forte.planning.collision_kernels import load_collision_kernels
 from forte.planning.collision_slots import Slots
@@ -173,12 +174,14 @@ class TrajectoryOptimizer:
         lifted variables; pose and lifting rows equal 0, kinematic rows within ``v dt``, ``a dt``."""
         lifted = self._lift.shape[0]
         lbx, ubx = layout.variable_bounds(self.robot, self.n, lifted, q_init if self.fix_initial else None)
+        pin_base(self.robot, self.n, lbx, ubx, q_init)
         kinematic = layout.kinematic_bounds(self._vel[self._vel_rows], self._acc[self._acc_rows], t,
                                             2 * self.robot.nq if self.rests_at_end else 0)
         lbg, ubg = layout.constraint_bounds(self._pose_steps.size, kinematic, lifted)
-        clear = self._clear_index.size  # clearance rows: >= 0
-        return layout.Bounds(lbx, ubx, np.concatenate([lbg, np.zeros(clear)]),
-                             np.concatenate([ubg, np.full(clear, np.inf)]))
+        clear = self._clear_index.size  # clearance rows: >= 0; then the base's lateral rows: = 0
+        lateral = np.zeros(self._lateral)
+        return layout.Bounds(lbx, ubx, np.concatenate([lbg, np.zeros(clear), lateral]),
+                             np.concatenate([ubg, np.full(clear, np.inf), lateral]))
 
     def _build(self) -> None:
         robot, n, kern = self.robot, self.n, self.kernels
@@ -217,18 +220,25 @@ class TrajectoryOptimizer:
         clear_par = [par(ck.name, ck.size) for ck in self._clear]
         for ck, P_f, rows in zip(self._clear, clear_par, kept, strict=True):
             g = ca.vertcat(g, ca.vec(ck.rows.map(n)(Z, P_f))[rows.tolist()])
+        lateral = lateral_rows(robot, X)  # differential drive: last rows (base_rows)
+        self._lateral = lateral.numel()
+        g = ca.vertcat(g, lateral)
         scatter = dm(scatter_matrix(index.T.ravel(), x.numel()))
         # dense: IPOPT reads every entry (a structural zero would be read as garbage)
         grad = ca.densify(ca.mtimes(scatter, ca.vec(kern.grad.map(n)(*stage_args))) + Qx)
         jac = self._constraint_jacobian(x, X, pd, Rd, g_kin, first)
         for ck, P_f, rows in zip(self._clear, clear_par, kept, strict=True):
             jac = ca.vertcat(jac, clearance_jacobian(ck, Z, P_f, index, rows, x.numel()))
+        if self._lateral:
+            jac = ca.vertcat(jac, ca.jacobian(lateral, x))
         lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", g.numel())
         hess = self._lagrangian_hessian(index, X, pd, Rd, stage_args, Q, lam_f, lam_g, first)
-        offset = g.numel() - self._clear_index.size
+        offset = g.numel() - self._clear_index.size - self._lateral
         for ck, P_f, rows in zip(self._clear, clear_par, kept, strict=True):
             hess += clearance_hessian(ck, Z, P_f, lam_g[offset:offset + rows.size], rows, index, n, Q)
             offset += rows.size
+        if self._lateral:
+            hess += lateral_hessian(lateral, lam_g[offset:], x, hess.sparsity())
         opts = self._ipopt_options()
         opts["grad_f"] = ca.Function("nlp_grad_f", [x, P], [cost, grad])
         opts["jac_g"] = ca.Function("nlp_jac_g", [x, P], [g, jac])

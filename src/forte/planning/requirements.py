@@ -12,6 +12,8 @@ much. :func:`forte.planning.verdict.judge` runs the list :data:`REQUIREMENTS`.
   within its joint range (URDF), velocity (URDF) and acceleration limits (the robot
   description), the base within its velocity limits (:class:`forte.settings.KinematicLimits`);
   checked whether or not the NLP imposed them;
+- :class:`BaseMode`: the base moves as its mode allows (:attr:`MobileManipulator.base`): a fixed
+  base stays put, a differential drive has no lateral velocity;
 - :class:`Tracking`: the end effector on the task's path (position and orientation);
 - :class:`SelfCollision`: no collision between the arm's URDF collision meshes;
 - :class:`Clearance`: the whole robot (arm collision meshes, base box) keeps the task's
@@ -33,6 +35,7 @@ from forte.model.clearance import Clearances, clearances
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
 from forte.model.self_collision import arm_geometry
+from forte.planning.base_rows import lateral_displacement
 from forte.planning.motion_samples import MotionSamples, SampledForce
 from forte.planning.scene_section import DEFAULT_CLEARANCE
 from forte.validation import FloatArray
@@ -44,6 +47,11 @@ TRACKING_ORIENTATION_TOL = 0.05
 LIMIT_SLACK = 1e-6
 #: Joint position slack (rad): the NLP's bounds are met to IPOPT's tolerance.
 POSITION_SLACK = 1e-6
+#: Lateral base speed (m/s) a differential drive may show (IPOPT's tolerance, and the spline's
+#: small lateral drift between waypoints where the base turns: 0.2 mm/s on the test's drive-and-turn).
+LATERAL_SPEED_TOL = 1e-3
+#: How far (m, rad) a fixed base may move from its initial pose (its variables are bounded there).
+FIXED_BASE_TOL = 1e-9
 #: IPOPT statuses that count as converged.
 CONVERGED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
@@ -226,6 +234,30 @@ class JointAccelerations(Requirement):
         return np.max(np.abs(samples.ddq[:, N_BASE:]) / acceleration_limits[N_BASE:], axis=0)
 
 
+@dataclass(frozen=True)
+class BaseMode(Requirement):
+    """A ``fixed`` base never leaves its initial pose (m, rad); a ``differential`` one has no
+    lateral velocity in its own frame: at the waypoints the plan's step at the interval's midpoint
+    heading (the NLP's row, :mod:`forte.planning.base_rows`) over ``dt``, between them the spline's
+    velocity at its own heading, both at most :data:`LATERAL_SPEED_TOL`. Nothing for ``holonomic``."""
+
+    name: ClassVar[str] = "base_mode"
+
+    def measures(self, ctx: Context) -> list[Measure]:
+        s, mode = ctx.samples, ctx.robot.base
+        if mode == "fixed":
+            moved = np.max(np.abs(s.q[:, :N_BASE] - s.q[:1, :N_BASE]), axis=1)
+            return [Measure(moved, FIXED_BASE_TOL, "m or rad", "the fixed base moves")]
+        if mode != "differential":
+            return []
+        yaw = s.q[:, 2]
+        lateral = np.abs(-np.sin(yaw) * s.dq[:, 0] + np.cos(yaw) * s.dq[:, 1])
+        wq, wt = s.q[s.waypoint], s.t[s.waypoint]
+        lateral[s.waypoint[1:]] = np.abs(lateral_displacement(wq)) / np.diff(wt)
+        lateral[s.waypoint[0]] = 0.0  # the first waypoint: no step, and the spline starts at rest
+        return [Measure(lateral, LATERAL_SPEED_TOL, "m/s", "the differential base moves sideways")]
+
+
 def orientation_errors(ee: FloatArray, targets: FloatArray) -> FloatArray:
     """Angle (rad) of ``R_target^T R`` at every sample."""
     rel = np.einsum("kji,kjl->kil", targets[:, :3, :3], ee[:, :3, :3])
@@ -349,5 +381,5 @@ class Solver(Requirement):
 #: that runs into the scene is reported for that first: one line names the pair).
 REQUIREMENTS: tuple[Requirement, ...] = (
     Solver(), Clearance(), Capacity(), TorqueWithForce(), JointPositions(), JointVelocities(),
-    JointAccelerations(), Tracking(), SelfCollision(),
+    JointAccelerations(), BaseMode(), Tracking(), SelfCollision(),
 )

@@ -12,7 +12,7 @@ import numpy as np
 import pinocchio as pin
 
 from forte.exceptions import ForteError, TaskFileError
-from forte.model.robot import ROBOT_PRESETS, MobileManipulator, ToolLoad, default_robot
+from forte.model.robot import BASE_MODES, ROBOT_PRESETS, MobileManipulator, ToolLoad, default_robot
 from forte.settings import CapabilityParameters
 from forte.validation import MAX_MASS_KG, FloatArray, _short
 
@@ -145,8 +145,10 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
         return default_robot(**overrides)
     r = reader.sub("robot")
     r.unknown({"preset", "urdf", "ee_frame", "arm_joints", "mount", "tool", "torque_limits", "gravity", "name",
-               "tool_force_mass", "home_arm", "acceleration_limits"})
+               "tool_force_mass", "home_arm", "acceleration_limits", "base"})
     kwargs: dict[str, Any] = {}
+    if r.has("base"):
+        kwargs["base"] = r.choice("base", BASE_MODES, "holonomic")
     preset = str(r.get("preset", "authors"))
     if preset not in ROBOT_PRESETS:
         raise r.error("preset", f"expected one of {', '.join(ROBOT_PRESETS)}, got {preset!r}")
