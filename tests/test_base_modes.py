@@ -11,6 +11,7 @@ import pytest
 import yaml
 
 from forte.cli.main import main
+from forte.exceptions import InfeasibleTaskError
 from forte.execution.run import simulate_plan
 from forte.force.taskforce import given_force
 from forte.io.plandir import write_plan
@@ -102,6 +103,12 @@ def test_lateral_rows_have_the_exact_hessian(tmp_path):
         fd = (plus - minus) / (2 * eps)
         base = [k * nq + j for k in range(n) for j in range(3)]
         assert np.allclose(H[i, base], fd[base], atol=1e-6)
+
+
+def test_a_path_out_of_the_arm_s_reach_says_the_base_is_fixed(tmp_path):
+    task = load_task(task_file(tmp_path, "fixed", DRIVE, 20, "far"))
+    with pytest.raises(InfeasibleTaskError, match="with the base fixed"):
+        plan(task, "forte")
 
 
 def test_a_bad_base_exits_2_with_one_line_naming_the_field(tmp_path, capsys):

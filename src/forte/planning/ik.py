@@ -86,6 +86,7 @@ def follow_path(
             raise InfeasibleTaskError(
                 f"{where}: end-effector pose unreachable, position error {pos!r} m, "
                 f"orientation error {ang!r} rad (target position {target[:3, 3].tolist()!r})"
+                + (" with the base fixed (robot.base: the arm alone must reach it)" if robot.base == "fixed" else "")
             )
         out[k] = q
     return out

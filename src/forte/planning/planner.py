@@ -188,7 +188,7 @@ def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:
         guess = task.nominal() if nominal is None else nominal
     else:
         guess = initial_guess(task)
-    if task.scene:  # a start clear of the scene where the search finds one (forte.planning.scene_guess)
+    if task.scene and task.robot.base != "fixed":  # a start clear of the scene (a fixed base has no other)
         clear = clear_start(task, guess)
         return guess if clear is None else clear
     return guess
