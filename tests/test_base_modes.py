@@ -78,6 +78,11 @@ def test_differential_base_drives_without_sliding_and_the_constraint_binds(tmp_p
     verdict = judge(diff_task.robot, holo_task.t, holo.q, zero, 0.9)
     assert "base_mode" in verdict.failed
     assert "base_mode" not in judge(diff_task.robot, diff_task.t, diff.q, zero, 0.9).failed
+    # it executes in MuJoCo (the simulated base keeps its x, y velocity actuators: 1 mm/s sideways measured)
+    res = simulate_plan(write_plan(diff, tmp_path / "diff-plan", figures=False), write=False, hold=0.5)
+    assert res.success
+    log = res.log
+    assert np.abs(-np.sin(log["yaw"]) * log["dx_b"] + np.cos(log["yaw"]) * log["dy_b"]).max() < 0.01
 
 
 def test_lateral_rows_have_the_exact_hessian(tmp_path):
