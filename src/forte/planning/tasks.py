@@ -339,6 +339,10 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     if force_at is not None and reader.has("force_model"):
         raise reader.error("force_model", "sets a payload's force; this task gives its force profile directly")
     weights = dataclass_from(reader, "weights", CostWeights, _weight_preset(reader, mode))
+    dof = reader.get("weights", {}).get("joint_dof_weights") if isinstance(reader.get("weights"), dict) else None
+    if dof is not None and len(weights.joint_dof_weights or ()) != robot.nq:
+        raise reader.sub("weights").error("joint_dof_weights", f"expected {robot.nq} values (x, y, yaw and the "
+                                          f"{robot.n_arm} arm joints), got {len(weights.joint_dof_weights or ())}")
     solver = dataclass_from(reader, "solver", SolverOptions, SolverOptions())
     limits = dataclass_from(reader, "limits", KinematicLimits, KinematicLimits())
     try:
