@@ -82,3 +82,16 @@ def test_without_an_srdf_adjacent_links_are_never_a_pair(preset):
         a, b = objs[pair.first].parentJoint, objs[pair.second].parentJoint
         assert a != b and parents[a] != b and parents[b] != a, (objs[pair.first].name, objs[pair.second].name)
     assert geometry.contact(robot.home_arm) is None  # the home posture is free of self-collision
+
+
+def test_per_joint_fields_by_joint_name(tmp_path):
+    """``{joint: value}`` for the per-joint fields: in the robot's order, the rest at their default;
+    a joint the robot lacks is named in the error; the task as written is recorded unchanged."""
+    data = _reach("ur5", weights={"joint_dof_weights": {"shoulder_lift_joint": 2.0, "base_y": 0.5}},
+                  limits={"arm_velocity": {"wrist_3_joint": 1.0}})
+    task = task_from_dict(data, tmp_path / "task.yaml")
+    np.testing.assert_array_equal(task.weights.joint_dof_weights, [0, 0.5, 0, 1, 2, 1, 1, 1, 1])
+    np.testing.assert_array_equal(task.limits.arm_velocity, [*task.robot.model.velocityLimit[:5], 1.0])
+    assert data["weights"]["joint_dof_weights"] == {"shoulder_lift_joint": 2.0, "base_y": 0.5}
+    with pytest.raises(TaskFileError, match="weights.joint_dof_weights: no joint named 'panda_joint2'"):
+        task_from_dict(_reach("ur5", weights={"joint_dof_weights": {"panda_joint2": 1.0}}), tmp_path / "t.yaml")
