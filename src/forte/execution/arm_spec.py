@@ -40,12 +40,49 @@ def _urdf_text(robot: MobileManipulator, meshes: bool) -> str:
         )
     if robot.hand_mass is not None:
         text = _with_link_mass(text, robot.hand_link, robot.hand_mass)
-    return text
+    return _valid_inertias(text)
+
+
+def _valid_inertias(text: str) -> str:
+    """The URDF with every inertia MuJoCo would reject (not positive definite, or breaking the
+    triangle inequality) replaced by the isotropic one of the same largest magnitude. Such links
+    carry micrograms in the example-robot-data descriptions (TIAGo's antennas: 1 mg); MuJoCo
+    refuses to compile them, Pinocchio takes them as they are."""
+    import xml.etree.ElementTree as ET
+
+    if "<inertia" not in text:
+        return text
+    root = ET.fromstring(text)
+    changed = False
+    for inertia in root.iterfind(".//inertial/inertia"):
+        keys = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+        v = {k: float(inertia.get(k, "0")) for k in keys}
+        matrix = np.array([[v["ixx"], v["ixy"], v["ixz"]], [v["ixy"], v["iyy"], v["iyz"]],
+                           [v["ixz"], v["iyz"], v["izz"]]])
+        eig = np.linalg.eigvalsh(matrix)
+        if eig.min() > 0 and 2 * eig.max() <= eig.sum() * (1 + 1e-9):
+            continue
+        value = max(float(np.abs(eig).max()), 1e-12)
+        for k in keys:
+            inertia.set(k, repr(value if k in ("ixx", "iyy", "izz") else 0.0))
+        changed = True
+    return ET.tostring(root, encoding="unicode") if changed else text
+
+
+#: Mesh formats MuJoCo reads (a URDF with others, e.g. Collada ``.dae``, is simulated without
+#: its geometry: no rendering, no contact).
+MUJOCO_MESH_FORMATS = (".stl", ".obj", ".msh")
 
 
 def geometry_loadable(robot: MobileManipulator) -> bool:
-    """Whether MuJoCo can load the URDF's geometry (no ``package://`` URI outside example-robot-data)."""
-    return "package://" not in _urdf_text(robot, False)
+    """Whether MuJoCo can load the URDF's geometry: no ``package://`` URI outside
+    example-robot-data and every collision mesh in a format MuJoCo reads
+    (:data:`MUJOCO_MESH_FORMATS`; MuJoCo's URDF import discards the visual ones)."""
+    import xml.etree.ElementTree as ET
+
+    text = _urdf_text(robot, False)
+    meshes = [m.get("filename", "") for m in ET.fromstring(text).iterfind(".//collision/geometry/mesh")]
+    return "package://" not in text and all(m.lower().endswith(MUJOCO_MESH_FORMATS) for m in meshes)
 
 
 def _with_link_mass(text: str, link: str, mass: float) -> str:
@@ -98,6 +135,9 @@ def _prepare_arm(arm: mujoco.MjSpec, robot: MobileManipulator, meshes: bool, arm
         geom.conaffinity = 0
         geom.mass = 0.0
         geom.density = 0.0
+    if not meshes:  # their files too: MuJoCo decodes every mesh asset when it compiles (not .dae)
+        for mesh in list(arm.meshes):
+            arm.delete(mesh)
 
 
 def _fix_body_at(joint: Any, value: float) -> None:

@@ -58,6 +58,7 @@ from forte.model.description import (
     resolve_urdf,
     urdf_reference,
 )
+from forte.model.urdf_loading import load_model
 from forte.validation import FloatArray, as_array, as_positive, as_vector
 
 #: How the base may move: ``holonomic`` (the default), ``differential`` (no lateral velocity), ``fixed``.
@@ -137,7 +138,7 @@ class MobileManipulator:
         if self.hand_mass is not None:
             self.hand_mass = as_positive(self.hand_mass, "hand_mass")
         try:
-            full = pin.buildModelFromUrdf(str(self.urdf_path))
+            full = load_model(self.urdf_path)
         except Exception as exc:  # Pinocchio raises plain RuntimeError/ValueError
             raise RobotModelError(f"urdf: cannot parse {self.urdf_path}: {exc}") from exc
         if not full.existFrame(self.ee_frame):
@@ -270,7 +271,7 @@ class MobileManipulator:
             "acceleration_limits": None if self.acceleration_limits is None else self.acceleration_limits.tolist(),
             "ee_offset": None if self.ee_offset is None else self.ee_offset.tolist(),
             "hand_mass": self.hand_mass,
-            "hand_link": self.hand_link,
+            "hand_link": self.hand_link if self.hand_mass is not None else None,  # only what it names
             "tool_force_mass": self.tool_force_mass,
             "base": self.base,
         }
@@ -420,7 +421,7 @@ def robot_from_description(desc: dict[str, Any]) -> MobileManipulator:
             acceleration_limits=desc.get("acceleration_limits"),
             ee_offset=None if desc.get("ee_offset") is None else np.array(desc["ee_offset"], dtype=float),
             hand_mass=desc.get("hand_mass"),
-            hand_link=desc.get("hand_link", "panda_hand"),
+            hand_link=desc.get("hand_link") or "panda_hand",
             tool_force_mass=desc.get("tool_force_mass", 0.0),
             base=desc.get("base", "holonomic"),
         )

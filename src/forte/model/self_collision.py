@@ -18,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from forte.model.description import mesh_package_dirs
+from forte.model.urdf_loading import load_geometry, load_model
 
 
 class Contact(NamedTuple):
@@ -31,8 +32,8 @@ class ArmGeometry:
     """The arm's collision meshes and the pairs that are checked (see the module docstring)."""
 
     def __init__(self, urdf: Path, arm_joints: tuple[str, ...]) -> None:
-        full = pin.buildModelFromUrdf(str(urdf))
-        geom = pin.buildGeomFromUrdf(full, str(urdf), pin.COLLISION, package_dirs=_package_dirs(urdf))
+        full = load_model(urdf)
+        geom = load_geometry(full, urdf, pin.COLLISION, _package_dirs(urdf))
         keep = {full.getJointId(j) for j in arm_joints}
         lock = [j for j in range(1, full.njoints) if j not in keep]
         q_ref = np.clip(pin.neutral(full), full.lowerPositionLimit, full.upperPositionLimit)
@@ -48,10 +49,11 @@ class ArmGeometry:
 
     def _remove_adjacent(self) -> None:
         objs = self.geom.geometryObjects
-        for pair in list(self.geom.collisionPairs):
-            a, b = objs[pair.first].parentJoint, objs[pair.second].parentJoint
+        # the indices first: the pairs Python sees are views into the vector that removals shift
+        for first, second in [(p.first, p.second) for p in self.geom.collisionPairs]:
+            a, b = objs[first].parentJoint, objs[second].parentJoint
             if a == b or self.model.parents[a] == b or self.model.parents[b] == a:
-                self.geom.removeCollisionPair(pair)
+                self.geom.removeCollisionPair(pin.CollisionPair(first, second))
 
     @property
     def pairs(self) -> int:

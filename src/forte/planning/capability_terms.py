@@ -14,7 +14,6 @@ import numpy as np
 
 from forte.capability.metrics import inverse_capacity_expr, manipulability_expr, smooth_penalty_expr
 from forte.capability.polytope import cone_directions
-from forte.exceptions import InvalidInputError
 from forte.model.robot import N_BASE
 from forte.planning.costs import CostTerm, Stage, _smooth_min, _softplus, register_term
 from forte.settings import CapabilityParameters, CostWeights
@@ -220,12 +219,15 @@ class JointLimits(CostTerm):
         return cls(weights.joint_margin, weights.joint_eps, weights.joint_margin_fraction, dof)
 
     def weights_for(self, n_arm: int) -> FloatArray:
-        """Per-DoF weights (base 3, then arm)."""
+        """Per-DoF weights (base 3, then arm). A list made for an arm of another size (the weight
+        sets' and the methods' lists are the Panda's: 3 + 7) keeps its base entries and gives
+        every arm joint 1, the default; a task's own list of the wrong size is refused when the
+        task is read (:func:`forte.planning.tasks.task_from_dict`)."""
         if self.dof_weights is None:
             return np.r_[np.zeros(N_BASE), np.ones(n_arm)]
         w = np.asarray(self.dof_weights, dtype=float)
         if w.shape != (N_BASE + n_arm,):
-            raise InvalidInputError(f"joint_dof_weights: expected {N_BASE + n_arm} values, got {w.size}")
+            return np.r_[w[:N_BASE], np.ones(n_arm)]
         return w
 
     def stage(self, s: Stage) -> ca.SX:

@@ -12,7 +12,8 @@ import numpy as np
 import pinocchio as pin
 
 from forte.exceptions import ForteError, TaskFileError
-from forte.model.robot import BASE_MODES, ROBOT_PRESETS, MobileManipulator, ToolLoad, default_robot
+from forte.model.presets import ROBOT_PRESETS, preset_robot
+from forte.model.robot import BASE_MODES, MobileManipulator, ToolLoad, default_robot, with_torque_limits
 from forte.settings import CapabilityParameters
 from forte.validation import MAX_MASS_KG, FloatArray, _short
 
@@ -197,8 +198,7 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
     limits_key = "torque_limits" if r.has("torque_limits") else None
     if limits_key:
         kwargs["torque_limits"] = r.vector("torque_limits")
-    elif reader.has("torque_limits"):
-        kwargs["torque_limits"] = reader.vector("torque_limits", None if "urdf" in kwargs else 7)
+    top_limits = reader.vector("torque_limits") if limits_key is None and reader.has("torque_limits") else None
     if r.has("gravity"):
         kwargs["gravity"] = r.number("gravity", positive=True, maximum=1000.0, unit=" m/s^2")
     if r.has("name"):
@@ -207,9 +207,16 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
         if r.has(key):
             kwargs[key] = tuple(r.vector(key))
     try:
-        if "urdf" in kwargs:
-            return MobileManipulator(**kwargs)
-        return default_robot(variant=preset, **kwargs)
+        robot = MobileManipulator(**kwargs) if "urdf" in kwargs and not r.has("preset") \
+            else preset_robot(preset, **kwargs)
+        if top_limits is not None:  # the file's top-level torque_limits: one per arm joint of this robot
+            if top_limits.size != robot.n_arm:
+                raise reader.error("torque_limits", f"expected a list of {robot.n_arm} numbers (one per arm "
+                                   f"joint), got {top_limits.size}")
+            robot = with_torque_limits(robot, top_limits)
+        return robot
+    except TaskFileError:
+        raise
     except ForteError as exc:
         raise r.error("", str(exc)) from exc
 
@@ -227,6 +234,10 @@ def controller_section(reader: Reader) -> dict[str, Any]:
     r = reader.sub("controller")
     r.unknown(set(CONTROLLER_FIELDS))
     return dict(r.data)
+
+
+#: Fields whose length follows the robot (checked against it once the robot is known).
+ROBOT_SIZED_FIELDS = frozenset({"joint_dof_weights"})
 
 
 def dataclass_from(reader: Reader, name: str, cls: type, base: Any) -> Any:
@@ -249,7 +260,8 @@ def dataclass_from(reader: Reader, name: str, cls: type, base: Any) -> Any:
                     raise sub.error("", str(exc)) from exc
             elif kind.startswith("tuple"):
                 default = getattr(base, key)
-                values[key] = tuple(r.vector(key, len(default) if default is not None else None))
+                size = None if default is None or key in ROBOT_SIZED_FIELDS else len(default)
+                values[key] = tuple(r.vector(key, size))
             elif kind == "bool":
                 if not isinstance(value, bool):
                     raise r.error(key, f"expected true or false, got {value!r}")

@@ -30,6 +30,7 @@ from forte.force.taskforce import (
     mass_range_radius,
     payload_force,
 )
+from forte.model.description import N_BASE
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import quintic_path
@@ -289,7 +290,7 @@ def read_yaml(path: Path, what: str = "file") -> Any:
 def task_from_dict(data: Any, path: Path | None = None, mass: float | None = None,
                    waypoints: int | None = None) -> Task:
     """Validate an already-parsed task (see :func:`load_task`)."""
-    reader = Reader(data, path)
+    reader = Reader(dict(data) if isinstance(data, dict) else data, path)  # a copy: blocks are rewritten
     reader.unknown({"name", "robot", "mode", "initial_configuration", "path", "pose", "payload", "force",
                     "uncertainty_radius", "uncertainty_rule", "force_model", "weights", "torque_limits", "solver",
                     "teaching_configuration", "limits", "controller", "require_capacity", "scene", "scene_file",
@@ -338,8 +339,17 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
         raise reader.error("payload", "give a payload (mass, or description/image) or a force profile")
     if force_at is not None and reader.has("force_model"):
         raise reader.error("force_model", "sets a payload's force; this task gives its force profile directly")
+    base_names = ("base_x", "base_y", "base_yaw")
+    _by_joint_name(reader, "weights", "joint_dof_weights", (*base_names, *robot.arm_joints),
+                   np.r_[np.zeros(N_BASE), np.ones(robot.n_arm)])
     weights = dataclass_from(reader, "weights", CostWeights, _weight_preset(reader, mode))
+    dof = reader.get("weights", {}).get("joint_dof_weights") if isinstance(reader.get("weights"), dict) else None
+    if dof is not None and len(weights.joint_dof_weights or ()) != robot.nq:
+        raise reader.sub("weights").error("joint_dof_weights", f"expected {robot.nq} values (x, y, yaw and the "
+                                          f"{robot.n_arm} arm joints), got {len(weights.joint_dof_weights or ())}")
     solver = dataclass_from(reader, "solver", SolverOptions, SolverOptions())
+    for key, default in (("arm_velocity", robot.model.velocityLimit), ("arm_acceleration", robot.acceleration_limits)):
+        _by_joint_name(reader, "limits", key, tuple(robot.arm_joints), default)
     limits = dataclass_from(reader, "limits", KinematicLimits, KinematicLimits())
     try:
         limits.resolve(robot)
@@ -359,6 +369,29 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                 targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots,
                 radius_rule=radius_rule, force_model=force_model, scene=scene_section(reader, base),
                 clearance=clearance_value(reader))
+
+
+def _by_joint_name(reader: Reader, block: str, key: str, names: tuple[str, ...], default: Any) -> None:
+    """A per-joint field given as ``{joint name: value}`` becomes the list in the robot's order
+    (joints left out keep ``default``'s value); a name the robot lacks is an error naming it."""
+    section = reader.get(block)
+    if not isinstance(section, dict) or not isinstance(section.get(key), dict):
+        return
+    sub = reader.sub(block)
+    given = section[key]
+    unknown = sorted(set(given) - set(names))
+    if unknown:
+        raise sub.error(key, f"no joint named {unknown[0]!r}; the robot's: {', '.join(names)}")
+    if default is None:
+        missing = [n for n in names if n not in given]
+        if missing:
+            raise sub.error(key, f"the robot gives no default: name every joint ({', '.join(missing)} missing)")
+        default = np.zeros(len(names))
+    values = np.array(default, dtype=float).copy()
+    for i, name in enumerate(names):
+        if name in given:
+            values[i] = Reader(given, reader.path, f"{sub.key(key)}.").number(name, nonnegative=True)
+    reader.data[block] = {**section, key: values.tolist()}  # the list the dataclass reader checks as usual
 
 
 def _weight_preset(reader: Reader, mode: str) -> CostWeights:
