@@ -12,8 +12,8 @@ Built in:
 - ``kinova``: Kinova's 6-DoF Jaco 2 (``j2s6s200``, its continuous joints planned within two turns
   each way, :mod:`forte.model.urdf_loading`) on the built-in base at the authors' mount;
 - ``tiago``: PAL's TIAGo without hand: its torso lift (prismatic) and 7-DoF arm, planned as one
-  chain on its own base (the URDF's ``base_footprint`` is the base frame, so no mount), tool
-  ``arm_tool_link``.
+  chain on its own differential-drive base (``base: differential``; the URDF's ``base_footprint``
+  is the base frame, so no mount), tool ``arm_tool_link``.
 
 Homes are postures away from singularities and joint limits (a URDF carries none): the UR5's
 and TIAGo's a usual ready pose, the Kinova's the posture forte's planner settled in from its
@@ -83,9 +83,9 @@ for _preset in (
     RobotPreset("kinova", "Kinova Jaco 2, 6 DoF (j2s6s200), on the holonomic base", MappingProxyType({
         "urdf": "erd:kinova_description/robots/kinova.urdf", "ee_frame": "j2s6s200_end_effector",
         "mount": np.array(AUTHORS_MOUNT), "home_arm": (1.09, 3.67, 2.38, 3.33, 2.35, 1.49)})),
-    RobotPreset("tiago", "PAL TIAGo (no hand): torso lift and 7-DoF arm on its own base", MappingProxyType({
+    RobotPreset("tiago", "PAL TIAGo (no hand): torso lift and 7-DoF arm on its differential base", MappingProxyType({
         "urdf": "erd:tiago_description/robots/tiago_no_hand.urdf", "ee_frame": "arm_tool_link",
-        "arm_joints": ("torso_lift_joint", *(f"arm_{i}_joint" for i in range(1, 8))),
+        "arm_joints": ("torso_lift_joint", *(f"arm_{i}_joint" for i in range(1, 8))), "base": "differential",
         "home_arm": (0.2, 1.6, 0.3, -1.2, 1.9, -1.57, 1.0, 0.0)})),
 ):
     register_robot_preset(_preset)
