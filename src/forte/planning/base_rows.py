@@ -36,12 +36,18 @@ def pin_base(robot: MobileManipulator, n: int, lbx: FloatArray, ubx: FloatArray,
         lbx[k * robot.nq:k * robot.nq + N_BASE] = ubx[k * robot.nq:k * robot.nq + N_BASE] = base
 
 
-def lateral_rows(robot: MobileManipulator, X: ca.MX) -> ca.MX:
-    """The differential-drive rows (one per interval, in order; none for another base mode)."""
-    if robot.base != "differential" or X.shape[1] < 2:
+def lateral_rows(robot: MobileManipulator, X: ca.MX, at_rest: int = 0) -> ca.MX:
+    """The differential-drive rows (one per interval, in order; none for another base mode).
+
+    ``at_rest``: the last intervals whose step the NLP already forces to zero (a plan that ends at
+    rest: two). Their rows would be linear combinations of those equalities: a rank-deficient
+    Jacobian at the solution, which made IPOPT's step computation fail (TIAGo's reach at 31
+    waypoints: ``Error_In_Step_Computation``), so they are left out; their lateral step is 0."""
+    intervals = X.shape[1] - 1 - at_rest
+    if robot.base != "differential" or intervals < 1:
         return ca.MX(0, 1)
-    step = X[:N_BASE, 1:] - X[:N_BASE, :-1]  # 3 x (n - 1)
-    heading = 0.5 * (X[2, 1:] + X[2, :-1])
+    step = X[:N_BASE, 1:intervals + 1] - X[:N_BASE, :intervals]  # 3 x intervals
+    heading = 0.5 * (X[2, 1:intervals + 1] + X[2, :intervals])
     return ca.vec(-ca.sin(heading) * step[0, :] + ca.cos(heading) * step[1, :])
 
 

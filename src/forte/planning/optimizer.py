@@ -220,7 +220,7 @@ class TrajectoryOptimizer:
         clear_par = [par(ck.name, ck.size) for ck in self._clear]
         for ck, P_f, rows in zip(self._clear, clear_par, kept, strict=True):
             g = ca.vertcat(g, ca.vec(ck.rows.map(n)(Z, P_f))[rows.tolist()])
-        lateral = lateral_rows(robot, X)  # differential drive: last rows (base_rows)
+        lateral = lateral_rows(robot, X, 2 if self.rests_at_end else 0)  # differential drive: last rows
         self._lateral = lateral.numel()
         g = ca.vertcat(g, lateral)
         scatter = dm(scatter_matrix(index.T.ravel(), x.numel()))
