@@ -153,12 +153,6 @@ class SceneObject(NamedTuple):
             return coal.Capsule(float(s.radius), float(s.length))
         return _load_mesh(s)
 
-    def bounding_radius(self) -> float:
-        """Radius of a ball about the pose's origin that contains the body (broad phase)."""
-        p = self.proxy()
-        offset = np.linalg.norm(p.pose[:3, 3] - self.pose[:3, 3])
-        return float(offset + np.linalg.norm(p.half) + p.rho + p.sigma)
-
 
 class Scene(NamedTuple):
     """Static bodies around the robot (empty: planning in free space, as the paper does)."""

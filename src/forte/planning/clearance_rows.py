@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 from scipy import sparse
 
-from forte.planning.assembly import dm, hessian_pattern, nz_map
+from forte.planning.assembly import dm, nz_map
 from forte.planning.collision_kernels import CollisionKernels
 from forte.validation import FloatArray
 
@@ -35,17 +35,12 @@ def clearance_jacobian(kern: CollisionKernels, Z: ca.MX, params: ca.MX, index: F
 
 
 def clearance_hessian(kern: CollisionKernels, Z: ca.MX, params: ca.MX, lam: ca.MX, kept: FloatArray,
-                      index: FloatArray, n: int, Q: sparse.spmatrix) -> ca.MX:
-    """Upper triangle of ``sum lam_i Hess(g_i)`` over the kept clearance rows, in the pattern of
-    the Lagrangian Hessian (stage blocks)."""
-    w, rows = index.shape[0], 2 * kern.slots
+                      pattern: tuple[ca.Sparsity, Any], n: int) -> ca.MX:
+    """Upper triangle of ``sum lam_i Hess(g_i)`` over the kept clearance rows, in the Lagrangian
+    Hessian's ``pattern`` (:func:`~forte.planning.assembly.hessian_pattern`: the stage blocks)."""
+    rows = 2 * kern.slots
     spread = sparse.csr_matrix((np.ones(kept.size), (kept, np.arange(kept.size))), shape=(rows * n, kept.size))
     lam_full = ca.reshape(ca.mtimes(dm(spread), lam), rows, n)
     blocks = kern.hess.map(n)(Z, params, lam_full)  # w x (w n)
-    sp, maps = hessian_pattern(index, w // 3, n, Q)
+    sp, maps = pattern
     return ca.MX(sp, ca.mtimes(ca.DM(maps[0]), ca.vec(blocks)))
-
-
-def kept_rows(keep: Any) -> FloatArray:
-    """Flat indices (waypoint-major) of the rows kept."""
-    return np.flatnonzero(np.asarray(keep, dtype=bool).ravel())

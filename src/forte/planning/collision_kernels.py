@@ -36,7 +36,6 @@ from forte import __version__, progress
 from forte.model.description import N_BASE
 from forte.model.twin import CasadiTwin, rot_z
 from forte.settings import SolverOptions
-from forte.validation import FloatArray
 
 EPS = 1e-9
 
@@ -199,8 +198,3 @@ def bucket(pairs: int) -> int:
         if pairs <= size:
             return size
     return int(2 ** np.ceil(np.log2(pairs)))
-
-
-def rows_numpy(kern: CollisionKernels, window: FloatArray, slot_values: FloatArray) -> FloatArray:
-    """The rows at one window (tests and reports)."""
-    return np.array(kern.rows(window, slot_values)).ravel()

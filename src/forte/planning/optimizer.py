@@ -232,10 +232,11 @@ class TrajectoryOptimizer:
         if self._lateral:
             jac = ca.vertcat(jac, ca.jacobian(lateral, x))
         lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", g.numel())
-        hess = self._lagrangian_hessian(index, X, pd, Rd, stage_args, Q, lam_f, lam_g, first)
+        pattern = hessian_pattern(index, nq, n, Q)  # one pattern: the stage, pose and clearance blocks
+        hess = self._lagrangian_hessian(pattern, X, pd, Rd, stage_args, lam_f, lam_g)
         offset = g.numel() - self._clear_index.size - self._lateral
         for ck, P_f, rows in zip(self._clear, clear_par, kept, strict=True):
-            hess += clearance_hessian(ck, Z, P_f, lam_g[offset:offset + rows.size], rows, index, n, Q)
+            hess += clearance_hessian(ck, Z, P_f, lam_g[offset:offset + rows.size], rows, pattern, n)
             offset += rows.size
         if self._lateral:
             hess += lateral_hessian(lateral, lam_g[offset:], x, hess.sparsity())
@@ -307,10 +308,11 @@ class TrajectoryOptimizer:
         jac = ca.vertcat(*parts) if parts else ca.MX(0, nx)
         return ca.vertcat(jac, ca.jacobian(g_kin, x)) if g_kin.numel() else jac
 
-    def _lagrangian_hessian(self, index: FloatArray, X: ca.MX, pd: ca.MX, Rd: ca.MX, stage_args: list[Any],
-                            Q: sparse.csr_matrix, lam_f: ca.MX, lam_g: ca.MX, first: int) -> ca.MX:
-        """Upper triangle of ``lam_f * Hess(cost) + sum lam_g Hess(g)`` (linear rows add nothing)."""
-        nq, n = self.robot.nq, self.n
+    def _lagrangian_hessian(self, pattern: tuple[ca.Sparsity, Any], X: ca.MX, pd: ca.MX, Rd: ca.MX,
+                            stage_args: list[Any], lam_f: ca.MX, lam_g: ca.MX) -> ca.MX:
+        """Upper triangle of ``lam_f * Hess(cost) + sum lam_g Hess(g)`` over the pose rows (linear
+        rows add nothing) in ``pattern`` (:func:`~forte.planning.assembly.hessian_pattern`)."""
+        n = self.n
         steps = self._pose_steps
         lam_pose = ca.reshape(lam_g[: 6 * steps.size], 6, steps.size)
         cols = [ca.MX.zeros(6, 1)] * n
@@ -319,7 +321,7 @@ class TrajectoryOptimizer:
         lam = ca.horzcat(*cols)
         h_stage = self.kernels.hess.map(n)(*stage_args)  # 3nq x 3nq n
         h_pose = self.kernels.pose_hess.map(n)(X, pd, Rd, lam)  # nq x nq n
-        sp, maps = hessian_pattern(index, nq, n, Q)
+        sp, maps = pattern
         nz = (lam_f * ca.mtimes(ca.DM(maps[0]), ca.vec(h_stage))
               + ca.mtimes(ca.DM(maps[1]), ca.vec(h_pose))
               + lam_f * ca.DM(maps[2]))
