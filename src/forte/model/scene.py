@@ -107,11 +107,17 @@ def proxy_distance(proxy: Proxy, points: Any) -> FloatArray:
     of the grown shape (a rounding or an extrusion of an exact distance stays exact).
     """
     p = (np.asarray(points, dtype=float) - proxy.pose[:3, 3]) @ proxy.pose[:3, :3]
-    q = np.abs(p[..., :2]) - proxy.half[:2]
-    a = np.linalg.norm(np.maximum(q, 0), axis=-1) + np.minimum(q.max(axis=-1), 0) - proxy.rho
-    b = np.abs(p[..., 2]) - proxy.half[2]
-    ab = np.stack([a, b], axis=-1)
-    return np.linalg.norm(np.maximum(ab, 0), axis=-1) + np.minimum(ab.max(axis=-1), 0) - proxy.sigma
+    return rounded_box_distance(p, proxy.half, proxy.rho, proxy.sigma)
+
+
+def rounded_box_distance(p: Any, half: Any, rho: Any, sigma: Any) -> FloatArray:
+    """:func:`proxy_distance` for points ``p`` (... x 3) already in the proxy's axes; ``half``
+    (... x 3), ``rho`` and ``sigma`` broadcast against the points (many proxies at once)."""
+    half = np.asarray(half, dtype=float)
+    qx, qy = np.abs(p[..., 0]) - half[..., 0], np.abs(p[..., 1]) - half[..., 1]
+    a = np.hypot(np.maximum(qx, 0), np.maximum(qy, 0)) + np.minimum(np.maximum(qx, qy), 0) - rho
+    b = np.abs(p[..., 2]) - half[..., 2]
+    return np.hypot(np.maximum(a, 0), np.maximum(b, 0)) + np.minimum(np.maximum(a, b), 0) - sigma
 
 
 class SceneObject(NamedTuple):

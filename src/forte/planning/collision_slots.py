@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from forte.model.body_spheres import Primitive, primitive_centres, robot_primitives
-from forte.model.scene import Proxy, Scene
+from forte.model.scene import Proxy, Scene, rounded_box_distance
 from forte.planning.collision_kernels import SELF_FIELDS, SELF_SIZE, SLOT_BUCKETS, SLOT_FIELDS, SLOT_SIZE, bucket
 from forte.planning.self_pairs import SELF_ACTIVATION, SELF_MARGIN, self_distances, self_pairs
 from forte.validation import FloatArray
@@ -102,12 +102,9 @@ def pair_distances(centres: FloatArray, primitives: tuple[Primitive, ...], proxi
     half = np.array([p.half for p in proxies])
     rho, sigma = np.array([p.rho for p in proxies]), np.array([p.sigma for p in proxies])
     d = centres[..., :, None, :] - origin  # ... x P x M x 3
-    x, y = c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]
-    z = d[..., 2] - np.clip(d[..., 2], -half_a, half_a)
-    qx, qy = np.abs(x) - half[:, 0], np.abs(y) - half[:, 1]
-    a = np.hypot(np.maximum(qx, 0), np.maximum(qy, 0)) + np.minimum(np.maximum(qx, qy), 0) - rho
-    b = np.abs(z) - half[:, 2]
-    return np.hypot(np.maximum(a, 0), np.maximum(b, 0)) + np.minimum(np.maximum(a, b), 0) - sigma - radius
+    local = np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1],
+                      d[..., 2] - np.clip(d[..., 2], -half_a, half_a)], axis=-1)  # a's nearest segment point
+    return rounded_box_distance(local, half, rho, sigma) - radius
 
 
 def _box_gap(centres: FloatArray, primitives: tuple[Primitive, ...], proxies: list[Proxy]) -> FloatArray:
