@@ -322,6 +322,10 @@ class SolverOptions:
         refine_rounds: rounds of verdict-driven refinement of a converged plan that fails only
             where the NLP's waypoint view falls short of the executed motion (capacity, arm
             accelerations; :func:`forte.planning.planner._refine`); 0 returns the NLP's own optimum.
+        backend: ``ipopt`` (default, the reference) or ``stagewise``, the stage-structured
+            interior-point method of :mod:`forte.planning.solvers` (same problem, same
+            convergence test; several times faster per re-plan; problems with a scene or a
+            differential base go to IPOPT).
     """
 
     max_iter: int = 500
@@ -334,8 +338,11 @@ class SolverOptions:
     hold_starts: int = 16
     hold_seed: int = 0
     refine_rounds: int = 3
+    backend: str = "ipopt"
 
     def __post_init__(self) -> None:
+        if self.backend not in SOLVER_BACKENDS:
+            raise InvalidInputError(f"backend: expected one of {', '.join(SOLVER_BACKENDS)}, got {self.backend!r}")
         for name in ("max_iter", "hold_starts"):
             value = getattr(self, name)
             if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
@@ -350,6 +357,10 @@ class SolverOptions:
                 raise InvalidInputError(f"{name}: expected a finite number > 0, got {value!r}")
         if not (isinstance(self.print_level, int) and 0 <= self.print_level <= 12):
             raise InvalidInputError(f"print_level: expected an integer in 0..12, got {self.print_level!r}")
+
+
+#: Values of ``SolverOptions.backend``.
+SOLVER_BACKENDS = ("ipopt", "stagewise")
 
 
 @dataclass(frozen=True)

@@ -1,13 +1,15 @@
 """One BLAS thread for latency-bound solves.
 
-A re-plan calls two OpenBLAS builds: CasADi's (IPOPT's linear solver MUMPS) and NumPy's (the
-metrics of the new plan). Its matrices are small (KKT systems of a few thousand rows, 41 x 6 x 7
-Jacobians), so worker threads gain nothing; worse, OpenBLAS workers busy-wait after each call:
-measured on the lift's re-plans, NumPy's worker burned as much CPU as the solve itself, a core
-taken from the solve on a shared 2-core machine. The warm re-plans of
-:mod:`forte.planning.replan` therefore run with one thread in both. The counts are process-wide,
-so they are set for the re-plan and restored after it; a build that is not found (another BLAS)
-is left alone.
+A re-plan calls three OpenBLAS builds: CasADi's (IPOPT's linear solver MUMPS), NumPy's (the
+metrics of the new plan) and SciPy's (the stagewise solver's factorizations). Its matrices are
+small (KKT systems of a few thousand rows, 41 x 6 x 7 Jacobians), so worker threads gain
+nothing; worse, OpenBLAS workers busy-wait after each call: measured on the lift's re-plans,
+NumPy's worker burned as much CPU as the solve itself, a core taken from the solve on a shared
+2-core machine (and SciPy's threaded Cholesky of a 148 x 148 matrix took 85 ms instead of
+0.1 ms while another process ran). The warm re-plans of :mod:`forte.planning.replan` and the
+stagewise solves therefore run with one thread in each. The counts are process-wide, so they
+are set for the solve and restored after it; a build that is not found (another BLAS) is left
+alone.
 """
 
 from __future__ import annotations
@@ -35,6 +37,9 @@ BUILDS = (
     (Path(ca.__file__).parent, "libcasadi-tp-openblas*", "openblas_get_num_threads", "openblas_set_num_threads"),
     (Path(np.__file__).parent.parent / "numpy.libs", "libscipy_openblas*",
      "scipy_openblas_get_num_threads64_", "scipy_openblas_set_num_threads64_"),
+    # SciPy's own build (its LAPACK: the interior-point solver's Cholesky factorizations)
+    (Path(np.__file__).parent.parent / "scipy.libs", "libscipy_openblas-*",
+     "scipy_openblas_get_num_threads", "scipy_openblas_set_num_threads"),
 )
 
 

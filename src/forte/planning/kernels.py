@@ -56,6 +56,7 @@ class Kernels:
     pose_jac: ca.Function  # -> 6 x nq
     pose_hess: ca.Function  # (q, p_d, R_d, lambda) -> nq x nq
     origin: str  # "compiled", "cached" or "virtual-machine"
+    library: Path | None = None  # the compiled library (None in the virtual machine)
 
 
 def cache_root(options: SolverOptions) -> Path:
@@ -148,7 +149,7 @@ def load_kernels(robot: MobileManipulator, method: str | Method, w: CostWeights,
                 notice(f"cannot build the kernel cache in {lib.parent} ({reason}); using CasADi's virtual "
                        "machine (slower, same results)")
         if fns is not None:
-            return Kernels(*(fns[name] for name in KERNEL_NAMES), origin)
+            return Kernels(*(fns[name] for name in KERNEL_NAMES), origin, lib)
     return Kernels(*(build_kernels(robot, method, w)[name] for name in KERNEL_NAMES), "virtual-machine")
 
 

@@ -44,7 +44,7 @@ from forte.planning.clearance_rows import clearance_hessian, clearance_jacobian
 from forte.planning.collision_kernels import load_collision_kernels
 from forte.planning.collision_slots import Slots
 from forte.planning.ipopt_progress import IpoptProgress, margin_of
-from forte.planning.kernels import load_kernels
+from forte.planning.kernels import load_kernels, notice
 from forte.planning.methods import Method, get_method, method_names
 from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights, KinematicLimits, SolverOptions
 from forte.validation import FloatArray
@@ -70,6 +70,7 @@ class SolverResult:
     codegen: str  # "compiled", "cached", "virtual-machine"
     lam_x: FloatArray | None = None  # bound multipliers (with ``keep_multipliers``)
     lam_g: FloatArray | None = None  # constraint multipliers
+    iterate: Any = None  # the stagewise solver's primal-dual point (its warm start)
 
 
 #: The weights a task file gets by default in trajectory mode.
@@ -380,7 +381,7 @@ class TrajectoryOptimizer:
         return np.concatenate([values[name] for name in self._layout])
 
     def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,
-              nominal: FloatArray | None = None, warm: tuple[FloatArray, FloatArray] | None = None
+              nominal: FloatArray | None = None, warm: tuple[FloatArray, FloatArray] | Any | None = None
               ) -> SolverResult:
         """Solve for the whole-body trajectory (N x nq) from the initial guess ``q_guess``.
 
@@ -392,6 +393,12 @@ class TrajectoryOptimizer:
         n, nq = self.n, self.robot.nq
         targets = np.asarray(targets, dtype=float)
         self._nominal = np.asarray(q_guess if nominal is None else nominal, dtype=float).reshape(n, nq)
+        stagewise = self.stagewise()
+        if stagewise is not None:
+            return stagewise.solve(t, targets, f, r, q_init, q_guess, self._nominal,
+                                   warm if warm is None or not isinstance(warm, tuple) else None)
+        if warm is not None and not isinstance(warm, tuple):
+            warm = None  # a stagewise iterate does not warm-start IPOPT
         p = self.parameters(t, targets, f, r, self._nominal)
         lbx, ubx, lbg, ubg = self.bounds(t, q_init)
         x0 = self.full_x(np.clip(np.asarray(q_guess, dtype=float).ravel(), lbx[: n * nq], ubx[: n * nq]))
@@ -423,6 +430,21 @@ class TrajectoryOptimizer:
             lam_x=np.array(result["lam_x"]).ravel() if self.keep_multipliers or warm else None,
             lam_g=np.array(result["lam_g"]).ravel(),
         )
+
+    def stagewise(self) -> Any:
+        """The stage-structured solver of this problem when ``options.backend`` asks for it and
+        it handles the problem (built once), else None (IPOPT solves)."""
+        if self.options.backend != "stagewise":
+            return None
+        if not hasattr(self, "_stagewise"):
+            from forte.planning.solvers.stage_problem import supported
+            from forte.planning.solvers.stagewise import StagewiseSolver
+
+            why = supported(self)
+            self._stagewise = StagewiseSolver(self) if why is None else None
+            if why is not None:
+                notice(f"the stagewise solver does not handle {why}; solving with IPOPT")
+        return self._stagewise
 
     def cost_terms(self, q: FloatArray, t: Any, targets: Any, f: Any, r: Any,
                    nominal: FloatArray | None = None) -> dict[str, float]:

@@ -83,7 +83,7 @@ class Problem(NamedTuple):
     force: TaskForce
     nominal: FloatArray
     guess: FloatArray
-    warm: tuple[FloatArray, FloatArray] | None
+    warm: tuple[FloatArray, FloatArray] | Any | None  # IPOPT's multipliers or a stagewise iterate
     optimizer: TrajectoryOptimizer | None = None
 
 
@@ -101,7 +101,10 @@ class Replanner:
         estimator_options: For a payload that still needs a mass estimate.
     """
 
-    def __init__(self, task: Task, method: str = "forte", estimator_options: dict[str, Any] | None = None) -> None:
+    def __init__(self, task: Task, method: str = "forte", estimator_options: dict[str, Any] | None = None,
+                 backend: str | None = None) -> None:
+        if backend is not None:
+            task = replace(task, solver=replace(task.solver, backend=backend))
         self.method = get_method(method)
         if not self.method.optimized:
             raise InvalidInputError(f"method: re-planning needs an optimized method, got '{self.method.name}'")
@@ -139,6 +142,7 @@ class Replanner:
 
     def _changed(self, mass: float | None, force: TaskForce | None, targets: FloatArray | None,
                  q_init: FloatArray | None) -> Problem:
+        """The problem after a change, to be solved from the last solution."""
         task = self.task
         if targets is not None:
             task = replace(task, targets=np.asarray(targets, dtype=float))
@@ -153,9 +157,11 @@ class Replanner:
             nominal = task.nominal()  # the IK path / pose the planner would derive from the new task
         guess = self.last.q.copy()
         guess[0] = task.q_init
-        return Problem(task, force, nominal, guess, (self.last.lam_x, self.last.lam_g))
+        warm = self.last.iterate if self.last.iterate is not None else (self.last.lam_x, self.last.lam_g)
+        return Problem(task, force, nominal, guess, warm)
 
     def _shifted(self, steps: int, q_now: FloatArray | None, mass: float | None) -> Problem:
+        """The problem ``steps`` waypoints further, to be solved from the last solution shifted."""
         n = self.task.n
         if not 0 < steps < n:
             raise InvalidInputError(f"steps: expected 0 < steps < {n}, got {steps}")
@@ -177,7 +183,10 @@ class Replanner:
             opt = TrajectoryOptimizer(task.robot, task.n, self.method, task.weights, options=task.solver,
                                       limits=task.limits, keep_multipliers=True, slots=slots)
             return Problem(task, force, shift_rows(self.nominal, steps), guess, None, opt)
-        warm = self.optimizer.shifted_multipliers(self.last.lam_x, self.last.lam_g, steps)
+        if self.last.iterate is not None:
+            warm = self.optimizer.stagewise().shifted(self.last.iterate, steps)
+        else:
+            warm = self.optimizer.shifted_multipliers(self.last.lam_x, self.last.lam_g, steps)
         return Problem(task, force, shift_rows(self.nominal, steps), guess, warm)
 
     # -- solving ------------------------------------------------------------------------
@@ -216,7 +225,7 @@ class Replanner:
         return ReplanResult(plan, latency, iterations, used_warm, solve_s)
 
     def _solve(self, task: Task, force: TaskForce, nominal: FloatArray, guess: FloatArray,
-               warm: tuple[FloatArray, FloatArray] | None, optimizer: TrajectoryOptimizer | None = None
+               warm: tuple[FloatArray, FloatArray] | Any | None, optimizer: TrajectoryOptimizer | None = None
                ) -> SolverResult:
         opt = optimizer or self.optimizer
         return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, guess, nominal, warm=warm)

@@ -1,0 +1,456 @@
+"""A primal-dual interior-point method on the stage-structured trajectory NLP, with a null-space
+step per waypoint, and its real-time iteration.
+
+The problem (:class:`~forte.planning.solvers.stage_problem.StageProblem`)::
+
+    min f(y)   s.t.   c(y) = 0 (pose rows, 6 per posed block of y),   l <= A y + b <= u
+
+with slacks ``s = A y + b`` and bound multipliers ``z_l, z_u >= 0``. For the barrier parameter
+``mu`` the Newton step on the primal-dual equations, after eliminating ``ds, dz_l, dz_u``
+(``Sigma = z_l/(s-l) + z_u/(u-s)``, ``r_A = A y + b - s``), is
+
+    [ W + A^T Sigma A   J^T ] [dy ]     [ grad f + J^T lam + A^T (mu/(u-s) - mu/(s-l) + Sigma r_A) ]
+    [ J                  0  ] [dlam] = -[ c                                                        ]
+
+``J`` is block diagonal (each pose row reads one waypoint), so the step is computed in the null
+space of each block: ``J_j^T = [Y_j Z_j] [R_j; 0]`` (QR), ``dy = Y p_Y + Z p_Z`` with
+``p_Y = -R^-T c`` and the reduced system ``Z^T H Z p_Z = -Z^T (g + H Y p_Y)``, whose matrix
+has ``nq - 6`` rows per posed waypoint (the lift at N = 41: 148 against IPOPT's ~1000-row KKT
+matrix), dense Cholesky with IPOPT's inertia correction (``H + delta I`` until positive
+definite). The multipliers follow from ``Y^T``: ``lam + dlam = -R^-1 Y^T (g + H dy) + lam``.
+
+Globalization: fraction-to-the-boundary ``tau = max(0.99, 1 - mu)``, a backtracking line search
+on the l1 merit function ``phi = f - mu sum log(slack) + nu (|c|_1 + |r_A|_1)`` with one
+second-order correction of the pose rows, and the monotone barrier update of IPOPT
+(``mu <- max(tol/10, min(mu/5, mu^1.5))`` when the barrier problem's error is below ``10 mu``).
+Convergence: IPOPT's scaled KKT error (``s_max = 100``) below ``tol`` and the constraint
+violation below ``constraint_tol`` (:class:`~forte.settings.SolverOptions`).
+
+A **real-time iteration** (:meth:`InteriorPoint.iterate`) is one such Newton step from the last
+iterate at the last barrier parameter, without line search, on the new task data: the warm
+point of a converged solve is the previous problem's optimum, so after a change of payload
+mass, or a shift of the horizon, the step is the tangent predictor of the new optimum
+(Diehl's real-time iteration, here on the interior-point equations).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+import scipy.linalg as sla
+from scipy import sparse
+
+from forte.planning.solvers.stage_problem import StageProblem, TaskData
+from forte.validation import FloatArray
+
+S_MAX = 100.0  # IPOPT's s_max of the scaled optimality error
+KAPPA_EPS = 10.0
+KAPPA_SIGMA = 1e10
+DENSE_Q = 1200  # up to this many variables Z^T Q Z is formed from Q's dense blocks
+
+
+@dataclass
+class Iterate:
+    """A primal-dual point."""
+
+    y: FloatArray
+    lam: FloatArray  # P x 6
+    s: FloatArray
+    zl: FloatArray
+    zu: FloatArray
+    mu: float
+
+    def copy(self) -> Iterate:
+        def cp(a: FloatArray | None) -> FloatArray | None:
+            return None if a is None else a.copy()
+        return Iterate(self.y.copy(), self.lam.copy(), self.s.copy(), cp(self.zl), cp(self.zu), self.mu)
+
+
+class StepInfo(NamedTuple):
+    """What one iteration measured at its starting point and did."""
+
+    error: float  # scaled KKT error at mu = 0 before the step
+    violation: float  # constraint violation before the step
+    alpha: float
+    delta: float  # inertia correction
+
+
+@dataclass
+class Evaluation:
+    """Derivatives at one iterate."""
+
+    f: float
+    grad: FloatArray
+    c: FloatArray
+    J: FloatArray
+    rA: FloatArray
+    extras: dict = field(default_factory=dict)
+
+
+class InteriorPoint:
+    """The solver for one :class:`StageProblem` (see the module docstring)."""
+
+    def __init__(self, problem: StageProblem, tol: float = 1e-6, constraint_tol: float = 1e-6,
+                 max_iter: int = 200) -> None:
+        self.pb, self.tol, self.constraint_tol, self.max_iter = problem, tol, constraint_tol, max_iter
+        self.mu_min = tol / 10
+        self.delta_last = 0.0
+        self._filter: list[tuple[float, float]] = []
+        self._filter_mu = -1.0
+        self._theta_max = np.inf
+        self._reduced_structure()
+
+    def _reduced_structure(self) -> None:
+        """Index maps of the reduced matrix: ``r`` columns per block (``nq - 6`` when every block
+        is posed; else ``nq``, a posed block's last 6 padded), window entries -> reduced entries."""
+        pb, nq, n = self.pb, self.pb.nq, self.pb.n
+        self.posed_mask = np.zeros(pb.blocks, bool)
+        self.posed_mask[pb.posed_block] = True
+        self.r = r = nq - 6 if self.posed_mask.all() else nq
+        self.nr = nr = pb.blocks * r
+        wb = np.where(pb.window_block < 0, pb.blocks, pb.window_block)  # fixed -> a zero block
+        self.wb = wb
+        col = (wb[:, :, None] * r + np.arange(r)[None, None, :]).reshape(n, 3 * r)  # reduced column
+        col = np.where(col >= nr, 0, col)  # a fixed slot's (zero) entries land anywhere
+        self.widx = (col[:, :, None] * nr + col[:, None, :]).ravel()
+        blk = np.arange(pb.blocks)[:, None] * r + np.arange(r)[None, :]
+        self.didx = (blk[:, :, None] * nr + blk[:, None, :]).ravel()
+        # y index of each window entry (ny: a fixed slot)
+        wy = wb[:, :, None] * nq + np.arange(nq)[None, None, :]
+        self.wy = np.where(wy >= pb.ny, pb.ny, wy).reshape(n, 3 * nq)
+        rows = np.repeat(np.arange(pb.ny), r)
+        cols = (np.arange(pb.ny)[:, None] // nq * r + np.arange(r)[None, :]).ravel()
+        self.z_indices, self.z_indptr = cols, np.arange(0, pb.ny * r + 1, r)
+        self._zrows = rows
+        self.padded = np.zeros(0, int)
+        if r == nq:  # unposed blocks (identity), posed blocks padded with zero columns
+            pad = (pb.posed_block[:, None] * r + np.arange(nq - 6, nq)[None, :]).ravel()
+            self.padded = pad * nr + pad
+
+    # -- evaluation -----------------------------------------------------------------------
+    def evaluate(self, it: Iterate, data: TaskData) -> Evaluation:
+        pb = self.pb
+        return Evaluation(pb.objective(it.y, data), pb.gradient(it.y, data), pb.pose(it.y, data),
+                          pb.pose_jacobian(it.y, data), pb.A @ it.y + data.b - it.s)
+
+    def _dual_residual(self, ev: Evaluation, it: Iterate) -> FloatArray:
+        pb = self.pb
+        jt = np.zeros(pb.ny)
+        jt_blocks = np.einsum("pij,pi->pj", ev.J, it.lam)
+        idx = (pb.posed_block[:, None] * pb.nq + np.arange(pb.nq)[None, :]).ravel()
+        jt[idx] = jt_blocks.ravel()
+        return ev.grad + jt + pb.A.T @ (it.zu - it.zl)
+
+    def error(self, ev: Evaluation, it: Iterate, data: TaskData, mu: float) -> tuple[float, float]:
+        """IPOPT's scaled optimality error at barrier ``mu``, and the constraint violation."""
+        rd = self._dual_residual(ev, it)
+        lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
+        comp = np.concatenate([((it.s - data.lower) * it.zl - mu)[lo], ((data.upper - it.s) * it.zu - mu)[up]])
+        m = it.lam.size + it.s.size
+        s_d = max(S_MAX, (np.abs(it.lam).sum() + np.abs(it.zl[lo]).sum() + np.abs(it.zu[up]).sum())
+                  / max(m + it.y.size, 1)) / S_MAX
+        s_c = max(S_MAX, (np.abs(it.zl[lo]).sum() + np.abs(it.zu[up]).sum()) / max(it.s.size, 1)) / S_MAX
+        viol = self.violation(ev, it, data)
+        err = max(np.abs(rd).max(initial=0) / s_d, viol, np.abs(comp).max(initial=0) / s_c)
+        return float(err), viol
+
+    def violation(self, ev: Evaluation, it: Iterate, data: TaskData) -> float:
+        """Largest violation of the pose rows and of the rows' bounds at ``y`` (as IPOPT reports)."""
+        v = self.pb.A @ it.y + data.b
+        rows = np.maximum(np.maximum(data.lower - v, v - data.upper), 0)
+        return float(max(np.abs(ev.c).max(initial=0), rows.max(initial=0)))
+
+    # -- the Newton step ------------------------------------------------------------------
+    def bases(self, J: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """``Z`` (blocks x nq x r), ``Y`` (P x nq x 6) and ``R`` (P x 6 x 6): ``J_j^T = Y_j R_j``."""
+        pb, nq, r = self.pb, self.pb.nq, self.r
+        Qf, Rf = np.linalg.qr(J.transpose(0, 2, 1), mode="complete")
+        Z = np.zeros((pb.blocks, nq, r))
+        Z[~self.posed_mask] = np.eye(nq, r)
+        Z[pb.posed_block, :, : nq - 6] = Qf[:, :, 6:]
+        return Z, Qf[:, :, :6], Rf[:, :6, :]
+
+    def _window_hessians(self, it: Iterate, ev: Evaluation, data: TaskData, sigma: FloatArray) -> FloatArray:
+        """Stage Hessians plus the pose rows' curvature and the barrier of the kinematic rows."""
+        pb, nq = self.pb, self.pb.nq
+        Hw = ev.extras["hess"].copy()
+        Hw[pb.posed, 2 * nq:, 2 * nq:] += pb.pose_hessians(it.y, data, it.lam)
+        kin = sigma[pb.bound_vars.size:]
+        if kin.size:
+            c = pb.kin_coef  # m x 3, on window slots 0, 1, 2 of the row's waypoint, its dof
+            w = (c[:, :, None] * c[:, None, :]) * kin[:, None, None]
+            Hw.reshape(-1)[:] += np.bincount(pb.kin_flat.ravel(), w.ravel(), minlength=Hw.size)
+        return Hw
+
+    def step(self, it: Iterate, ev: Evaluation, data: TaskData, mu: float
+             ) -> tuple[FloatArray, FloatArray, float, tuple]:
+        """``(dy, lam_new, delta, parts)`` of the Newton step at barrier ``mu``."""
+        pb, nq, r = self.pb, self.pb.nq, self.r
+        lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
+        sl = np.where(lo, it.s - data.lower, 1.0)
+        su = np.where(up, data.upper - it.s, 1.0)
+        sig_l = np.where(lo, it.zl / sl, 0.0)
+        sig_u = np.where(up, it.zu / su, 0.0)
+        sigma = sig_l + sig_u
+        barrier = np.where(up, mu / su, 0.0) - np.where(lo, mu / sl, 0.0)
+        g = ev.grad + pb.A.T @ (barrier + sigma * ev.rA)
+        Hw = self._window_hessians(it, ev, data, sigma)
+        bdiag = np.zeros(pb.ny)
+        bdiag[pb.bound_vars] = sigma[: pb.bound_vars.size]
+        Z, Y, R = self.bases(ev.J)
+        Zw = np.zeros((pb.n, 3 * nq, 3 * r))
+        Zext = np.concatenate([Z, np.zeros((1, nq, r))])
+        for slot in range(3):
+            Zw[:, slot * nq:(slot + 1) * nq, slot * r:(slot + 1) * r] = Zext[self.wb[:, slot]]
+        Hred = np.matmul(Zw.transpose(0, 2, 1), np.matmul(Hw, Zw))
+        Hr = np.bincount(self.widx, Hred.ravel(), minlength=self.nr * self.nr)
+        Hr[self.didx] += np.einsum("bna,bn,bnc->bac", Z, bdiag.reshape(pb.blocks, nq), Z).ravel()
+        Hr[self.padded] += 1.0
+        Hr = Hr.reshape(self.nr, self.nr) + self._reduced_quadratic(Z)
+
+        def hv(v: FloatArray) -> FloatArray:
+            vw = np.append(v, 0.0)[self.wy]
+            out = np.bincount(self.wy.ravel(), np.matmul(Hw, vw[:, :, None]).ravel(), minlength=pb.ny + 1)
+            return out[: pb.ny] + pb.Qy @ v + bdiag * v
+
+        pY = -np.linalg.solve(R.transpose(0, 2, 1), ev.c[..., None])[..., 0]  # P x 6
+        ypy = np.zeros((pb.blocks, nq))
+        ypy[pb.posed_block] = np.einsum("pij,pj->pi", Y, pY)
+        ypy = ypy.ravel()
+        rhs = -np.einsum("bna,bn->ba", Z, (g + hv(ypy)).reshape(pb.blocks, nq)).ravel()
+        pZ, delta = self._solve_reduced(Hr, rhs)
+        dy = ypy + np.einsum("bna,ba->bn", Z, pZ.reshape(pb.blocks, r)).ravel()
+        resid = (g + hv(dy) + delta * dy).reshape(pb.blocks, nq)[pb.posed_block]
+        lam_new = -np.linalg.solve(R, np.einsum("pij,pi->pj", Y, resid)[..., None])[..., 0]
+        return dy, lam_new, delta, (sigma, sig_l, sig_u, sl, su, lo, up, Y, R)
+
+    def _reduced_quadratic(self, Z: FloatArray) -> FloatArray:
+        """``Z^T Q Z`` of the constant quadratic terms (dense blocks up to ``DENSE_Q`` variables)."""
+        pb, nq, r, blocks = self.pb, self.pb.nq, self.r, self.pb.blocks
+        if pb.ny <= DENSE_Q:
+            if not hasattr(self, "_q4"):
+                self._q4 = pb.Qy.toarray().reshape(blocks, nq, blocks * nq)
+            t1 = np.matmul(Z.transpose(0, 2, 1), self._q4).reshape(blocks * r, blocks, nq)  # (i a), j, m
+            t2 = np.matmul(t1.transpose(1, 0, 2), Z)  # j, (i a), c
+            return t2.transpose(1, 0, 2).reshape(self.nr, self.nr)
+        Zm = sparse.csr_matrix((Z.reshape(-1), self.z_indices, self.z_indptr), shape=(pb.ny, self.nr))
+        return (Zm.T @ (pb.Qy @ Zm)).toarray()
+
+    def _solve_reduced(self, Hr: FloatArray, rhs: FloatArray) -> tuple[FloatArray, float]:
+        """Cholesky of ``Hr + delta I`` with IPOPT's inertia correction of ``delta``."""
+        delta = 0.0
+        for attempt in range(40):
+            try:
+                factor = sla.cho_factor(Hr + delta * np.eye(Hr.shape[0]) if delta else Hr, lower=True,
+                                        check_finite=False)
+                if delta:
+                    self.delta_last = delta
+                return sla.cho_solve(factor, rhs, check_finite=False), delta
+            except np.linalg.LinAlgError:
+                if attempt == 0:
+                    delta = 1e-4 if self.delta_last == 0 else max(1e-20, self.delta_last / 3)
+                else:
+                    delta *= 100 if self.delta_last == 0 else 8
+        raise np.linalg.LinAlgError("the reduced Hessian stays indefinite")
+
+    # -- moving along a step --------------------------------------------------------------
+    def _fraction_to_boundary(self, it: Iterate, ds: FloatArray, dzl: FloatArray, dzu: FloatArray,
+                              parts: tuple, tau: float) -> tuple[float, float]:
+        _, _, _, sl, su, lo, up, _, _ = parts
+
+        def largest(v: FloatArray, dv: FloatArray) -> float:
+            neg = dv < 0
+            return float(min(1.0, np.min(-tau * v[neg] / dv[neg]))) if neg.any() else 1.0
+
+        a_p = min(largest(sl[lo], ds[lo]), largest(su[up], -ds[up]))
+        a_d = min(largest(it.zl[lo], dzl[lo]), largest(it.zu[up], dzu[up]))
+        return a_p, a_d
+
+    def _directions(self, it: Iterate, ev: Evaluation, dy: FloatArray, parts: tuple, mu: float
+                    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        _, sig_l, sig_u, sl, su, lo, up, _, _ = parts
+        ds = self.pb.A @ dy + ev.rA
+        dzl = np.where(lo, mu / sl - it.zl - sig_l * ds, 0.0)
+        dzu = np.where(up, mu / su - it.zu + sig_u * ds, 0.0)
+        return ds, dzl, dzu
+
+    def _barrier_objective(self, f: float, s: FloatArray, data: TaskData, mu: float) -> float:
+        lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
+        sl, su = (s - data.lower)[lo], (data.upper - s)[up]
+        if (sl <= 0).any() or (su <= 0).any():
+            return np.inf
+        return f - mu * (np.log(sl).sum() + np.log(su).sum())
+
+    def _take(self, it: Iterate, dy: FloatArray, lam_new: FloatArray, ds: FloatArray, dzl: FloatArray,
+              dzu: FloatArray, a_p: float, a_d: float, mu: float, data: TaskData) -> Iterate:
+        new = Iterate(it.y + a_p * dy, it.lam + a_p * (lam_new - it.lam), it.s + a_p * ds,
+                      it.zl + a_d * dzl, it.zu + a_d * dzu, mu)
+        lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
+        # IPOPT's safeguard: z stays within a factor kappa_sigma of mu / slack
+        sl, su = np.where(lo, new.s - data.lower, 1.0), np.where(up, data.upper - new.s, 1.0)
+        new.zl = np.where(lo, np.clip(new.zl, mu / (KAPPA_SIGMA * sl), KAPPA_SIGMA * mu / sl), 0.0)
+        new.zu = np.where(up, np.clip(new.zu, mu / (KAPPA_SIGMA * su), KAPPA_SIGMA * mu / su), 0.0)
+        return new
+
+    # -- starting points ------------------------------------------------------------------
+    def start(self, y0: FloatArray, data: TaskData, mu0: float = 0.1) -> Iterate:
+        """A cold start: slacks pushed inside their bounds (IPOPT's ``bound_push`` 0.01), bound
+        multipliers 1, pose multipliers by least squares."""
+        pb = self.pb
+        v = pb.A @ y0 + data.b
+        s = self._push(v, data)
+        lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
+        it = Iterate(y0.copy(), np.zeros((pb.posed.size, 6)), s, lo * 1.0, up * 1.0, mu0)
+        ev = self.evaluate(it, data)
+        it.lam = self.least_squares_multipliers(ev, it)
+        return it
+
+    def _push(self, v: FloatArray, data: TaskData) -> FloatArray:
+        lo, up = data.lower, data.upper
+        width = np.where(np.isfinite(lo) & np.isfinite(up), up - lo, np.inf)
+        p_l = np.minimum(1e-2 * np.maximum(1.0, np.abs(np.where(np.isfinite(lo), lo, 0))), 1e-2 * width)
+        p_u = np.minimum(1e-2 * np.maximum(1.0, np.abs(np.where(np.isfinite(up), up, 0))), 1e-2 * width)
+        return np.minimum(np.maximum(v, np.where(np.isfinite(lo), lo + p_l, -np.inf)),
+                          np.where(np.isfinite(up), up - p_u, np.inf))
+
+    def least_squares_multipliers(self, ev: Evaluation, it: Iterate) -> FloatArray:
+        """``lam`` minimizing ``|grad f + J^T lam + A^T (z_u - z_l)|`` per posed block."""
+        pb = self.pb
+        g = (ev.grad + pb.A.T @ (it.zu - it.zl)).reshape(pb.blocks, pb.nq)[pb.posed_block]
+        return -np.linalg.lstsq_batched(ev.J, g) if hasattr(np.linalg, "lstsq_batched") else \
+            -np.stack([np.linalg.lstsq(J.T, gi, rcond=None)[0] for J, gi in zip(ev.J, g, strict=True)])
+
+    def warm(self, it: Iterate, data: TaskData) -> Iterate:
+        """``it`` made consistent with new rows' data: slacks moved inside, multipliers kept."""
+        new = it.copy()
+        v = self.pb.A @ new.y + data.b
+        inside = (v > data.lower) & (v < data.upper)
+        new.s = np.where(inside, v, self._push(v, data))
+        return new
+
+    # -- iterations -----------------------------------------------------------------------
+    def iteration(self, it: Iterate, ev: Evaluation, data: TaskData, line_search: bool = True
+                  ) -> tuple[Iterate, float, float]:
+        """One Newton step from ``it`` at ``it.mu``: the new iterate, its step length and delta."""
+        mu = it.mu
+        ev.extras["hess"] = self.pb.stage_hessians(it.y, data)
+        dy, lam_new, delta, parts = self.step(it, ev, data, mu)
+        ds, dzl, dzu = self._directions(it, ev, dy, parts, mu)
+        a_p, a_d = self._fraction_to_boundary(it, ds, dzl, dzu, parts, max(0.99, 1 - mu))
+        if not line_search:
+            return self._take(it, dy, lam_new, ds, dzl, dzu, a_p, a_d, mu, data), a_p, delta
+        alpha = self._line_search(it, ev, data, dy, ds, lam_new, parts, a_p)
+        if isinstance(alpha, tuple):  # a second-order correction was accepted
+            alpha, dy = alpha
+            ds, dzl, dzu = self._directions(it, ev, dy, parts, mu)
+            a_d = min(a_d, self._fraction_to_boundary(it, ds, dzl, dzu, parts, max(0.99, 1 - mu))[1])
+        return self._take(it, dy, lam_new, ds, dzl, dzu, alpha, a_d, mu, data), alpha, delta
+
+    def _line_search(self, it: Iterate, ev: Evaluation, data: TaskData, dy: FloatArray, ds: FloatArray,
+                     lam_new: FloatArray, parts: tuple, a_max: float) -> float | tuple[float, FloatArray]:
+        """IPOPT's filter line search (Waechter and Biegler 2006, simplified: no restoration phase;
+        the smallest step is taken when every trial fails): a trial point is accepted when it
+        decreases the barrier objective enough (Armijo, where the step is a descent direction
+        and the violation is small) or when it decreases the violation or the objective against
+        every filter entry; one second-order correction of the pose rows on the first rejection."""
+        pb, mu = self.pb, it.mu
+        _, _, _, sl, su, lo, up, Y, R = parts
+        theta0 = float(np.abs(ev.c).sum() + np.abs(ev.rA).sum())
+        phi0 = self._barrier_objective(ev.f, it.s, data, mu)
+        slope = float(ev.grad @ dy - mu * (ds[lo] / sl[lo]).sum() + mu * (ds[up] / su[up]).sum())
+        if self._filter_mu != mu:  # a new barrier problem: a new filter
+            self._filter, self._filter_mu = [], mu
+            self._theta_max = 1e4 * max(1.0, theta0)
+        alpha, soc_tried = a_max, False
+        for _ in range(30):
+            y = it.y + alpha * dy
+            c = pb.pose(y, data)
+            theta = float(np.abs(c).sum() + (1 - alpha) * np.abs(ev.rA).sum())
+            phi = self._barrier_objective(pb.objective(y, data), it.s + alpha * ds, data, mu)
+            verdict = self._acceptable(theta, phi, theta0, phi0, slope, alpha)
+            if verdict:
+                if verdict == "h":
+                    self._filter.append((0.99999 * theta0, phi0 - 1e-8 * theta0))
+                return alpha
+            if not soc_tried and theta >= theta0:  # second-order correction (Maratos effect)
+                soc_tried = True
+                corr = np.zeros((pb.blocks, pb.nq))
+                corr[pb.posed_block] = np.einsum("pij,pj->pi", Y, -np.linalg.solve(R.transpose(0, 2, 1),
+                                                                                   c[..., None])[..., 0])
+                dy2 = dy + corr.ravel() / max(alpha, 1e-12)
+                y2 = it.y + alpha * dy2
+                c2 = pb.pose(y2, data)
+                theta2 = float(np.abs(c2).sum() + (1 - alpha) * np.abs(ev.rA).sum())
+                ds2 = pb.A @ dy2 + ev.rA  # the slacks follow the corrected step
+                phi2 = self._barrier_objective(pb.objective(y2, data), it.s + alpha * ds2, data, mu)
+                verdict = self._acceptable(theta2, phi2, theta0, phi0, slope, alpha)
+                if verdict:
+                    if verdict == "h":
+                        self._filter.append((0.99999 * theta0, phi0 - 1e-8 * theta0))
+                    return alpha, dy2
+            alpha /= 2
+            if alpha < 1e-10:
+                break
+        return alpha
+
+    def _acceptable(self, theta: float, phi: float, theta0: float, phi0: float, slope: float,
+                    alpha: float) -> str:
+        """"f" (an Armijo step of the objective), "h" (a filter step), or "" (rejected)."""
+        if not np.isfinite(phi) or theta >= self._theta_max:
+            return ""
+        if any(theta >= t and phi >= f for t, f in self._filter):
+            return ""
+        switching = slope < 0 and alpha * (-slope) ** 2.3 > theta0 ** 1.1
+        if switching and theta0 <= 1e-4 * max(1.0, self._theta_max / 1e4):
+            return "f" if phi <= phi0 + 1e-4 * alpha * slope else ""
+        if theta <= (1 - 1e-5) * theta0 or phi <= phi0 - 1e-8 * theta0:
+            return "h" if not (switching and phi <= phi0 + 1e-4 * alpha * slope) else "f"
+        return ""
+
+    def solve(self, it: Iterate, data: TaskData, max_iter: int | None = None) -> IPResult:
+        """Iterate from ``it`` until IPOPT's convergence test holds (or ``max_iter``)."""
+        max_iter = self.max_iter if max_iter is None else max_iter
+        history: list[StepInfo] = []
+        self.reset()
+        for k in range(max_iter + 1):
+            ev = self.evaluate(it, data)
+            if not np.isfinite(ev.f) or not np.isfinite(ev.grad).all():
+                return IPResult(it, False, k, "Invalid_Number_Detected", ev.f, np.inf, history)
+            err0, viol = self.error(ev, it, data, 0.0)
+            if err0 <= self.tol and viol <= self.constraint_tol:
+                return IPResult(it, True, k, "Solve_Succeeded", ev.f, viol, history)
+            if k == max_iter:
+                break
+            while it.mu > self.mu_min and self.error(ev, it, data, it.mu)[0] <= KAPPA_EPS * it.mu:
+                it.mu = max(self.mu_min, min(0.2 * it.mu, it.mu ** 1.5))
+            try:
+                it, alpha, delta = self.iteration(it, ev, data)
+            except np.linalg.LinAlgError:
+                return IPResult(it, False, k, "Error_In_Step_Computation", ev.f, viol, history)
+            history.append(StepInfo(err0, viol, alpha, delta))
+        return IPResult(it, False, max_iter, "Maximum_Iterations_Exceeded", ev.f, viol, history)
+
+    def reset(self) -> None:
+        """Forget the filter and the last inertia correction (a new solve)."""
+        self._filter, self._filter_mu, self.delta_last = [], -1.0, 0.0
+
+    def real_time_iteration(self, it: Iterate, data: TaskData) -> tuple[Iterate, Evaluation]:
+        """One full Newton step from ``it`` on ``data`` (no line search), and the evaluation at the
+        new point's primal variables (its constraint violation decides whether it may be used)."""
+        ev = self.evaluate(it, data)
+        new, _, _ = self.iteration(it, ev, data, line_search=False)
+        return new, ev
+
+
+class IPResult(NamedTuple):
+    """The end of a solve."""
+
+    iterate: Iterate
+    converged: bool
+    iterations: int
+    status: str  # IPOPT's names: Solve_Succeeded, Maximum_Iterations_Exceeded, ...
+    objective: float
+    violation: float
+    history: list[StepInfo]

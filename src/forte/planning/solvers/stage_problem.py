@@ -1,0 +1,250 @@
+"""The trajectory NLP of a :class:`~forte.planning.optimizer.TrajectoryOptimizer` in the form the
+structure-exploiting solver works on.
+
+Variables. The optimizer's ``x = vec(q_1..q_N)`` holds configurations that are not free: ``q_1``
+is fixed in trajectory mode, and a plan that ends at rest has ``q_{N-2} = q_{N-1} = q_N`` (its
+end-at-rest rows). Here they are eliminated: ``x = T y + x_fix`` with ``y`` the free waypoints'
+configurations, stacked waypoint by waypoint (``T`` a 0/1 selection; the tied waypoints copy the
+last one). The problem is then
+
+    min_y   f(y) = sum_k c_k(q_{k-2}, q_{k-1}, q_k) + 1/2 x^T Q x
+    s.t.    pose_k(q_k) = 0            (6 rows per posed waypoint, each on one block of y)
+            l <= A y + b <= u          (joint bounds, velocity and acceleration rows; linear)
+
+with the same stage kernels (:mod:`forte.planning.kernels`), the same ``Q`` (the quadratic terms
+in the form IPOPT solves them: the lifted rows folded back, ``Q = D + R^T diag(g) R``), the same
+bounds. Its Lagrangian Hessian has one fixed sparsity pattern (stage windows, pose blocks,
+``Q``, and ``A^T Sigma A`` of the barrier), filled by constant scatter matrices.
+
+Supported: every optimized method without a scene and with a holonomic or fixed base (the
+differential base's lateral rows and a scene's clearance rows stay with IPOPT).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
+from scipy import sparse
+
+from forte.exceptions import InvalidInputError
+from forte.planning import layout
+from forte.planning.solvers.native import StageKernels
+from forte.validation import FloatArray
+
+if TYPE_CHECKING:
+    from forte.planning.optimizer import TrajectoryOptimizer
+
+
+class TaskData(NamedTuple):
+    """Per-solve data: kernel inputs, the fixed part of ``x`` and the rows' offsets and bounds."""
+
+    stage_args: list[FloatArray]  # dt_prev, dt, f, r, q_nom, weights (after the window)
+    p_d: FloatArray  # n x 3
+    R_d: FloatArray  # n x 9 (column-major rotations)
+    x_fix: FloatArray
+    b: FloatArray  # A y + b: the rows' values
+    lower: FloatArray
+    upper: FloatArray
+
+
+def supported(opt: TrajectoryOptimizer) -> str | None:
+    """None when the solver handles ``opt``'s problem, else why not."""
+    if opt.slots is not None:
+        return "a scene's clearance rows"
+    if opt._lateral:
+        return "a differential base's lateral rows"
+    return None
+
+
+class StageProblem:
+    """``opt``'s NLP over the free configurations (see the module docstring)."""
+
+    def __init__(self, opt: TrajectoryOptimizer) -> None:
+        why = supported(opt)
+        if why is not None:
+            raise InvalidInputError(f"solver: the interior-point solver does not handle {why}; use ipopt")
+        self.opt, self.n, self.nq = opt, opt.n, opt.robot.nq
+        self.kernels = StageKernels(opt.kernels)
+        self._free_stages()
+        self.window = self.ymap[opt._window_index()].T.copy()  # n x 3nq, -1: fixed
+        self.posed = opt._pose_steps  # x waypoints with pose rows
+        self.posed_block = self.block_of[self.posed]
+        if np.unique(self.posed_block).size != self.posed_block.size or (self.posed_block < 0).any():
+            raise InvalidInputError("solver: two posed waypoints share a free block")
+        self.weights = np.array([opt.method_spec.term_weight(t, opt.weights) for t in opt._stage])
+        D, R = layout.lifted_quadratic(opt._quadratic, [opt.method_spec.term_weight(t, opt.weights)
+                                                        for t in opt._quadratic], opt.robot.n_arm, self.n,
+                                       self.n * self.nq)
+        nx = self.n * self.nq
+        Qx = D[:nx, :nx] + (R.T @ sparse.diags(D.diagonal()[nx:]) @ R if R.shape[0] else 0)
+        self.Q = sparse.csr_matrix(Qx)
+        self.Qy = sparse.csr_matrix(self.T.T @ self.Q @ self.T)
+        self._kinematic_matrix()
+        self.window_block = self.block_of[opt._window_index()[::self.nq].T // self.nq]  # n x 3, -1: fixed
+
+    # -- structure ------------------------------------------------------------------------
+    def _free_stages(self) -> None:
+        """``T``, ``ymap`` (x index -> y index or -1) and the free blocks."""
+        n, nq, opt = self.n, self.nq, self.opt
+        owner = np.arange(n)  # the x waypoint whose configuration each waypoint copies
+        if opt.rests_at_end:
+            owner[n - 3:] = n - 1
+        free = [k for k in range(n) if owner[k] == k and not (k == 0 and opt.fix_initial)]
+        self.block_of = np.full(n, -1)
+        self.block_of[free] = np.arange(len(free))
+        self.block_of = self.block_of[owner]  # tied waypoints share their owner's block
+        self.blocks = len(free)
+        self.ny = self.blocks * nq
+        self.ymap = np.full(n * nq, -1)
+        for k in range(n):
+            if self.block_of[k] >= 0:
+                self.ymap[k * nq:(k + 1) * nq] = self.block_of[k] * nq + np.arange(nq)
+        self.owner_x = np.concatenate([k * nq + np.arange(nq) for k in free]).astype(int)  # x index of each y
+        rows = np.flatnonzero(self.ymap >= 0)
+        self.T = sparse.csr_matrix((np.ones(rows.size), (rows, self.ymap[rows])), shape=(n * nq, self.ny))
+
+    def _kinematic_matrix(self) -> None:
+        """Velocity rows ``q_k - q_{k-1}`` and acceleration rows ``dq_k - dq_{k-1}`` in x (the
+        optimizer's, :meth:`~forte.planning.optimizer.TrajectoryOptimizer._kinematic_rows`) as
+        constant difference matrices; the time steps scale them per solve."""
+        opt, n, nq = self.opt, self.n, self.nq
+        self.vel_rows, self.acc_rows = opt._vel_rows, opt._acc_rows
+        steps = n - 1 if n >= 2 else 0
+        E = sparse.eye(n * nq, format="csr")
+        self._step = [E[(k + 1) * nq:(k + 2) * nq] - E[k * nq:(k + 1) * nq] for k in range(steps)]
+
+    # -- one solve's data -----------------------------------------------------------------
+    def task_data(self, t: FloatArray, targets: FloatArray, f: FloatArray, r: FloatArray, q_init: FloatArray,
+                  nominal: FloatArray) -> TaskData:
+        """Kernel inputs and the rows of a solve (as :meth:`TrajectoryOptimizer.parameters` and
+        :meth:`~TrajectoryOptimizer.bounds` pack them for IPOPT)."""
+        opt, n, nq = self.opt, self.n, self.nq
+        t = np.asarray(t, dtype=float)
+        dt = np.ones(n)
+        dt[1:] = np.diff(t)
+        dt_prev = np.concatenate([[1.0], dt[:-1]])
+        args = [dt_prev[:, None], dt[:, None], np.asarray(f, float).reshape(n, 3),
+                np.asarray(r, float).reshape(n, 1), np.asarray(nominal, float).reshape(n, nq), self.weights]
+        targets = np.asarray(targets, dtype=float)
+        R_d = targets[:, :3, :3].transpose(0, 2, 1).reshape(n, 9)  # column-major per waypoint
+        lbx, ubx, lbg, ubg = opt.bounds(t, q_init)
+        x_fix = np.where(self.ymap < 0, np.clip(np.zeros(n * nq), lbx[:n * nq], ubx[:n * nq]), 0.0)
+        if opt.fix_initial:
+            x_fix[:nq] = q_init
+            owner_fixed = self.block_of < 0
+            for k in np.flatnonzero(owner_fixed):
+                x_fix[k * nq:(k + 1) * nq] = q_init
+        key = dt.tobytes() + lbx[:n * nq].tobytes() + ubx[:n * nq].tobytes()
+        if key != getattr(self, "_rows_key", None):  # the rows change with the time grid only
+            self.A, self._G, self._bounds = self._rows(dt, lbx[:n * nq], ubx[:n * nq])
+            self._rows_key = key
+        lower, upper = self._bounds
+        b = np.concatenate([np.zeros(self.bound_vars.size), self._G @ x_fix])
+        return TaskData(args, targets[:, :3, 3].copy(), R_d, x_fix, b, lower, upper)
+
+    def _rows(self, dt: FloatArray, lbx: FloatArray, ubx: FloatArray
+              ) -> tuple[sparse.csr_matrix, sparse.csr_matrix, tuple[FloatArray, FloatArray]]:
+        """``l <= A y + b <= u``: bounds of the free variables, then the kinematic rows (``A``, the
+        kinematic rows in x, whose product with ``x_fix`` is their part of ``b``, and ``(l, u)``)."""
+        opt, nq = self.opt, self.nq
+        vel, acc = opt._vel, opt._acc
+        idx = np.flatnonzero(self.ymap >= 0)
+        first = np.unique(self.ymap[idx], return_index=True)[1]
+        yx = idx[first]  # an x index of each y variable
+        lo, hi = lbx[yx], ubx[yx]
+        bounded = np.flatnonzero(np.isfinite(lo) | np.isfinite(hi))
+        parts = [sparse.csr_matrix((np.ones(bounded.size), (np.arange(bounded.size), bounded)),
+                                   shape=(bounded.size, self.ny))]
+        lows, ups = [lo[bounded]], [hi[bounded]]
+        dq_prev = None
+        ident = []  # (x waypoint, kind 0 velocity / 1 acceleration, dof) of each kinematic row
+        for k, step in enumerate(self._step):
+            h = dt[k + 1]
+            dq = step / h
+            if self.vel_rows.size:
+                parts.append(step[self.vel_rows])
+                ident += [(k + 1, 0, d) for d in self.vel_rows]
+                lim = vel[self.vel_rows] * h
+                lows.append(-lim)
+                ups.append(lim)
+            if self.acc_rows.size:
+                rows = dq if dq_prev is None else dq - dq_prev
+                parts.append(rows[self.acc_rows])
+                ident += [(k + 1, 1, d) for d in self.acc_rows]
+                lim = acc[self.acc_rows] * h
+                lows.append(-lim)
+                ups.append(lim)
+            dq_prev = dq
+        G = sparse.vstack(parts[1:], format="csr") if len(parts) > 1 else sparse.csr_matrix((0, self.n * nq))
+        Gy = sparse.csr_matrix(G @ self.T)
+        Gy.eliminate_zeros()
+        keep = np.flatnonzero(np.diff(Gy.indptr) > 0)  # rows the elimination made constant hold anyway
+        low = np.concatenate(lows[1:]) if len(lows) > 1 else np.zeros(0)
+        up = np.concatenate(ups[1:]) if len(ups) > 1 else np.zeros(0)
+        A = sparse.vstack([parts[0], Gy[keep]], format="csr")
+        self.bound_vars = bounded
+        self.kin_rows = np.asarray(ident, dtype=int).reshape(-1, 3)[keep]
+        self._window_rows(dt)
+        return A, sparse.csr_matrix(G[keep]), (np.concatenate([lows[0], low[keep]]),
+                                                np.concatenate([ups[0], up[keep]]))
+
+    def _window_rows(self, dt: FloatArray) -> None:
+        """The kinematic rows in window form: coefficients on slots 0, 1, 2 of their waypoint's
+        window (same dof), and the flat indices of ``c c^T`` in the n x 3nq x 3nq windows."""
+        k, kind, d = self.kin_rows.T if self.kin_rows.size else (np.zeros(0, int),) * 3
+        prev = np.where(k >= 2, 1.0 / dt[np.maximum(k - 1, 0)], 0.0)
+        cur = 1.0 / dt[k]
+        acc = np.stack([prev, -cur - prev, cur], 1)
+        vel = np.tile([0.0, -1.0, 1.0], (k.size, 1))
+        self.kin_coef = np.where((kind == 1)[:, None], acc, vel)
+        w = 3 * self.nq
+        pos = np.arange(3)[None, :] * self.nq + d[:, None]  # m x 3
+        self.kin_flat = k[:, None, None] * w * w + pos[:, :, None] * w + pos[:, None, :]
+
+    # -- evaluations ----------------------------------------------------------------------
+    def x_of(self, y: FloatArray, data: TaskData) -> FloatArray:
+        return self.T @ y + data.x_fix
+
+    def objective(self, y: FloatArray, data: TaskData) -> float:
+        x = self.x_of(y, data)
+        stage = self.kernels.cost(self.n, self._win(x), *data.stage_args)[0]
+        return float(stage.sum() + 0.5 * x @ (self.Q @ x))
+
+    def gradient(self, y: FloatArray, data: TaskData) -> FloatArray:
+        x = self.x_of(y, data)
+        g = self.kernels.grad(self.n, self._win(x), *data.stage_args)[0]
+        gx = np.bincount(self._widx.ravel(), weights=g.ravel(), minlength=x.size) + self.Q @ x
+        return self.T.T @ gx
+
+    def stage_hessians(self, y: FloatArray, data: TaskData) -> FloatArray:
+        """Hessians of the weighted stage costs in their windows (n x 3nq x 3nq)."""
+        x = self.x_of(y, data)
+        w = 3 * self.nq
+        return self.kernels.hess(self.n, self._win(x), *data.stage_args)[0].reshape(self.n, w, w)
+
+    def pose(self, y: FloatArray, data: TaskData) -> FloatArray:
+        """Pose residuals of the posed waypoints (P x 6)."""
+        q = self.x_of(y, data).reshape(self.n, self.nq)[self.posed]
+        return self.kernels.pose(self.posed.size, q, data.p_d[self.posed], data.R_d[self.posed])[0]
+
+    def pose_jacobian(self, y: FloatArray, data: TaskData) -> FloatArray:
+        """P x 6 x nq."""
+        q = self.x_of(y, data).reshape(self.n, self.nq)[self.posed]
+        out = self.kernels.pose_jac(self.posed.size, q, data.p_d[self.posed], data.R_d[self.posed])[0]
+        return out.reshape(-1, self.nq, 6).transpose(0, 2, 1)
+
+    def pose_hessians(self, y: FloatArray, data: TaskData, lam: FloatArray) -> FloatArray:
+        """``sum_i lam_i Hess(pose_i)`` per posed waypoint (P x nq x nq)."""
+        q = self.x_of(y, data).reshape(self.n, self.nq)[self.posed]
+        h = self.kernels.pose_hess(self.posed.size, q, data.p_d[self.posed], data.R_d[self.posed], lam)[0]
+        return h.reshape(-1, self.nq, self.nq)
+
+    def _win(self, x: FloatArray) -> FloatArray:
+        if not hasattr(self, "_widx"):
+            self._widx = self.opt._window_index().T.copy()
+        return x[self._widx]
+
+    def y_of(self, q: FloatArray) -> FloatArray:
+        """The free variables of configurations ``q`` (n x nq; a tied waypoint reads its owner's)."""
+        return np.asarray(q, dtype=float).ravel()[self.owner_x]

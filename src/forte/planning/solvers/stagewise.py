@@ -1,0 +1,77 @@
+"""The stage-structured interior-point solver behind the optimizer's interface.
+
+:class:`StagewiseSolver` solves a :class:`~forte.planning.optimizer.TrajectoryOptimizer`'s problem
+with :class:`~forte.planning.solvers.interior_point.InteriorPoint` and returns the same
+:class:`~forte.planning.optimizer.SolverResult` as IPOPT (``iterate`` carries the primal-dual
+point for a warm start). ``solver: {backend: stagewise}`` in a task file, or
+``Replanner(..., backend="stagewise")``, selects it; IPOPT stays the default and the reference
+(the tests compare both on the same problems).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from forte.planning.blas import single_threaded_blas
+from forte.planning.solvers.interior_point import InteriorPoint, IPResult, Iterate
+from forte.planning.solvers.stage_problem import StageProblem, TaskData
+from forte.validation import FloatArray
+
+
+class StagewiseSolver:
+    """``opt``'s problem solved by the stage-structured interior-point method."""
+
+    def __init__(self, opt: Any) -> None:
+        self.opt = opt
+        self.problem = StageProblem(opt)
+        self.ip = InteriorPoint(self.problem, tol=opt.options.tol, constraint_tol=opt.options.constraint_tol,
+                                max_iter=opt.options.max_iter)
+
+    def data(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, nominal: FloatArray) -> TaskData:
+        return self.problem.task_data(t, targets, f, r, q_init, nominal)
+
+    def start(self, q_guess: FloatArray, data: TaskData, warm: Iterate | None) -> Iterate:
+        """A cold start from ``q_guess`` or ``warm`` (its barrier parameter at the floor)."""
+        if warm is None:
+            return self.ip.start(self.problem.y_of(q_guess), data)
+        it = self.ip.warm(warm, data)
+        it.mu = self.ip.mu_min
+        if warm.zl is None:  # a shifted iterate: bound multipliers on the central path
+            lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
+            it.zl = np.where(lo, it.mu / np.where(lo, it.s - data.lower, 1.0), 0.0)
+            it.zu = np.where(up, it.mu / np.where(up, data.upper - it.s, 1.0), 0.0)
+        return it
+
+    def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,
+              nominal: FloatArray, warm: Iterate | None = None) -> Any:
+        """Solve to convergence (``warm``: the iterate of an earlier solve of this problem)."""
+        from forte.planning.optimizer import SolverResult  # the optimizer imports this module lazily
+
+        data = self.data(t, targets, f, r, q_init, nominal)
+        begin = time.perf_counter()
+        with single_threaded_blas():  # small dense factorizations: threads only wait (forte.planning.blas)
+            res = self.ip.solve(self.start(q_guess, data, warm), data)
+        return self.result(res, data, time.perf_counter() - begin, SolverResult)
+
+    def result(self, res: IPResult, data: TaskData, solve_time: float, cls: type) -> Any:
+        pb = self.problem
+        q = pb.x_of(res.iterate.y, data).reshape(pb.n, pb.nq)
+        ok = res.converged and np.isfinite(q).all()
+        return cls(q=q, success=ok, status=res.status, iterations=res.iterations, objective=res.objective,
+                   constraint_violation=res.violation, build_time=self.opt.build_time, solve_time=solve_time,
+                   codegen=self.opt.codegen, iterate=res.iterate)
+
+    def shifted(self, it: Iterate, steps: int) -> Iterate:
+        """``it`` moved ``steps`` waypoints forward (the tail holds the last): configurations and
+        pose multipliers move with their waypoints; the rows' slacks and bound multipliers are
+        set again for the new data by :meth:`start` (``mu / slack``)."""
+        pb = self.problem
+        owner = np.array([int(np.flatnonzero(pb.block_of == j)[-1]) for j in range(pb.blocks)])
+        src = pb.block_of[np.minimum(owner + steps, pb.n - 1)]
+        y = it.y.reshape(pb.blocks, pb.nq)[src].ravel()
+        posed = {int(k): i for i, k in enumerate(pb.posed)}
+        lam_src = [posed.get(min(int(k) + steps, pb.n - 1), pb.posed.size - 1) for k in pb.posed]
+        return Iterate(y, it.lam[lam_src], it.s.copy(), None, None, it.mu)  # type: ignore[arg-type]

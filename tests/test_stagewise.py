@@ -1,0 +1,171 @@
+"""The stagewise interior-point solver: the same problem as IPOPT's, the same answer, and real-time
+iterations that converge to it and are never published when they are not sound."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from forte.exceptions import InvalidInputError
+from forte.planning.optimizer import TrajectoryOptimizer
+from forte.planning.planner import plan, start_guess
+from forte.planning.realtime import RealTimeIteration
+from forte.planning.replan import Replanner
+from forte.planning.solvers.stagewise import StagewiseSolver
+from forte.planning.tasks import load_task
+from forte.settings import SolverOptions
+
+TASKS = Path(__file__).resolve().parents[1] / "examples" / "tasks"
+
+
+def _optimizers(task):
+    """The task's NLP twice: solved by IPOPT and by the stagewise backend."""
+    make = lambda backend: TrajectoryOptimizer(  # noqa: E731
+        task.robot, task.n, "forte", task.weights, fix_initial=task.mode != "hold",
+        options=replace(task.solver, backend=backend), limits=task.limits)
+    return make("ipopt"), make("stagewise")
+
+
+def _solve(opt, task, guess=None):
+    nominal = task.nominal()
+    guess = start_guess(task, nominal) if guess is None else guess
+    f = task.force()
+    return opt.solve(task.t, task.targets, f.f, f.r, task.q_init, guess, nominal)
+
+
+@pytest.mark.parametrize("waypoints", [25, 41])
+def test_stagewise_equals_ipopt_on_the_lift(waypoints):
+    task = load_task(TASKS / "lift.yaml", waypoints=waypoints)
+    ipopt, stagewise = _optimizers(task)
+    a, b = _solve(ipopt, task), _solve(stagewise, task)
+    assert a.status == b.status == "Solve_Succeeded" and b.success
+    assert stagewise.stagewise() is not None and b.iterate is not None  # the stagewise path ran
+    np.testing.assert_allclose(b.q, a.q, atol=1e-5)
+    assert abs(b.objective - a.objective) <= 1e-7 * abs(a.objective)
+    assert b.constraint_violation <= 1e-6
+
+
+def test_stagewise_equals_ipopt_on_the_hold_point():
+    """Single-point holding: one free configuration with its pose rows. Its objective has several
+    basins (different starts end in different ones, with either solver), so the planner's
+    multi-start is compared: both backends keep the same best optimum."""
+    task = load_task(TASKS / "hold.yaml")
+    task = replace(task, solver=replace(task.solver, hold_starts=8, refine_rounds=0))
+    a = plan(task, "forte")
+    b = plan(replace(task, solver=replace(task.solver, backend="stagewise")), "forte")
+    assert a.solved and b.solved
+    np.testing.assert_allclose(b.q, a.q, atol=1e-5)
+    assert b.solver["objective"] == pytest.approx(a.solver["objective"], rel=1e-7)
+
+
+def test_the_reformulated_problem_is_the_optimizers():
+    """Objective, gradient, pose rows and kinematic rows of the eliminated problem equal the IPOPT
+    NLP's at random configurations (an independent evaluation: CasADi's functions of the NLP)."""
+    task = load_task(TASKS / "lift.yaml", waypoints=15)
+    opt, _ = _optimizers(task)
+    pb = StagewiseSolver(opt).problem
+    f = task.force()
+    nominal = task.nominal()
+    data = pb.task_data(task.t, task.targets, f.f, f.r, task.q_init, nominal)
+    p = opt.parameters(task.t, task.targets, f.f, f.r, nominal)
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        y = pb.y_of(start_guess(task, nominal)) + 0.05 * rng.standard_normal(pb.ny)
+        x = pb.x_of(y, data)
+        fx, gx = (np.array(v).ravel() for v in opt._nlp_options["grad_f"](opt.full_x(x.reshape(task.n, -1)), p))
+        assert pb.objective(y, data) == pytest.approx(float(fx[0]), rel=1e-12)
+        np.testing.assert_allclose(pb.gradient(y, data), pb.T.T @ gx[: x.size], rtol=1e-10, atol=1e-10)
+        g = np.array(opt._g(opt.full_x(x.reshape(task.n, -1)), p)).ravel()
+        np.testing.assert_allclose(pb.pose(y, data).ravel(), g[: 6 * pb.posed.size], atol=1e-12)
+        kin = np.sort(pb.A[pb.bound_vars.size:] @ y + data.b[pb.bound_vars.size:])
+        ipopt_kin = g[6 * pb.posed.size:]
+        # IPOPT's rows include those the elimination makes identically 0 (the end at rest)
+        np.testing.assert_allclose(kin, np.sort(ipopt_kin[np.abs(ipopt_kin) > 1e-14])[: kin.size] if False
+                                   else np.sort(_nonconstant(ipopt_kin, kin.size)), atol=1e-12)
+
+
+def _nonconstant(rows, count):
+    """The rows of IPOPT's kinematic block that are not identically zero after the elimination:
+    the end-at-rest rows (last) and the steps inside the tied tail are 0 here."""
+    nonzero = rows[np.abs(rows) > 1e-13]
+    assert nonzero.size == count, (nonzero.size, count)
+    return nonzero
+
+
+def test_newton_step_solves_the_full_kkt_system():
+    """The null-space step equals the solution of the full KKT system (dense NumPy solve)."""
+    task = load_task(TASKS / "lift.yaml", waypoints=12)
+    opt, _ = _optimizers(task)
+    solver = StagewiseSolver(opt)
+    pb, ip = solver.problem, solver.ip
+    f = task.force()
+    nominal = task.nominal()
+    data = pb.task_data(task.t, task.targets, f.f, f.r, task.q_init, nominal)
+    it = ip.start(pb.y_of(start_guess(task, nominal)), data)
+    ev = ip.evaluate(it, data)
+    ev.extras["hess"] = pb.stage_hessians(it.y, data)
+    dy, lam_new, delta, parts = ip.step(it, ev, data, it.mu)
+    sigma = parts[0]
+    # the y Hessian from IPOPT's own Lagrangian Hessian (upper triangle) and the barrier
+    p = opt.parameters(task.t, task.targets, f.f, f.r, nominal)
+    lam_g = np.zeros(opt._g.size1_out(0))
+    lam_g[: it.lam.size] = it.lam.ravel()
+    hu = opt._nlp_options["hess_lag"](opt.full_x(pb.x_of(it.y, data).reshape(task.n, -1)), p, 1.0, lam_g)
+    hu = np.array(hu.full())[: pb.T.shape[0], : pb.T.shape[0]]
+    Hx = hu + np.triu(hu, 1).T
+    H = pb.T.T @ Hx @ pb.T + (pb.A.T @ np.diag(sigma) @ pb.A) + delta * np.eye(pb.ny)
+    J = np.zeros((it.lam.size, pb.ny))
+    for i, blk in enumerate(pb.posed_block):
+        J[6 * i:6 * i + 6, blk * pb.nq:(blk + 1) * pb.nq] = ev.J[i]
+    sl, su, lo, up = parts[3], parts[4], parts[5], parts[6]
+    barrier = np.where(up, it.mu / su, 0.0) - np.where(lo, it.mu / sl, 0.0)
+    g = ev.grad + pb.A.T @ (barrier + sigma * ev.rA)
+    K = np.block([[H, J.T], [J, np.zeros((J.shape[0], J.shape[0]))]])
+    sol = np.linalg.solve(K, -np.concatenate([g, ev.c.ravel()]))
+    np.testing.assert_allclose(dy, sol[: pb.ny], atol=1e-8 * max(1, np.abs(sol[: pb.ny]).max()))
+    np.testing.assert_allclose(lam_new.ravel(), sol[pb.ny:], atol=1e-6 * max(1, np.abs(sol[pb.ny:]).max()))
+
+
+@pytest.fixture(scope="module")
+def light_lift():
+    task = load_task(TASKS / "lift.yaml", waypoints=25)
+    return task.with_payload(task.payload.with_mass(0.35))
+
+
+def test_real_time_iterations_converge_to_the_ipopt_solution(light_lift):
+    """After the 0.35 -> 2.7 kg jump, consecutive real-time steps reach IPOPT's solution of the
+    new problem; published steps keep their constraint violation within the tolerance."""
+    rti = RealTimeIteration(Replanner(light_lift, backend="stagewise"))
+    heavy = light_lift.with_payload(light_lift.payload.with_mass(2.7))
+    reference = plan(replace(heavy, solver=replace(heavy.solver, refine_rounds=0)), "forte")
+    steps = [rti.step(mass=2.7)]
+    while not steps[-1].converged and len(steps) < 40:
+        steps.append(rti.step())
+    assert steps[-1].converged, [s.kkt_error for s in steps]
+    np.testing.assert_allclose(steps[-1].q, reference.q, atol=1e-5)
+    assert all(s.violation <= 1e-3 for s in steps if s.published)
+    assert sum(not s.published for s in steps) == sum(rti.misses.values())
+
+
+def test_a_failed_real_time_step_is_never_published(light_lift):
+    rp = Replanner(light_lift, backend="stagewise")
+    before = rp.last.q.copy()
+    rti = RealTimeIteration(rp)
+    late = rti.step(deadline_s=1e-7)  # a deadline no tick can meet
+    assert not late.published and late.reason == "deadline"
+    np.testing.assert_array_equal(late.q, before)  # the plan in force is the last published one
+    strict = RealTimeIteration(rp, violation_tol=1e-14)
+    bad = strict.step(mass=2.7)  # the step after a jump leaves pose errors far above 1e-14
+    assert not bad.published and bad.reason == "violation" and bad.violation > 1e-14
+    np.testing.assert_array_equal(bad.q, before)
+    assert rti.misses == {"deadline": 1} and strict.misses == {"violation": 1}
+
+
+def test_backend_validation_and_fallback():
+    with pytest.raises(InvalidInputError, match="backend: expected one of ipopt, stagewise, got 'fatrop'"):
+        SolverOptions(backend="fatrop")
+    with pytest.raises(InvalidInputError, match="stagewise backend"):
+        RealTimeIteration(Replanner(load_task(TASKS / "lift.yaml", waypoints=10)))
