@@ -36,12 +36,14 @@ import argparse
 import os
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from forte.planning.blas import single_threaded_blas
 from forte.planning.planner import plan, start_guess
+from forte.planning.realtime import RealTimeIteration, RealTimeStep
 from forte.planning.replan import Replanner, ReplanResult, converged
 from forte.planning.tasks import Task, load_task
 
@@ -97,8 +99,8 @@ def cold_solve(planner: Replanner, problem: tuple) -> np.ndarray | None:
     return sol.q if converged(sol) else None
 
 
-def masses(args: argparse.Namespace, task: Task, planner: Replanner) -> None:
-    series, previous, done = Series("mass changes (0.3-3.3 kg, seeded)"), task.payload.mass, []
+def masses(args: argparse.Namespace, task: Task, planner: Replanner, name: str = "mass changes") -> Series:
+    series, previous, done = Series(f"{name} (0.3-3.3 kg, seeded)"), task.payload.mass, []
     for mass in np.random.default_rng(args.seed).uniform(0.3, 3.3, args.replans):
         r = series.add(f"{previous:.2f}->{mass:.2f} kg", lambda m=float(mass): planner.replan(mass=m))
         previous = mass
@@ -108,15 +110,17 @@ def masses(args: argparse.Namespace, task: Task, planner: Replanner) -> None:
         cold = plan(task.with_payload(task.payload.with_mass(mass)), "forte")
         series.deviation = max(series.deviation, float(np.abs(cold.q - q).max()))
     series.report()
+    return series
 
 
-def receding(args: argparse.Namespace, task: Task, with_mass: bool) -> None:
+def receding(args: argparse.Namespace, task: Task, with_mass: bool, backend: str = "ipopt") -> Series:
     name = "receding horizon, one waypoint per re-plan" + (", new mass each time" if with_mass else "")
-    series, planner, moved, done = Series(name), Replanner(task), 0, []
+    name += ", converged" + ("" if backend == "ipopt" else f" ({backend})")
+    series, planner, moved, done = Series(name), Replanner(task, backend=backend), 0, []
     rng = np.random.default_rng(args.seed + 1)
     for _ in range(args.replans):
         if moved >= task.n - 3:  # the horizon has run out: start again (not timed)
-            planner, moved = Replanner(task), 0
+            planner, moved = Replanner(task, backend=backend), 0
         mass = float(rng.uniform(0.3, 3.3)) if with_mass else None
         label = f"shift {moved}->{moved + 1}" + (f", {mass:.2f} kg" if with_mass else "")
         r = series.add(label, lambda m=mass, p=planner: p.shift(1, mass=m))
@@ -128,6 +132,7 @@ def receding(args: argparse.Namespace, task: Task, with_mass: bool) -> None:
         if cold is not None:
             series.deviation = max(series.deviation, float(np.abs(cold - q).max()))
     series.report()
+    return series
 
 
 def sqp_probe(task: Task, planner: Replanner, mass: float = 0.5, max_iter: int = 50) -> None:
@@ -165,6 +170,113 @@ def sqp_probe(task: Task, planner: Replanner, mass: float = 0.5, max_iter: int =
           f"(warm IPOPT: {ref.iterations} iterations, {1000 * ref.latency_s:.0f} ms)")
 
 
+class Ticks:
+    """Latencies of real-time iterations (one Newton step each)."""
+
+    def __init__(self, name: str) -> None:
+        self.name, self.wall, self.cpu, self.published, self.misses = name, [], [], 0, {}
+
+    def add(self, call: Callable[[], RealTimeStep]) -> RealTimeStep:
+        cpu = time.process_time()
+        step = call()
+        self.cpu.append(time.process_time() - cpu)
+        self.wall.append(step.latency_s)
+        self.published += step.published
+        if step.reason:
+            self.misses[step.reason] = self.misses.get(step.reason, 0) + 1
+        return step
+
+    def report(self) -> None:
+        print(f"{self.name}: {len(self.wall)} steps")
+        print(f"  latency (wall): {stats(self.wall)}")
+        print(f"  latency (CPU):  {stats(self.cpu)}")
+        print(f"  published {self.published}; not published: {self.misses or 'none'}")
+
+
+def stats(values: list[float]) -> str:
+    ms = 1000 * np.asarray(values)
+    return f"median {np.median(ms):.1f} ms, p95 {np.percentile(ms, 95):.1f} ms, max {ms.max():.1f} ms"
+
+
+def rti_masses(args: argparse.Namespace, task: Task) -> Ticks:
+    """One real-time iteration after each mass change, from the converged solution of the last
+    mass (converged again, untimed, before the next change)."""
+    ticks, planner = Ticks("mass changes, one real-time iteration (stagewise)"), Replanner(task, backend="stagewise")
+    rti = RealTimeIteration(planner)
+    for mass in np.random.default_rng(args.seed).uniform(0.3, 3.3, args.replans):
+        ticks.add(lambda m=float(mass): rti.step(mass=m))
+        planner.replan()  # back to a converged solution of this mass (not timed)
+    ticks.report()
+    return ticks
+
+
+def rti_receding(args: argparse.Namespace, task: Task, with_mass: bool) -> Ticks:
+    name = "receding horizon, one real-time iteration per shift" + (", new mass each time" if with_mass else "")
+    ticks, planner, moved = Ticks(name + " (stagewise)"), Replanner(task, backend="stagewise"), 0
+    rti = RealTimeIteration(planner)
+    rng = np.random.default_rng(args.seed + 1)
+    for _ in range(args.replans):
+        if moved >= task.n - 3:  # the horizon has run out: start again (not timed)
+            planner, moved = Replanner(task, backend="stagewise"), 0
+            rti = RealTimeIteration(planner)
+        mass = float(rng.uniform(0.3, 3.3)) if with_mass else None
+        ticks.add(lambda m=mass, r=rti: r.step(mass=m, steps=1))
+        moved += 1
+    ticks.report()
+    return ticks
+
+
+def jump(task: Task, start: float = 0.35, end: float = 2.7) -> None:
+    """Consecutive real-time iterations after a jump of the payload mass, until converged."""
+    light = task.with_payload(task.payload.with_mass(start))
+    rti = RealTimeIteration(Replanner(light, backend="stagewise"))
+    steps = [rti.step(mass=end)]
+    while not steps[-1].converged and len(steps) < 100:
+        steps.append(rti.step())
+    first = next((i for i, st in enumerate(steps) if st.published), None)
+    print(f"{start} -> {end} kg jump, real-time iterations: converged after {len(steps) - 1} steps "
+          f"(the {len(steps)}th found nothing left to do); the first published step was step {first}; "
+          f"KKT error by step: " + ", ".join(f"{st.kkt_error:.0e}" for st in steps))
+
+
+def time_split(task: Task, replans: int, seed: int) -> None:
+    """Where a converged stagewise re-plan's time goes (mass changes)."""
+    planner = Replanner(task, backend="stagewise")
+    solver = planner.optimizer.stagewise()
+    clock, seconds = solver.problem.kernels.clock, solver.ip.seconds
+    clock[0], total, inside = 0.0, 0.0, 0.0
+    seconds.clear()
+    for mass in np.random.default_rng(seed).uniform(0.3, 3.3, replans):
+        r = planner.replan(mass=float(mass))
+        total += r.latency_s
+        inside += r.solve_s
+    kernels, factor = clock[0], seconds["factorization"]
+    rest = inside - kernels - factor
+    print(f"where a converged stagewise re-plan's time goes ({replans} mass changes, {1000 * total / replans:.1f} ms "
+          f"each): kernel evaluations (cost, gradient, Hessian, pose rows) {100 * kernels / total:.0f} %, "
+          f"Cholesky factorizations {100 * factor / total:.0f} %, the rest of the solve (reduced system, "
+          f"line search, NumPy and Python) {100 * rest / total:.0f} %, outside the solve (task data, plan "
+          f"metrics) {100 * (total - inside) / total:.0f} %")
+
+
+def ratio(name: str, fast: Series | Ticks, reference: Series) -> None:
+    print(f"{name}: median {np.median(reference.wall) / np.median(fast.wall):.1f}x faster than IPOPT's converged "
+          f"re-plan ({1000 * np.median(fast.wall):.1f} ms against {1000 * np.median(reference.wall):.1f} ms)")
+
+
+def cold_plans(task: Task) -> None:
+    for n in (41, 400):
+        t = task if n == task.n else load_task(LIFT, waypoints=n)
+        line = []
+        for backend in ("ipopt", "stagewise"):
+            tk = replace(t, solver=replace(t.solver, backend=backend, refine_rounds=0))
+            plan(tk, "forte")  # build and compile once (not timed)
+            p = plan(tk, "forte")
+            line.append(f"{backend} {1000 * p.solver['solve_time_s']:.0f} ms solve, {p.solver['iterations']} "
+                        f"iterations ({p.status})")
+        print(f"cold plan of the lift at N = {n}: " + "; ".join(line))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--replans", type=int, default=60)
@@ -173,6 +285,9 @@ def main() -> None:
     parser.add_argument("--no-check", dest="check", action="store_false",
                         help="skip the (untimed) cold solves the re-plans are compared with")
     parser.add_argument("--sqp", action="store_true", help="also run the SQP + OSQP probe (see the docstring)")
+    parser.add_argument("--ipopt-only", action="store_true", help="only IPOPT's re-plans (the figures before issue 29)")
+    parser.add_argument("--no-cold", dest="cold", action="store_false",
+                        help="skip the cold plans at N = 41 and 400 (IPOPT and stagewise)")
     args = parser.parse_args()
     print(load())
     task = load_task(LIFT, waypoints=args.waypoints)
@@ -185,9 +300,27 @@ def main() -> None:
           f"{cold.solver['iterations']} iterations")
     if args.sqp:
         sqp_probe(task, Replanner(task))
-    masses(args, task, planner)
-    receding(args, task, with_mass=False)
-    receding(args, task, with_mass=True)
+    ipopt = masses(args, task, planner, "mass changes, converged (IPOPT)")
+    if args.ipopt_only:
+        receding(args, task, with_mass=False)
+        receding(args, task, with_mass=True)
+        print(load())
+        return
+    fast = masses(args, task, Replanner(task, backend="stagewise"), "mass changes, converged (stagewise)")
+    rti = rti_masses(args, task)
+    ratio("mass changes, converged (stagewise)", fast, ipopt)
+    ratio("mass changes, one real-time iteration", rti, ipopt)
+    jump(task)
+    for with_mass in (False, True):
+        shift_ipopt = receding(args, task, with_mass)
+        shift_fast = receding(args, task, with_mass, backend="stagewise")
+        shift_rti = rti_receding(args, task, with_mass)
+        label = "shift" + (" with a new mass" if with_mass else "")
+        ratio(f"{label}, converged (stagewise)", shift_fast, shift_ipopt)
+        ratio(f"{label}, one real-time iteration", shift_rti, shift_ipopt)
+    time_split(task, args.replans, args.seed)
+    if args.cold:
+        cold_plans(task)
     print(load())
 
 

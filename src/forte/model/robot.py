@@ -53,21 +53,15 @@ from forte.model.description import (
     STANDARD_GRAVITY,
     TORQUE_LIMIT_SETS,
     ToolLoad,
-    _link_inertial,
     example_robot_data_dir,
     resolve_urdf,
     urdf_reference,
 )
-from forte.model.urdf_loading import load_model
+from forte.model.urdf_loading import load_model, reduce_to_arm, set_link_mass
 from forte.validation import FloatArray, as_array, as_positive, as_vector
 
 #: How the base may move: ``holonomic`` (the default), ``differential`` (no lateral velocity), ``fixed``.
 BASE_MODES: tuple[str, ...] = ("holonomic", "differential", "fixed")
-
-
-def _rot_z(yaw: float) -> FloatArray:
-    c, s = np.cos(yaw), np.sin(yaw)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 @dataclass
@@ -147,7 +141,7 @@ class MobileManipulator:
                 f"ee_frame: no frame '{self.ee_frame}' in {self.urdf_path.name}; bodies: {names}"
             )
         if self.hand_mass is not None:
-            self._set_hand_mass(full)
+            set_link_mass(full, self.urdf_path, self.hand_link, self.hand_mass)
         chain = self._supporting_joints(full)
         joints = tuple(self.arm_joints) if self.arm_joints is not None else chain
         for j in joints:
@@ -160,7 +154,7 @@ class MobileManipulator:
             if full.joints[jid].nq != 1 or full.joints[jid].nv != 1:
                 raise RobotModelError(f"arm_joints: joint '{j}' is not a 1-DoF joint")
         self.arm_joints = joints
-        self.model = self._reduce(full, joints)
+        self.model = reduce_to_arm(full, joints, self.mount, self.ee_frame, self.ee_offset, self.tool)
         self.model.gravity = pin.Motion(np.array([0, 0, -self.gravity, 0, 0, 0]))
         self.data = self.model.createData()
         if self.ee_offset is not None:
@@ -204,53 +198,9 @@ class MobileManipulator:
                 raise InvalidInputError(f"acceleration_limits: expected every limit > 0 rad/s^2, got {acc}")
         self.acceleration_limits = acc
 
-    def _set_hand_mass(self, full: pin.Model) -> None:
-        """Replace the URDF inertia of :attr:`hand_link` (merged into its joint) by a ``hand_mass`` one."""
-        found = _link_inertial(self.urdf_path, self.hand_link)
-        if found is None or not full.existFrame(self.hand_link):
-            raise RobotModelError(f"hand_mass: no link '{self.hand_link}' with an inertial in {self.urdf_path.name}")
-        mass, com, inertia = found
-        frame = full.frames[full.getFrameId(self.hand_link)]
-        old = frame.placement.act(pin.Inertia(mass, com, inertia))
-        scale = self.hand_mass / mass
-        new = frame.placement.act(pin.Inertia(self.hand_mass, com, inertia * scale))
-        full.inertias[frame.parentJoint] = full.inertias[frame.parentJoint] - old + new
-
     def _supporting_joints(self, full: pin.Model) -> tuple[str, ...]:
         parent = full.frames[full.getFrameId(self.ee_frame)].parentJoint
         return tuple(full.names[j] for j in full.supports[parent][1:])
-
-    def _reduce(self, full: pin.Model, joints: tuple[str, ...]) -> pin.Model:
-        keep = {full.getJointId(j) for j in joints}
-        lock = [j for j in range(1, full.njoints) if j not in keep]
-        q_ref = pin.neutral(full)
-        q_ref = np.clip(q_ref, full.lowerPositionLimit, full.upperPositionLimit)
-        model = pin.buildReducedModel(full, lock, q_ref) if lock else full.copy()
-        order = [model.names[j] for j in range(1, model.njoints)]
-        if tuple(order) != joints:
-            raise RobotModelError(
-                f"arm_joints: expected the joints in kinematic order {tuple(order)}, got {joints}"
-            )
-        mount = pin.SE3(self.mount[:3, :3].copy(), self.mount[:3, 3].copy())
-        for j in range(1, model.njoints):
-            if model.parents[j] == 0:
-                model.jointPlacements[j] = mount * model.jointPlacements[j]
-        for frame in model.frames:
-            if frame.parentJoint == 0:
-                frame.placement = mount * frame.placement
-        if self.tool is not None:
-            # The tool sits at the end effector: ``ee_frame`` composed with ``ee_offset`` when given
-            # (the frame ``forte_ee`` is added after the reduction), as in the MuJoCo model.
-            frame = model.frames[model.getFrameId(self.ee_frame)]
-            inertia = pin.Inertia(
-                float(self.tool.mass), np.zeros(3), np.array(self.tool.inertia, dtype=float)
-            )
-            ee = frame.placement
-            if self.ee_offset is not None:
-                ee = ee * pin.SE3(self.ee_offset[:3, :3].copy(), self.ee_offset[:3, 3].copy())
-            placement = ee * pin.SE3(np.eye(3), np.array(self.tool.com, dtype=float))
-            model.appendBodyToJoint(frame.parentJoint, inertia, placement)
-        return model
 
     # -- description --------------------------------------------------------------------
     def describe(self) -> dict[str, Any]:
@@ -301,7 +251,7 @@ class MobileManipulator:
     def base_transform(q_b: FloatArray) -> FloatArray:
         """4x4 world pose of the base frame: ``Rot_z(yaw)`` at ``[x, y, 0]``."""
         T = np.eye(4)
-        T[:3, :3] = _rot_z(q_b[2])
+        T[:3, :3] = pin.rpy.rpyToMatrix(0.0, 0.0, float(q_b[2]))
         T[:2, 3] = q_b[:2]
         return T
 
@@ -326,13 +276,13 @@ class MobileManipulator:
         J = pin.computeFrameJacobian(
             self.model, self.data, q_a, self.ee_frame_id, pin.LOCAL_WORLD_ALIGNED
         )
-        return _rot_z(q_b[2]) @ J[:3]
+        return pin.rpy.rpyToMatrix(0.0, 0.0, float(q_b[2])) @ J[:3]
 
     def whole_body_jacobian(self, q: Any) -> FloatArray:
         """World-frame 6 x nq Jacobian (linear; angular) of the end effector w.r.t. ``q``."""
         q = self.check_configuration(q)
         q_b, q_a = self.split(q)
-        R = _rot_z(q_b[2])
+        R = pin.rpy.rpyToMatrix(0.0, 0.0, float(q_b[2]))
         J_arm = pin.computeFrameJacobian(
             self.model, self.data, q_a, self.ee_frame_id, pin.LOCAL_WORLD_ALIGNED
         )

@@ -19,6 +19,10 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from forte.exceptions import RobotModelError
+from forte.model.description import _link_inertial
+from forte.validation import FloatArray
+
 #: The range (rad) a continuous joint is planned within, each way.
 CONTINUOUS_RANGE = 2 * np.pi
 #: Effort (Nm) and velocity (rad/s) given to a continuous joint whose URDF has no <limit>.
@@ -58,3 +62,46 @@ def load_model(path: Path) -> pin.Model:
 def load_geometry(model: pin.Model, path: Path, kind: Any, package_dirs: list[str]) -> pin.GeometryModel:
     """The URDF's geometry of ``kind`` (``pin.COLLISION`` or ``pin.VISUAL``) for ``model``."""
     return pin.buildGeomFromUrdfString(model, planning_urdf_text(path), kind, package_dirs=package_dirs)
+
+
+def set_link_mass(full: pin.Model, urdf: Path, link: str, mass: float) -> None:
+    """Replace the URDF inertia of ``link`` (merged into its joint) by one of ``mass`` (same centre
+    of mass, inertia scaled), in place: the authors' hand mass."""
+    found = _link_inertial(urdf, link)
+    if found is None or not full.existFrame(link):
+        raise RobotModelError(f"hand_mass: no link '{link}' with an inertial in {urdf.name}")
+    old_mass, com, inertia = found
+    frame = full.frames[full.getFrameId(link)]
+    old = frame.placement.act(pin.Inertia(old_mass, com, inertia))
+    new = frame.placement.act(pin.Inertia(mass, com, inertia * (mass / old_mass)))
+    full.inertias[frame.parentJoint] = full.inertias[frame.parentJoint] - old + new
+
+
+def reduce_to_arm(full: pin.Model, joints: tuple[str, ...], mount: FloatArray, ee_frame: str,
+                  ee_offset: FloatArray | None, tool: Any) -> pin.Model:
+    """``full`` with every joint but ``joints`` locked (at neutral, clipped to the limits), the
+    arm moved to ``mount`` on the base, and the ``tool`` load (if any) at the end effector."""
+    keep = {full.getJointId(j) for j in joints}
+    lock = [j for j in range(1, full.njoints) if j not in keep]
+    q_ref = np.clip(pin.neutral(full), full.lowerPositionLimit, full.upperPositionLimit)
+    model = pin.buildReducedModel(full, lock, q_ref) if lock else full.copy()
+    order = [model.names[j] for j in range(1, model.njoints)]
+    if tuple(order) != joints:
+        raise RobotModelError(f"arm_joints: expected the joints in kinematic order {tuple(order)}, got {joints}")
+    placement = pin.SE3(mount[:3, :3].copy(), mount[:3, 3].copy())
+    for j in range(1, model.njoints):
+        if model.parents[j] == 0:
+            model.jointPlacements[j] = placement * model.jointPlacements[j]
+    for frame in model.frames:
+        if frame.parentJoint == 0:
+            frame.placement = placement * frame.placement
+    if tool is not None:
+        # The tool sits at the end effector: ``ee_frame`` composed with ``ee_offset`` when given
+        # (the frame ``forte_ee`` is added after the reduction), as in the MuJoCo model.
+        frame = model.frames[model.getFrameId(ee_frame)]
+        inertia = pin.Inertia(float(tool.mass), np.zeros(3), np.array(tool.inertia, dtype=float))
+        ee = frame.placement
+        if ee_offset is not None:
+            ee = ee * pin.SE3(ee_offset[:3, :3].copy(), ee_offset[:3, 3].copy())
+        model.appendBodyToJoint(frame.parentJoint, inertia, ee * pin.SE3(np.eye(3), np.array(tool.com, dtype=float)))
+    return model

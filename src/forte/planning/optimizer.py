@@ -27,7 +27,6 @@ Design:
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
@@ -38,40 +37,18 @@ from forte import progress
 from forte.exceptions import InvalidInputError, SolverError
 from forte.model.robot import MobileManipulator
 from forte.planning import layout
-from forte.planning.assembly import block_diagonal_pattern, dm, gather, hessian_pattern, scatter_matrix
+from forte.planning.assembly import dm, gather, hessian_pattern, scatter_matrix
 from forte.planning.base_rows import lateral_hessian, lateral_rows, pin_base
 from forte.planning.clearance_rows import clearance_hessian, clearance_jacobian
 from forte.planning.collision_kernels import load_collision_kernels
 from forte.planning.collision_slots import Slots
+from forte.planning.ipopt_nlp import constraint_jacobian, ipopt_options, kinematic_rows, lagrangian_hessian
 from forte.planning.ipopt_progress import IpoptProgress, margin_of
 from forte.planning.kernels import load_kernels, notice
 from forte.planning.methods import Method, get_method, method_names
+from forte.planning.solvers.result import SolverResult, accepted_violation
 from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights, KinematicLimits, SolverOptions
 from forte.validation import FloatArray
-
-
-def accepted_violation(options: SolverOptions) -> float:
-    """The largest constraint violation a converged solve may keep: ``max(1e-5, 10 constraint_tol)``."""
-    return max(1e-5, 10 * options.constraint_tol)
-
-
-@dataclass
-class SolverResult:
-    """What one IPOPT solve returned (the planner turns it into a plan)."""
-
-    q: FloatArray
-    success: bool
-    status: str
-    iterations: int
-    objective: float
-    constraint_violation: float
-    build_time: float
-    solve_time: float
-    codegen: str  # "compiled", "cached", "virtual-machine"
-    lam_x: FloatArray | None = None  # bound multipliers (with ``keep_multipliers``)
-    lam_g: FloatArray | None = None  # constraint multipliers
-    iterate: Any = None  # the stagewise solver's primal-dual point (its warm start)
-
 
 #: The weights a task file gets by default in trajectory mode.
 DEFAULT_TRAJECTORY_WEIGHTS = WEIGHT_SETS[DEFAULT_WEIGHT_SET["trajectory"]]
@@ -211,7 +188,7 @@ class TrajectoryOptimizer:
         first = 1 if self.fix_initial else 0
         self._pose_steps = self._posed_waypoints(first)
         pd, Rd = par("p_d", 3), par("R_d", 9)
-        g_kin = self._kinematic_rows(X, dt)
+        g_kin = kinematic_rows(self, X, dt)
         if self._lift.shape[0]:  # z = A x
             lift = sparse.hstack([self._lift, -sparse.identity(self._lift.shape[0])])
             g_kin = ca.vertcat(g_kin, ca.mtimes(dm(lift), x))
@@ -227,21 +204,21 @@ class TrajectoryOptimizer:
         scatter = dm(scatter_matrix(index.T.ravel(), x.numel()))
         # dense: IPOPT reads every entry (a structural zero would be read as garbage)
         grad = ca.densify(ca.mtimes(scatter, ca.vec(kern.grad.map(n)(*stage_args))) + Qx)
-        jac = self._constraint_jacobian(x, X, pd, Rd, g_kin, first)
+        jac = constraint_jacobian(self, x, X, pd, Rd, g_kin)
         for ck, P_f, rows in zip(self._clear, clear_par, kept, strict=True):
             jac = ca.vertcat(jac, clearance_jacobian(ck, Z, P_f, index, rows, x.numel()))
         if self._lateral:
             jac = ca.vertcat(jac, ca.jacobian(lateral, x))
         lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", g.numel())
         pattern = hessian_pattern(index, nq, n, Q)  # one pattern: the stage, pose and clearance blocks
-        hess = self._lagrangian_hessian(pattern, X, pd, Rd, stage_args, lam_f, lam_g)
+        hess = lagrangian_hessian(self, pattern, X, pd, Rd, stage_args, lam_f, lam_g)
         offset = g.numel() - self._clear_index.size - self._lateral
         for ck, P_f, rows in zip(self._clear, clear_par, kept, strict=True):
             hess += clearance_hessian(ck, Z, P_f, lam_g[offset:offset + rows.size], rows, pattern, n)
             offset += rows.size
         if self._lateral:
             hess += lateral_hessian(lateral, lam_g[offset:], x, hess.sparsity())
-        opts = self._ipopt_options()
+        opts = ipopt_options(self)
         opts["grad_f"] = ca.Function("nlp_grad_f", [x, P], [cost, grad])
         opts["jac_g"] = ca.Function("nlp_jac_g", [x, P], [g, jac])
         opts["hess_lag"] = ca.Function("nlp_hess_l", [x, P, lam_f, lam_g], [hess])
@@ -294,69 +271,6 @@ class TrajectoryOptimizer:
             }
             self._warm_solver = self._nlpsol(opts)
         return self._warm_solver
-
-    def _constraint_jacobian(self, x: ca.MX, X: ca.MX, pd: ca.MX, Rd: ca.MX, g_kin: ca.MX, first: int) -> ca.MX:
-        """6 x nq pose blocks (one per posed waypoint), then the linear rows."""
-        nq, n, nx = self.robot.nq, self.n, x.numel()
-        steps = self._pose_steps
-        blocks = self.kernels.pose_jac.map(n)(X, pd, Rd)  # 6 x nq n
-        runs = np.split(steps, np.flatnonzero(np.diff(steps) != 1) + 1) if steps.size else []
-        parts = []
-        for run in runs:  # contiguous runs of posed waypoints: block-diagonal pieces
-            sp, nz = block_diagonal_pattern(6, nq, run.size, col_offset=int(run[0]) * nq, ncol=nx)
-            cols = blocks[:, int(run[0]) * nq:(int(run[-1]) + 1) * nq]
-            parts.append(ca.MX(sp, ca.mtimes(ca.DM(nz), ca.vec(cols))))
-        jac = ca.vertcat(*parts) if parts else ca.MX(0, nx)
-        return ca.vertcat(jac, ca.jacobian(g_kin, x)) if g_kin.numel() else jac
-
-    def _lagrangian_hessian(self, pattern: tuple[ca.Sparsity, Any], X: ca.MX, pd: ca.MX, Rd: ca.MX,
-                            stage_args: list[Any], lam_f: ca.MX, lam_g: ca.MX) -> ca.MX:
-        """Upper triangle of ``lam_f * Hess(cost) + sum lam_g Hess(g)`` over the pose rows (linear
-        rows add nothing) in ``pattern`` (:func:`~forte.planning.assembly.hessian_pattern`)."""
-        n = self.n
-        steps = self._pose_steps
-        lam_pose = ca.reshape(lam_g[: 6 * steps.size], 6, steps.size)
-        cols = [ca.MX.zeros(6, 1)] * n
-        for i, k in enumerate(steps.tolist()):
-            cols[k] = lam_pose[:, i]
-        lam = ca.horzcat(*cols)
-        h_stage = self.kernels.hess.map(n)(*stage_args)  # 3nq x 3nq n
-        h_pose = self.kernels.pose_hess.map(n)(X, pd, Rd, lam)  # nq x nq n
-        sp, maps = pattern
-        nz = (lam_f * ca.mtimes(ca.DM(maps[0]), ca.vec(h_stage))
-              + ca.mtimes(ca.DM(maps[1]), ca.vec(h_pose))
-              + lam_f * ca.DM(maps[2]))
-        return ca.MX(sp, nz)
-
-    def _kinematic_rows(self, X: ca.MX, dt: ca.MX) -> ca.MX:
-        """Velocity rows ``q_k - q_{k-1}`` and acceleration rows ``dq_k - dq_{k-1}`` (k >= 2), with
-        ``dq_1 = 0``; :meth:`bounds` scales the limits by ``dt_k``."""
-        self._vel_rows = np.flatnonzero(np.isfinite(self._vel)) if self.limits.enabled else np.array([], int)
-        self._acc_rows = np.flatnonzero(np.isfinite(self._acc)) if self.limits.enabled else np.array([], int)
-        if self.n < 2 or not self.fix_initial:
-            self._vel_rows = self._acc_rows = np.array([], int)
-            return ca.MX(0, 1)
-        if not self.limits.enabled and not self.rests_at_end:
-            return ca.MX(0, 1)
-        step = X[:, 1:] - X[:, :-1]
-        dq = step / ca.repmat(dt[:, 1:], X.shape[0], 1)
-        dq_prev = ca.horzcat(ca.MX.zeros(X.shape[0], 1), dq[:, :-1])
-        rows = [ca.vec(step[self._vel_rows.tolist(), :]), ca.vec((dq - dq_prev)[self._acc_rows.tolist(), :])]
-        if self.rests_at_end:  # v_N = 0 and a_N = (v_N - v_{N-1}) / dt_N = 0
-            rows += [step[:, -1], step[:, -2]]
-        return ca.vertcat(*rows)
-
-    def _ipopt_options(self) -> dict[str, Any]:
-        o = self.options
-        opts = {
-            "ipopt.max_iter": o.max_iter, "ipopt.tol": o.tol, "ipopt.print_level": o.print_level,
-            "ipopt.sb": "yes", "print_time": False, "ipopt.constr_viol_tol": o.constraint_tol,
-            "ipopt.mu_strategy": "adaptive", "calc_lam_p": False, "calc_lam_x": self.keep_multipliers,
-            # QAMD ordering: ~25 % faster factorizations than MUMPS' default on this KKT (benchmarks/)
-            "ipopt.mumps_pivot_order": 6,
-        }
-        opts.update({k if "." in k else f"ipopt.{k}": v for k, v in o.extra.items()})
-        return opts
 
     # -- solving ------------------------------------------------------------------------
     def parameters(self, t: FloatArray, targets: FloatArray, f: FloatArray, r: FloatArray,

@@ -27,8 +27,8 @@ import numpy as np
 from forte.exceptions import InvalidInputError
 from forte.force.taskforce import TaskForce
 from forte.planning.blas import single_threaded_blas
-from forte.planning.optimizer import SolverResult
 from forte.planning.replan import Problem, Replanner
+from forte.planning.solvers.result import SolverResult
 from forte.validation import FloatArray
 
 #: Largest constraint violation (m, rad) of a published real-time step.

@@ -35,6 +35,8 @@ mass, or a shift of the horizon, the step is the tangent predictor of the new op
 
 from __future__ import annotations
 
+import time
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -97,6 +99,7 @@ class InteriorPoint:
         self.pb, self.tol, self.constraint_tol, self.max_iter = problem, tol, constraint_tol, max_iter
         self.mu_min = tol / 10
         self.delta_last = 0.0
+        self.seconds: Counter[str] = Counter()  # factorization time, summed (kernel time: problem.kernels.clock)
         self._filter: list[tuple[float, float]] = []
         self._filter_mu = -1.0
         self._theta_max = np.inf
@@ -141,7 +144,7 @@ class InteriorPoint:
         jt_blocks = np.einsum("pij,pi->pj", ev.J, it.lam)
         idx = (pb.posed_block[:, None] * pb.nq + np.arange(pb.nq)[None, :]).ravel()
         jt[idx] = jt_blocks.ravel()
-        return ev.grad + jt + pb.A.T @ (it.zu - it.zl)
+        return ev.grad + jt + pb.At @ (it.zu - it.zl)
 
     def error(self, ev: Evaluation, it: Iterate, data: TaskData, mu: float) -> tuple[float, float]:
         """IPOPT's scaled optimality error at barrier ``mu``, and the constraint violation."""
@@ -195,7 +198,7 @@ class InteriorPoint:
         sig_u = np.where(up, it.zu / su, 0.0)
         sigma = sig_l + sig_u
         barrier = np.where(up, mu / su, 0.0) - np.where(lo, mu / sl, 0.0)
-        g = ev.grad + pb.A.T @ (barrier + sigma * ev.rA)
+        g = ev.grad + pb.At @ (barrier + sigma * ev.rA)
         Hw = self._window_hessians(it, ev, data, sigma)
         bdiag = np.zeros(pb.ny)
         bdiag[pb.bound_vars] = sigma[: pb.bound_vars.size]
@@ -204,7 +207,7 @@ class InteriorPoint:
         Zext = np.concatenate([Z, np.zeros((1, nq, r))])
         for slot in range(3):
             Zw[:, slot * nq:(slot + 1) * nq, slot * r:(slot + 1) * r] = Zext[self.wb[:, slot]]
-        Hred = np.matmul(Zw.transpose(0, 2, 1), np.matmul(Hw, Zw))
+        Hred = np.matmul(Zw.transpose(0, 2, 1), np.matmul(Hw, Zw))  # reduced window Hessians
         Hr = np.bincount(self.widx, Hred.ravel(), minlength=self.nr * self.nr)
         Hr[self.didx] += np.einsum("bna,bn,bnc->bac", Z, bdiag.reshape(pb.blocks, nq), Z).ravel()
         Hr[self.padded] += 1.0
@@ -220,7 +223,9 @@ class InteriorPoint:
         ypy[pb.posed_block] = np.einsum("pij,pj->pi", Y, pY)
         ypy = ypy.ravel()
         rhs = -np.einsum("bna,bn->ba", Z, (g + hv(ypy)).reshape(pb.blocks, nq)).ravel()
+        begin = time.perf_counter()
         pZ, delta = self._solve_reduced(Hr, rhs)
+        self.seconds["factorization"] += time.perf_counter() - begin
         dy = ypy + np.einsum("bna,ba->bn", Z, pZ.reshape(pb.blocks, r)).ravel()
         resid = (g + hv(dy) + delta * dy).reshape(pb.blocks, nq)[pb.posed_block]
         lam_new = -np.linalg.solve(R, np.einsum("pij,pi->pj", Y, resid)[..., None])[..., 0]
@@ -318,7 +323,7 @@ class InteriorPoint:
     def least_squares_multipliers(self, ev: Evaluation, it: Iterate) -> FloatArray:
         """``lam`` minimizing ``|grad f + J^T lam + A^T (z_u - z_l)|`` per posed block."""
         pb = self.pb
-        g = (ev.grad + pb.A.T @ (it.zu - it.zl)).reshape(pb.blocks, pb.nq)[pb.posed_block]
+        g = (ev.grad + pb.At @ (it.zu - it.zl)).reshape(pb.blocks, pb.nq)[pb.posed_block]
         return -np.linalg.lstsq_batched(ev.J, g) if hasattr(np.linalg, "lstsq_batched") else \
             -np.stack([np.linalg.lstsq(J.T, gi, rcond=None)[0] for J, gi in zip(ev.J, g, strict=True)])
 

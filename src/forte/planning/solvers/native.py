@@ -22,6 +22,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
@@ -59,8 +60,9 @@ class StageMap:
     waypoint); outputs ``(n, size)`` in CasADi's column-major order of each output.
     """
 
-    def __init__(self, fn: ca.Function, lib: ctypes.CDLL | None, shim: Any) -> None:
+    def __init__(self, fn: ca.Function, lib: ctypes.CDLL | None, shim: Any, clock: list[float] | None = None) -> None:
         self.fn = fn
+        self.clock = clock if clock is not None else [0.0]  # seconds spent in this kernel's calls, summed
         self.sizes_in = [fn.sparsity_in(i).numel() for i in range(fn.n_in())]
         self.sizes_out = [fn.sparsity_out(i).numel() for i in range(fn.n_out())]
         self._mapped: dict[int, ca.Function] = {}
@@ -75,6 +77,13 @@ class StageMap:
         return self._native is not None
 
     def __call__(self, n: int, *inputs: FloatArray) -> list[FloatArray]:
+        start = time.perf_counter()
+        try:
+            return self._call(n, inputs)
+        finally:
+            self.clock[0] += time.perf_counter() - start
+
+    def _call(self, n: int, inputs: tuple[FloatArray, ...]) -> list[FloatArray]:
         arrays = [np.ascontiguousarray(a, dtype=float) for a in inputs]
         outs = [np.empty((n, size)) for size in self.sizes_out]
         if self._native is None:
@@ -115,9 +124,11 @@ class StageKernels:
         if kernels.library is not None:
             shim = load_shim(kernels.library.parent)
             lib = ctypes.CDLL(str(kernels.library)) if shim is not None else None
-        self.cost, self.grad, self.hess = (StageMap(f, lib, shim) for f in (kernels.cost, kernels.grad, kernels.hess))
+        self.clock = [0.0]  # seconds in every kernel call, summed (the solver's time split)
+        self.cost, self.grad, self.hess = (StageMap(f, lib, shim, self.clock)
+                                           for f in (kernels.cost, kernels.grad, kernels.hess))
         self.pose, self.pose_jac, self.pose_hess = (
-            StageMap(f, lib, shim) for f in (kernels.pose, kernels.pose_jac, kernels.pose_hess))
+            StageMap(f, lib, shim, self.clock) for f in (kernels.pose, kernels.pose_jac, kernels.pose_hess))
 
     @property
     def native(self) -> bool:

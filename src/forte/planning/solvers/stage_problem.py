@@ -100,13 +100,14 @@ class StageProblem:
         for k in range(n):
             if self.block_of[k] >= 0:
                 self.ymap[k * nq:(k + 1) * nq] = self.block_of[k] * nq + np.arange(nq)
+        self.owner = np.asarray(free, dtype=int)  # the waypoint each block is (tied ones copy it)
         self.owner_x = np.concatenate([k * nq + np.arange(nq) for k in free]).astype(int)  # x index of each y
         rows = np.flatnonzero(self.ymap >= 0)
         self.T = sparse.csr_matrix((np.ones(rows.size), (rows, self.ymap[rows])), shape=(n * nq, self.ny))
 
     def _kinematic_matrix(self) -> None:
         """Velocity rows ``q_k - q_{k-1}`` and acceleration rows ``dq_k - dq_{k-1}`` in x (the
-        optimizer's, :meth:`~forte.planning.optimizer.TrajectoryOptimizer._kinematic_rows`) as
+        optimizer's, :func:`forte.planning.ipopt_nlp.kinematic_rows`) as
         constant difference matrices; the time steps scale them per solve."""
         opt, n, nq = self.opt, self.n, self.nq
         self.vel_rows, self.acc_rows = opt._vel_rows, opt._acc_rows
@@ -135,9 +136,10 @@ class StageProblem:
             owner_fixed = self.block_of < 0
             for k in np.flatnonzero(owner_fixed):
                 x_fix[k * nq:(k + 1) * nq] = q_init
-        key = dt.tobytes() + lbx[:n * nq].tobytes() + ubx[:n * nq].tobytes()
+        key = dt.tobytes() + lbx[self.owner_x].tobytes() + ubx[self.owner_x].tobytes()  # not q_init's
         if key != getattr(self, "_rows_key", None):  # the rows change with the time grid only
             self.A, self._G, self._bounds = self._rows(dt, lbx[:n * nq], ubx[:n * nq])
+            self.At = sparse.csr_matrix(self.A.T)
             self._rows_key = key
         lower, upper = self._bounds
         b = np.concatenate([np.zeros(self.bound_vars.size), self._G @ x_fix])
@@ -149,10 +151,7 @@ class StageProblem:
         kinematic rows in x, whose product with ``x_fix`` is their part of ``b``, and ``(l, u)``)."""
         opt, nq = self.opt, self.nq
         vel, acc = opt._vel, opt._acc
-        idx = np.flatnonzero(self.ymap >= 0)
-        first = np.unique(self.ymap[idx], return_index=True)[1]
-        yx = idx[first]  # an x index of each y variable
-        lo, hi = lbx[yx], ubx[yx]
+        lo, hi = lbx[self.owner_x], ubx[self.owner_x]
         bounded = np.flatnonzero(np.isfinite(lo) | np.isfinite(hi))
         parts = [sparse.csr_matrix((np.ones(bounded.size), (np.arange(bounded.size), bounded)),
                                    shape=(bounded.size, self.ny))]

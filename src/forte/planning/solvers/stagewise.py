@@ -17,6 +17,7 @@ import numpy as np
 
 from forte.planning.blas import single_threaded_blas
 from forte.planning.solvers.interior_point import InteriorPoint, IPResult, Iterate
+from forte.planning.solvers.result import SolverResult
 from forte.planning.solvers.stage_problem import StageProblem, TaskData
 from forte.validation import FloatArray
 
@@ -48,19 +49,17 @@ class StagewiseSolver:
     def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,
               nominal: FloatArray, warm: Iterate | None = None) -> Any:
         """Solve to convergence (``warm``: the iterate of an earlier solve of this problem)."""
-        from forte.planning.optimizer import SolverResult  # the optimizer imports this module lazily
-
         data = self.data(t, targets, f, r, q_init, nominal)
         begin = time.perf_counter()
         with single_threaded_blas():  # small dense factorizations: threads only wait (forte.planning.blas)
             res = self.ip.solve(self.start(q_guess, data, warm), data)
-        return self.result(res, data, time.perf_counter() - begin, SolverResult)
+        return self.result(res, data, time.perf_counter() - begin)
 
-    def result(self, res: IPResult, data: TaskData, solve_time: float, cls: type) -> Any:
+    def result(self, res: IPResult, data: TaskData, solve_time: float) -> SolverResult:
         pb = self.problem
         q = pb.x_of(res.iterate.y, data).reshape(pb.n, pb.nq)
         ok = res.converged and np.isfinite(q).all()
-        return cls(q=q, success=ok, status=res.status, iterations=res.iterations, objective=res.objective,
+        return SolverResult(q=q, success=ok, status=res.status, iterations=res.iterations, objective=res.objective,
                    constraint_violation=res.violation, build_time=self.opt.build_time, solve_time=solve_time,
                    codegen=self.opt.codegen, iterate=res.iterate)
 
@@ -69,8 +68,7 @@ class StagewiseSolver:
         pose multipliers move with their waypoints; the rows' slacks and bound multipliers are
         set again for the new data by :meth:`start` (``mu / slack``)."""
         pb = self.problem
-        owner = np.array([int(np.flatnonzero(pb.block_of == j)[-1]) for j in range(pb.blocks)])
-        src = pb.block_of[np.minimum(owner + steps, pb.n - 1)]
+        src = pb.block_of[np.minimum(pb.owner + steps, pb.n - 1)]
         y = it.y.reshape(pb.blocks, pb.nq)[src].ravel()
         posed = {int(k): i for i, k in enumerate(pb.posed)}
         lam_src = [posed.get(min(int(k) + steps, pb.n - 1), pb.posed.size - 1) for k in pb.posed]
