@@ -169,3 +169,22 @@ def test_backend_validation_and_fallback():
         SolverOptions(backend="fatrop")
     with pytest.raises(InvalidInputError, match="stagewise backend"):
         RealTimeIteration(Replanner(load_task(TASKS / "lift.yaml", waypoints=10)))
+
+
+def test_banded_and_dense_reduced_systems_agree(monkeypatch):
+    """The banded factorization with the dense rows by Woodbury (long horizons) and the dense one
+    reach the same optimum, on a horizon whose J5 has lifted rows (the banded weighting)."""
+    import forte.planning.solvers.interior_point as ipm
+
+    task = load_task(TASKS / "lift.yaml", waypoints=70)
+    results = {}
+    for limit in (10_000, 10):
+        monkeypatch.setattr(ipm, "DENSE_VARIABLES", limit)
+        _, stagewise = _optimizers(task)
+        results[limit] = _solve(stagewise, task)
+        assert stagewise.stagewise().ip.system.banded == (limit == 10)
+        assert stagewise.stagewise().problem.g.size  # there are dense rows to add by Woodbury
+    dense, banded = results[10_000], results[10]
+    assert dense.success and banded.success
+    np.testing.assert_allclose(banded.q, dense.q, atol=1e-6)
+    assert banded.objective == pytest.approx(dense.objective, rel=1e-10)

@@ -41,16 +41,15 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
-import scipy.linalg as sla
 from scipy import sparse
 
+from forte.planning.solvers.reduced_system import DENSE_VARIABLES, ReducedSystem
 from forte.planning.solvers.stage_problem import StageProblem, TaskData
 from forte.validation import FloatArray
 
 S_MAX = 100.0  # IPOPT's s_max of the scaled optimality error
 KAPPA_EPS = 10.0
 KAPPA_SIGMA = 1e10
-DENSE_Q = 1200  # up to this many variables Z^T Q Z is formed from Q's dense blocks
 
 
 @dataclass
@@ -98,7 +97,6 @@ class InteriorPoint:
                  max_iter: int = 200) -> None:
         self.pb, self.tol, self.constraint_tol, self.max_iter = problem, tol, constraint_tol, max_iter
         self.mu_min = tol / 10
-        self.delta_last = 0.0
         self.seconds: Counter[str] = Counter()  # factorization time, summed (kernel time: problem.kernels.clock)
         self._filter: list[tuple[float, float]] = []
         self._filter_mu = -1.0
@@ -129,8 +127,13 @@ class InteriorPoint:
         self._zrows = rows
         self.padded = np.zeros(0, int)
         if r == nq:  # unposed blocks (identity), posed blocks padded with zero columns
-            pad = (pb.posed_block[:, None] * r + np.arange(nq - 6, nq)[None, :]).ravel()
-            self.padded = pad * nr + pad
+            self.padded = (pb.posed_block[:, None] * r + np.arange(nq - 6, nq)[None, :]).ravel()
+        banded = pb.ny > DENSE_VARIABLES
+        dc = sparse.coo_matrix(pb.Dy)
+        reach = int(np.abs(dc.row // nq - dc.col // nq).max(initial=0))  # D's bandwidth in blocks
+        self.system = ReducedSystem(nr, self.widx, self.didx, (max(2, reach) + 1) * r - 1, banded)
+        if banded and pb.g.size:  # the dense rows, per block: U = Z^T R^T
+            self._rt = pb.Ry.T.toarray().reshape(pb.blocks, nq, -1)
 
     # -- evaluation -----------------------------------------------------------------------
     def evaluate(self, it: Iterate, data: TaskData) -> Evaluation:
@@ -208,15 +211,22 @@ class InteriorPoint:
         for slot in range(3):
             Zw[:, slot * nq:(slot + 1) * nq, slot * r:(slot + 1) * r] = Zext[self.wb[:, slot]]
         Hred = np.matmul(Zw.transpose(0, 2, 1), np.matmul(Hw, Zw))  # reduced window Hessians
-        Hr = np.bincount(self.widx, Hred.ravel(), minlength=self.nr * self.nr)
-        Hr[self.didx] += np.einsum("bna,bn,bnc->bac", Z, bdiag.reshape(pb.blocks, nq), Z).ravel()
-        Hr[self.padded] += 1.0
-        Hr = Hr.reshape(self.nr, self.nr) + self._reduced_quadratic(Z)
+        bounds = np.einsum("bna,bn,bnc->bac", Z, bdiag.reshape(pb.blocks, nq), Z)
+        U = g_rows = None
+        if self.system.banded:
+            Zm = sparse.csr_matrix((Z.reshape(-1), self.z_indices, self.z_indptr), shape=(pb.ny, self.nr))
+            M = self.system.assemble(Hred, bounds, Zm.T @ (pb.Dy @ Zm))
+            M[0, self.padded] += 1.0
+            if pb.g.size:
+                U, g_rows = np.einsum("bna,bnl->bal", Z, self._rt).reshape(self.nr, -1), pb.g
+        else:
+            M = self.system.assemble(Hred, bounds, self._reduced_quadratic(Z))
+            M[self.padded, self.padded] += 1.0
 
         def hv(v: FloatArray) -> FloatArray:
             vw = np.append(v, 0.0)[self.wy]
             out = np.bincount(self.wy.ravel(), np.matmul(Hw, vw[:, :, None]).ravel(), minlength=pb.ny + 1)
-            return out[: pb.ny] + pb.Qy @ v + bdiag * v
+            return out[: pb.ny] + pb.quadratic_product(v) + bdiag * v
 
         pY = -np.linalg.solve(R.transpose(0, 2, 1), ev.c[..., None])[..., 0]  # P x 6
         ypy = np.zeros((pb.blocks, nq))
@@ -224,7 +234,7 @@ class InteriorPoint:
         ypy = ypy.ravel()
         rhs = -np.einsum("bna,bn->ba", Z, (g + hv(ypy)).reshape(pb.blocks, nq)).ravel()
         begin = time.perf_counter()
-        pZ, delta = self._solve_reduced(Hr, rhs)
+        pZ, delta = self.system.solve(M, rhs, U, g_rows)
         self.seconds["factorization"] += time.perf_counter() - begin
         dy = ypy + np.einsum("bna,ba->bn", Z, pZ.reshape(pb.blocks, r)).ravel()
         resid = (g + hv(dy) + delta * dy).reshape(pb.blocks, nq)[pb.posed_block]
@@ -232,33 +242,13 @@ class InteriorPoint:
         return dy, lam_new, delta, (sigma, sig_l, sig_u, sl, su, lo, up, Y, R)
 
     def _reduced_quadratic(self, Z: FloatArray) -> FloatArray:
-        """``Z^T Q Z`` of the constant quadratic terms (dense blocks up to ``DENSE_Q`` variables)."""
+        """``Z^T Q Z`` of the constant quadratic terms, from ``Q``'s dense blocks (dense form)."""
         pb, nq, r, blocks = self.pb, self.pb.nq, self.r, self.pb.blocks
-        if pb.ny <= DENSE_Q:
-            if not hasattr(self, "_q4"):
-                self._q4 = pb.Qy.toarray().reshape(blocks, nq, blocks * nq)
-            t1 = np.matmul(Z.transpose(0, 2, 1), self._q4).reshape(blocks * r, blocks, nq)  # (i a), j, m
-            t2 = np.matmul(t1.transpose(1, 0, 2), Z)  # j, (i a), c
-            return t2.transpose(1, 0, 2).reshape(self.nr, self.nr)
-        Zm = sparse.csr_matrix((Z.reshape(-1), self.z_indices, self.z_indptr), shape=(pb.ny, self.nr))
-        return (Zm.T @ (pb.Qy @ Zm)).toarray()
-
-    def _solve_reduced(self, Hr: FloatArray, rhs: FloatArray) -> tuple[FloatArray, float]:
-        """Cholesky of ``Hr + delta I`` with IPOPT's inertia correction of ``delta``."""
-        delta = 0.0
-        for attempt in range(40):
-            try:
-                factor = sla.cho_factor(Hr + delta * np.eye(Hr.shape[0]) if delta else Hr, lower=True,
-                                        check_finite=False)
-                if delta:
-                    self.delta_last = delta
-                return sla.cho_solve(factor, rhs, check_finite=False), delta
-            except np.linalg.LinAlgError:
-                if attempt == 0:
-                    delta = 1e-4 if self.delta_last == 0 else max(1e-20, self.delta_last / 3)
-                else:
-                    delta *= 100 if self.delta_last == 0 else 8
-        raise np.linalg.LinAlgError("the reduced Hessian stays indefinite")
+        if not hasattr(self, "_q4"):
+            self._q4 = pb.Qy.toarray().reshape(blocks, nq, blocks * nq)
+        t1 = np.matmul(Z.transpose(0, 2, 1), self._q4).reshape(blocks * r, blocks, nq)  # (i a), j, m
+        t2 = np.matmul(t1.transpose(1, 0, 2), Z)  # j, (i a), c
+        return t2.transpose(1, 0, 2).reshape(self.nr, self.nr)
 
     # -- moving along a step --------------------------------------------------------------
     def _fraction_to_boundary(self, it: Iterate, ds: FloatArray, dzl: FloatArray, dzu: FloatArray,
@@ -439,7 +429,8 @@ class InteriorPoint:
 
     def reset(self) -> None:
         """Forget the filter and the last inertia correction (a new solve)."""
-        self._filter, self._filter_mu, self.delta_last = [], -1.0, 0.0
+        self._filter, self._filter_mu = [], -1.0
+        self.system.reset()
 
     def real_time_iteration(self, it: Iterate, data: TaskData) -> tuple[Iterate, Evaluation]:
         """One full Newton step from ``it`` on ``data`` (no line search), and the evaluation at the

@@ -77,9 +77,11 @@ class StageProblem:
                                                         for t in opt._quadratic], opt.robot.n_arm, self.n,
                                        self.n * self.nq)
         nx = self.n * self.nq
-        Qx = D[:nx, :nx] + (R.T @ sparse.diags(D.diagonal()[nx:]) @ R if R.shape[0] else 0)
-        self.Q = sparse.csr_matrix(Qx)
-        self.Qy = sparse.csr_matrix(self.T.T @ self.Q @ self.T)
+        # Q = D + R^T diag(g) R, as IPOPT solves the quadratic terms (R: the lifted rows, dense)
+        self.D, self.R, self.g = sparse.csr_matrix(D[:nx, :nx]), sparse.csr_matrix(R), D.diagonal()[nx:]
+        self.Dy = sparse.csr_matrix(self.T.T @ self.D @ self.T)
+        self.Ry = sparse.csr_matrix(self.R @ self.T)
+        self.Qy = self.Dy + (self.Ry.T @ sparse.diags(self.g) @ self.Ry if self.g.size else 0)
         self._kinematic_matrix()
         self.window_block = self.block_of[opt._window_index()[::self.nq].T // self.nq]  # n x 3, -1: fixed
 
@@ -208,13 +210,21 @@ class StageProblem:
     def objective(self, y: FloatArray, data: TaskData) -> float:
         x = self.x_of(y, data)
         stage = self.kernels.cost(self.n, self._win(x), *data.stage_args)[0]
-        return float(stage.sum() + 0.5 * x @ (self.Q @ x))
+        return float(stage.sum() + 0.5 * x @ (self.D @ x) + 0.5 * self.g @ (self.R @ x) ** 2)
 
     def gradient(self, y: FloatArray, data: TaskData) -> FloatArray:
         x = self.x_of(y, data)
         g = self.kernels.grad(self.n, self._win(x), *data.stage_args)[0]
-        gx = np.bincount(self._widx.ravel(), weights=g.ravel(), minlength=x.size) + self.Q @ x
+        gx = np.bincount(self._widx.ravel(), weights=g.ravel(), minlength=x.size) + self.quadratic_gradient(x)
         return self.T.T @ gx
+
+    def quadratic_gradient(self, x: FloatArray) -> FloatArray:
+        """``Q x = D x + R^T (g * R x)``."""
+        return self.D @ x + (self.R.T @ (self.g * (self.R @ x)) if self.g.size else 0.0)
+
+    def quadratic_product(self, v: FloatArray) -> FloatArray:
+        """``Q_y v`` in the free variables (the dense rows applied, not formed)."""
+        return self.Dy @ v + (self.Ry.T @ (self.g * (self.Ry @ v)) if self.g.size else 0.0)
 
     def stage_hessians(self, y: FloatArray, data: TaskData) -> FloatArray:
         """Hessians of the weighted stage costs in their windows (n x 3nq x 3nq)."""
