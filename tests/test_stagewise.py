@@ -188,3 +188,26 @@ def test_banded_and_dense_reduced_systems_agree(monkeypatch):
     assert dense.success and banded.success
     np.testing.assert_allclose(banded.q, dense.q, atol=1e-6)
     assert banded.objective == pytest.approx(dense.objective, rel=1e-10)
+
+
+def test_forte_plan_with_the_stagewise_solver(tmp_path):
+    """The command line: `--solver stagewise` plans with it and plan.json says which solver ran; a
+    scene hands the problem to IPOPT (with one notice), recorded too."""
+    import json
+    import subprocess
+    import sys
+
+    out = tmp_path / "lift"
+    run = subprocess.run([sys.executable, "-m", "forte.cli", "plan", str(TASKS / "lift.yaml"), "--solver", "stagewise",
+                          "--no-figures", "--out", str(out)], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert json.loads((out / "plan.json").read_text())["solver"]["backend"] == "stagewise"
+    crate = tmp_path / "crate"
+    run = subprocess.run([sys.executable, "-m", "forte.cli", "plan", str(TASKS / "around-the-crate.yaml"), "--solver",
+                          "stagewise", "--waypoints", "15", "--no-figures", "--allow-infeasible", "--out", str(crate)],
+                         capture_output=True, text=True)
+    assert "the stagewise solver does not handle a scene's clearance rows; solving with IPOPT" in run.stderr
+    assert json.loads((crate / "plan.json").read_text())["solver"]["backend"] == "ipopt"
+    bad = subprocess.run([sys.executable, "-m", "forte.cli", "plan", str(TASKS / "lift.yaml"), "--solver", "fatrop"],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and "invalid choice: 'fatrop'" in bad.stderr

@@ -19,8 +19,9 @@ from forte.planning.bounds import PayloadBound, replanned_bound
 from forte.planning.methods import method_names
 from forte.planning.planner import Plan, compare, methods_for, plan, resolve_payload
 from forte.planning.sanity import check_force_capacity
-from forte.planning.tasks import load_task
+from forte.planning.tasks import Task, load_task
 from forte.planning.verdict import exit_code
+from forte.settings import SOLVER_BACKENDS
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -38,6 +39,16 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--allow-infeasible", action="store_true",
                    help="exit 0 even when a plan is not feasible (exploration); the verdict is still printed "
                    "and recorded")
+    p.add_argument("--solver", choices=SOLVER_BACKENDS,
+                   help="NLP solver (overrides the task file's solver.backend; default ipopt, the reference; "
+                   "stagewise: forte's structure-exploiting interior-point method)")
+
+
+def _load(args: argparse.Namespace) -> Task:
+    task = load_task(args.task, mass=args.mass, waypoints=args.waypoints)
+    if args.solver:
+        task = replace(task, solver=replace(task.solver, backend=args.solver))
+    return task
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -123,7 +134,7 @@ def _verdict_line(res: Plan, where: Path | None, allowed: bool) -> str:
 
 def run_plan(args: argparse.Namespace) -> int:
     start = time.perf_counter()
-    task = load_task(args.task, mass=args.mass, waypoints=args.waypoints)
+    task = _load(args)
     out = args.out or Path("runs") / f"{task.name}-{args.method}"
     check_output(out)  # before any work: never plan for minutes and then refuse
     with output_lock(out):  # one writer per --out, from the check to the write
@@ -145,7 +156,7 @@ def run_plan(args: argparse.Namespace) -> int:
 
 
 def run_compare(args: argparse.Namespace) -> int:
-    task = load_task(args.task, mass=args.mass, waypoints=args.waypoints)
+    task = _load(args)
     out = args.out or Path("runs") / f"{task.name}-compare"
     check_output(out)
     with output_lock(out):  # one writer per --out, from the check to the write

@@ -220,7 +220,7 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
 
         sol, info["starts"] = _best_of_starts(solve_from, task, sol)
     info |= {
-        "status": sol.status, "success": sol.success, "iterations": sol.iterations,
+        "status": sol.status, "success": sol.success, "iterations": sol.iterations, "backend": sol.backend,
         "objective": sol.objective, "constraint_violation": sol.constraint_violation,
         "accepted_violation": accepted_violation(options),
         "build_time_s": sol.build_time, "solve_time_s": sol.solve_time, "kernels": sol.codegen,

@@ -30,3 +30,4 @@ class SolverResult:
     lam_x: FloatArray | None = None  # bound multipliers (with ``keep_multipliers``)
     lam_g: FloatArray | None = None  # constraint multipliers
     iterate: Any = None  # the stagewise solver's primal-dual point (its warm start)
+    backend: str = "ipopt"  # the solver that ran (``stagewise`` hands a scene to IPOPT)

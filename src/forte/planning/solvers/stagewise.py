@@ -61,7 +61,7 @@ class StagewiseSolver:
         ok = res.converged and np.isfinite(q).all()
         return SolverResult(q=q, success=ok, status=res.status, iterations=res.iterations, objective=res.objective,
                    constraint_violation=res.violation, build_time=self.opt.build_time, solve_time=solve_time,
-                   codegen=self.opt.codegen, iterate=res.iterate)
+                   codegen=self.opt.codegen, iterate=res.iterate, backend="stagewise")
 
     def shifted(self, it: Iterate, steps: int) -> Iterate:
         """``it`` moved ``steps`` waypoints forward (the tail holds the last): configurations and
