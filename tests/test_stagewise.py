@@ -211,3 +211,15 @@ def test_forte_plan_with_the_stagewise_solver(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "forte.cli", "plan", str(TASKS / "lift.yaml"), "--solver", "fatrop"],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "invalid choice: 'fatrop'" in bad.stderr
+
+
+@pytest.mark.parametrize("method", ["manipulability", "rfp-radius", "rfp-cone", "static-polytope"])
+def test_every_optimized_method_solves_the_same_with_both_backends(method):
+    """The baselines' stage terms (rfp-cone's per-waypoint rays among them) on the same fast path."""
+    task = load_task(TASKS / "lift.yaml", waypoints=25)
+    make = lambda backend: TrajectoryOptimizer(  # noqa: E731
+        task.robot, task.n, method, task.weights, options=replace(task.solver, backend=backend), limits=task.limits)
+    a, b = _solve(make("ipopt"), task), _solve(make("stagewise"), task)
+    assert a.success and b.success and b.backend == "stagewise"
+    np.testing.assert_allclose(b.q, a.q, atol=1e-5)
+    assert b.objective == pytest.approx(a.objective, rel=1e-7)

@@ -39,7 +39,7 @@ if TYPE_CHECKING:
 class TaskData(NamedTuple):
     """Per-solve data: kernel inputs, the fixed part of ``x`` and the rows' offsets and bounds."""
 
-    stage_args: list[FloatArray]  # dt_prev, dt, f, r, q_nom, weights (after the window)
+    stage_args: list[FloatArray]  # dt_prev, dt, f, r, q_nom, the terms' parameters, weights (after the window)
     p_d: FloatArray  # n x 3
     R_d: FloatArray  # n x 9 (column-major rotations)
     x_fix: FloatArray
@@ -127,8 +127,11 @@ class StageProblem:
         dt = np.ones(n)
         dt[1:] = np.diff(t)
         dt_prev = np.concatenate([[1.0], dt[:-1]])
-        args = [dt_prev[:, None], dt[:, None], np.asarray(f, float).reshape(n, 3),
-                np.asarray(r, float).reshape(n, 1), np.asarray(nominal, float).reshape(n, nq), self.weights]
+        f, r = np.asarray(f, float).reshape(n, 3), np.asarray(r, float).reshape(n)
+        terms = [np.asarray(t.parameter_values(name, f, r), float).reshape(n, size)  # e.g. rfp-cone's rays
+                 for t in opt._stage for name, size in t.parameters]
+        args = [dt_prev[:, None], dt[:, None], f, r[:, None], np.asarray(nominal, float).reshape(n, nq), *terms,
+                self.weights]
         targets = np.asarray(targets, dtype=float)
         R_d = targets[:, :3, :3].transpose(0, 2, 1).reshape(n, 9)  # column-major per waypoint
         lbx, ubx, lbg, ubg = opt.bounds(t, q_init)
