@@ -18,6 +18,8 @@ from scipy.optimize import linprog
 from forte.capability.metrics import (
     CapabilityParameters,
     capability_margin,
+    capability_penalty,
+    normalization,
     signed_distances,
     smooth_capability_penalty,
     smooth_penalty_expr,
@@ -178,6 +180,49 @@ def test_margin_is_the_scaled_distance_and_its_sign_is_containment(robot):
             assert np.all(contains(A, b, w + np.hstack([df, dm])))
         seen.add(bool(d.min() >= 0))
     assert seen == {True, False}
+
+
+def test_smooth_surrogate_bounds_and_converges_to_the_exact_wrench_penalty(robot):
+    """As the 3-D surrogate: an upper bound of ``c_k`` whose exponent error is at most
+    ``kappa (log(1 + 2n) + knee) / beta``, shrinking with ``beta``."""
+    cases = []
+    for q, tau, rng in random_states(robot, 30, 17):
+        L = rng.uniform(0.05, 0.3)
+        cases.append((wrench_jacobian(robot, q), tau, np.r_[rng.normal(0, 25, 3), rng.normal(0, 4, 3)],
+                      rng.uniform(0, 12), L))
+    previous = np.inf
+    for beta in (10.0, 100.0, 1000.0, 1e5):
+        params = CapabilityParameters(beta=beta, eps_normal=1e-9)
+        worst = 0.0
+        for J6, tau, w, r, L in cases:
+            A, b = wrench_halfspaces(J6, *residual_margins(tau, robot.torque_limits), params.alpha)
+            exact = float(capability_penalty(wrench_margin(A, b, w, r, L * r, L), normalization(w[:3], r),
+                                             params.kappa, params.max_exponent))
+            smooth = float(smooth_wrench_penalty(A, b, w, np.asarray(r), np.asarray(L * r), L, params))
+            assert smooth >= exact - 1e-9 * (1 + exact)
+            worst = max(worst, abs(np.log1p(smooth) - np.log1p(exact)))
+        assert worst <= params.kappa * (np.log(15) + params.knee) / beta + 1e-9
+        assert worst < previous
+        previous = worst
+    assert previous < 1e-3
+
+
+def test_an_inertia_alone_needs_a_moment_measured_in_newtons(robot):
+    """A payload at the hand with an inertia: the moment is ``I alpha + omega x I omega`` only,
+    ``L = 0`` (no lever), and the columns are finite where the force metric's are."""
+    task = load_task(EXAMPLES / "lift.yaml")
+    spun = task.with_payload(replace(task.payload, inertia=((0.05, 0, 0), (0, 0.04, 0), (0, 0, 0.03))))
+    force = spun.force()
+    assert force.has_moment and force.lever == 0.0 and force.moment_scale == 0.0
+    R = task.targets[:, :3, :3]
+    np.testing.assert_allclose(force.m, payload_moment(task.t, R, np.zeros((task.n, 3)), np.zeros(3),
+                                                       np.diag([0.05, 0.04, 0.03])), atol=1e-12)
+    assert 0 < np.abs(force.m).max() < 0.05  # the lift turns the hand slowly
+    q = task.nominal()
+    with_inertia = evaluate(task.robot, q, task.t, force, task.weights.capability_params)
+    plain = evaluate(task.robot, q, task.t, task.force(), task.weights.capability_params)
+    assert np.array_equal(np.isfinite(with_inertia["d"]), np.isfinite(plain["d"]))
+    np.testing.assert_allclose(with_inertia["d"], plain["d"], atol=0.1)
 
 
 def test_moment_of_a_spinning_payload_by_hand():
