@@ -40,7 +40,7 @@ _API: dict[str, str] = {
     "plan": "forte.planning.planner",
     "compare": "forte.planning.planner",
     "Plan": "forte.planning.planner",
-    "evaluate": "forte.planning.planner",
+    "evaluate": "forte.planning.evaluation",
     "METHODS": "forte.planning.methods",
     "Method": "forte.planning.methods",
     "MethodStyle": "forte.planning.methods",

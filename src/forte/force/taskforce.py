@@ -24,11 +24,20 @@ DEFAULT_RADIUS = 10.0
 
 @dataclass(frozen=True)
 class TaskForce:
-    """Desired forces ``f`` (N x 3, world frame, N) and ball radii ``r`` (N) at times ``t``."""
+    """Desired forces ``f`` (N x 3, world frame, N) and ball radii ``r`` (N) at times ``t``.
+
+    A payload with an offset centre of mass or an inertia also needs a moment (a *wrench*
+    requirement, :mod:`forte.force.wrench`): ``m`` (N x 3, world frame, N m, at the end effector),
+    the moment ball's radius ``r_m = lever r`` and the metric's moment scale ``L``
+    (:mod:`forte.capability.wrench`). ``m is None``: a force alone (the paper).
+    """
 
     t: FloatArray
     f: FloatArray
     r: FloatArray
+    m: FloatArray | None = None
+    lever: float = 0.0
+    moment_scale: float = 0.0
 
     def __post_init__(self) -> None:
         n = check_times(self.t).size
@@ -37,6 +46,25 @@ class TaskForce:
         if np.any(radius < 0):
             k = int(np.flatnonzero(radius < 0)[0])
             raise InvalidInputError(f"radius[{k}]: expected >= 0 N, got {radius[k]}")
+        if self.m is not None:
+            as_array(self.m, "moment", (n, 3))
+        for name in ("lever", "moment_scale"):
+            as_positive(getattr(self, name), name, allow_zero=True)
+
+    @property
+    def has_moment(self) -> bool:
+        """A wrench requirement (a moment is required, even where it is zero)."""
+        return self.m is not None
+
+    @property
+    def r_m(self) -> FloatArray:
+        """Radii of the moment ball ``r_m = lever r`` (N m)."""
+        return self.lever * np.asarray(self.r, dtype=float)
+
+    @property
+    def wrench(self) -> FloatArray:
+        """``(f, m)`` per sample (N x 6); ``m = 0`` for a force alone."""
+        return np.hstack([self.f, np.zeros_like(self.f) if self.m is None else self.m])
 
     @property
     def magnitude(self) -> FloatArray:

@@ -6,7 +6,8 @@ A plan directory holds
   when the optimization failed, so a failed plan never carries the name of a plan);
 - ``metrics.csv``: the columns of :data:`METRIC_COLUMNS` (``clearance``: the robot's exact
   distance to the scene, m; ``inf`` without a scene; a file of :data:`LEGACY_METRIC_COLUMNS`, written
-  before the scene, is still read, without that column);
+  before the scene, is still read, without that column), then :data:`MOMENT_COLUMNS` when the task
+  needs a moment;
 - ``plan.json``: :func:`plan_document`, with ``"generator": "forte"`` and
   ``"format_version"`` (:data:`FORMAT_VERSION`);
 - ``robot.urdf``: the robot's URDF as planned, named and hashed in plan.json's ``robot`` block, so
@@ -76,6 +77,8 @@ METRIC_COLUMNS = ("t", "fx", "fy", "fz", "radius", "d", "directional_capacity", 
                   "clearance")
 #: The columns of metrics.csv before the scene (no ``clearance``), still read.
 LEGACY_METRIC_COLUMNS = METRIC_COLUMNS[:-1]
+#: The columns added after :data:`METRIC_COLUMNS` when the task needs a moment (N m, world frame).
+MOMENT_COLUMNS = ("mx", "my", "mz")
 
 
 # -- writing ----------------------------------------------------------------------------------
@@ -114,8 +117,8 @@ def fill_plan_dir(plan: Plan, directory: Path, figures: bool = True) -> None:
     name = TRAJECTORY_FILE if plan.solved else LAST_ITERATE_FILE
     write_csv(directory / name, trajectory_header(plan.robot.n_arm), np.column_stack([plan.t, plan.q]))
     if plan.metrics:
-        write_csv(directory / METRICS_FILE, list(METRIC_COLUMNS),
-                  np.column_stack([plan.metrics[c] for c in METRIC_COLUMNS]))
+        columns = METRIC_COLUMNS + (MOMENT_COLUMNS if "mx" in plan.metrics else ())
+        write_csv(directory / METRICS_FILE, list(columns), np.column_stack([plan.metrics[c] for c in columns]))
     doc = plan_document(plan)
     doc["robot"] = store_robot(plan.robot, directory)
     atomic_write(directory / PLAN_FILE, json.dumps(doc, indent=2) + "\n")
@@ -195,6 +198,8 @@ def plan_document(plan: Plan) -> dict[str, Any]:
         # the task's force_model (paper | authors); None for a given profile or a plan made by hand
         doc["force"] = {"t": plan.force.t, "f": plan.force.f, "r": plan.force.r, "given_profile": given,
                         "model": None if task is None or given else task.force_model}
+        if plan.force.has_moment:  # the wrench requirement: moment (N m), r_m = lever r, scale L (m)
+            doc["force"] |= {"m": plan.force.m, "lever_m": plan.force.lever, "moment_scale": plan.force.moment_scale}
     if task is not None:
         doc["q_init"] = task.q_init
         doc["controller"] = task.controller
@@ -283,14 +288,15 @@ def read_controller(plan_dir: str | Path) -> dict[str, Any]:
 
 
 def read_metrics(plan_dir: str | Path) -> dict[str, FloatArray]:
-    """The columns of ``metrics.csv`` (:data:`METRIC_COLUMNS`, or the older
-    :data:`LEGACY_METRIC_COLUMNS` without ``clearance``); empty when the plan has none."""
+    """The columns of ``metrics.csv`` (:data:`METRIC_COLUMNS`, then :data:`MOMENT_COLUMNS` when the
+    task needs a moment, or the older :data:`LEGACY_METRIC_COLUMNS` without ``clearance``); empty
+    when the plan has none."""
     path = Path(plan_dir) / METRICS_FILE
     if not path.is_file():
         return {}
     rows = list(csv.reader(path.read_text(encoding="utf-8").splitlines()))
     header = [h.strip() for h in rows[0]] if rows else []
-    if header not in (list(METRIC_COLUMNS), list(LEGACY_METRIC_COLUMNS)):
+    if header not in (list(METRIC_COLUMNS), list(LEGACY_METRIC_COLUMNS), list(METRIC_COLUMNS + MOMENT_COLUMNS)):
         raise TaskFileError(f"{path}: header: expected {','.join(METRIC_COLUMNS)}, got {','.join(header)}")
     body = [r for r in rows[1:] if any(c.strip() for c in r)]
     try:  # d may be +-inf (vacuous or empty RFP rows), clearance inf (no scene): no finiteness check here
@@ -308,7 +314,14 @@ def _read_payload(plan_path: Path, payload: Any) -> Payload:
         mass = as_positive(mass, "payload.mass", allow_zero=True)
     except InvalidInputError as exc:
         raise TaskFileError(f"{plan_path}: field {exc}") from exc
-    return Payload(mass=mass, source=str(payload.get("source", "given"))) if mass > 0 else Payload(source="none")
+    geometry = {k: payload[k] for k in ("com", "inertia") if payload.get(k) is not None}
+    if payload.get("moment_scale_given"):
+        geometry["moment_scale"] = payload.get("moment_scale")
+    try:
+        return Payload(mass=mass, source=str(payload.get("source", "given")), **geometry) if mass > 0 \
+            else Payload(source="none")
+    except InvalidInputError as exc:
+        raise TaskFileError(f"{plan_path}: field {exc}") from exc
 
 
 def _read_force(plan_path: Path, fmeta: Any) -> TaskForce | None:
@@ -318,7 +331,10 @@ def _read_force(plan_path: Path, fmeta: Any) -> TaskForce | None:
         t = check_times(fmeta["t"], "force.t")
         f = as_array(fmeta["f"], "force.f", (t.size, 3))
         r = fmeta.get("r", np.zeros(t.size))
-        return TaskForce(t, f, as_array(r, "force.r", (t.size,)))
+        if fmeta.get("m") is None:
+            return TaskForce(t, f, as_array(r, "force.r", (t.size,)))
+        return TaskForce(t, f, as_array(r, "force.r", (t.size,)), as_array(fmeta["m"], "force.m", (t.size, 3)),
+                         float(fmeta.get("lever_m", 0.0)), float(fmeta.get("moment_scale", 0.0)))
     except (KeyError, TypeError, AttributeError, IndexError) as exc:
         raise TaskFileError(f"{plan_path}: field 'force': expected {{'t': [...], 'f': [...], 'r': [...]}}") from exc
     except InvalidInputError as exc:

@@ -144,6 +144,19 @@ class CasadiTwin:
             columns.append(ca.cross(z, p_ee - p) if self._joints[j].revolute else z)
         return ca.horzcat(*columns)
 
+    def arm_angular_jacobian_base(self, q_a: Expr) -> Expr:
+        """Angular Jacobian (3 x n_arm) of the end effector in the base frame: the joint axis of
+        each revolute joint that moves it, zero for prismatic joints and joints off its chain."""
+        poses = self._arm_poses(q_a)
+        support = self._support(self._ee_joint)
+        columns = []
+        for j in range(self.n_arm):
+            if j not in support or not self._joints[j].revolute:
+                columns.append(ca.DM.zeros(3, 1))
+                continue
+            columns.append(poses[j][0] @ ca.DM(self._joints[j].axis))
+        return ca.horzcat(*columns)
+
     def _support(self, j: int) -> set[int]:
         chain: set[int] = set()
         while j >= 0:
@@ -161,6 +174,12 @@ class CasadiTwin:
     def arm_jacobian(self, q: Expr) -> Expr:
         """World-frame translational arm Jacobian ``J_t(q)`` (3 x n_arm), base held fixed."""
         return rot_z(q[2]) @ self.arm_jacobian_base(q[N_BASE:])
+
+    def arm_wrench_jacobian(self, q: Expr) -> Expr:
+        """World-frame 6 x n_arm Jacobian ``[J_v; J_w]`` of the end effector (linear rows first,
+        as Pinocchio's ``LOCAL_WORLD_ALIGNED``), base held fixed: ``tau = J^T (f, m)``."""
+        Rb = rot_z(q[2])
+        return ca.vertcat(Rb @ self.arm_jacobian_base(q[N_BASE:]), Rb @ self.arm_angular_jacobian_base(q[N_BASE:]))
 
     # -- dynamics -----------------------------------------------------------------------
     def rnea(self, q_a: Expr, dq_a: Expr, ddq_a: Expr) -> Expr:
@@ -220,12 +239,13 @@ class CasadiTwin:
 
     # -- numeric wrappers ---------------------------------------------------------------
     def functions(self) -> dict[str, ca.Function]:
-        """``casadi.Function`` objects: ``ee_pose``, ``arm_jacobian``, ``rnea``."""
+        """``casadi.Function`` objects: ``ee_pose``, ``arm_jacobian``, ``arm_wrench_jacobian``, ``rnea``."""
         q = ca.SX.sym("q", N_BASE + self.n_arm)
         qa, dqa, ddqa = (ca.SX.sym(s, self.n_arm) for s in ("q_a", "dq_a", "ddq_a"))
         R, p = self.ee_pose(q)
         return {
             "ee_pose": ca.Function("ee_pose", [q], [R, p]),
             "arm_jacobian": ca.Function("arm_jacobian", [q], [self.arm_jacobian(q)]),
+            "arm_wrench_jacobian": ca.Function("arm_wrench_jacobian", [q], [self.arm_wrench_jacobian(q)]),
             "rnea": ca.Function("rnea", [qa, dqa, ddqa], [self.rnea(qa, dqa, ddqa)]),
         }

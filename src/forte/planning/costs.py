@@ -15,6 +15,9 @@ The objective is ``J = sum_i w_i J_i``. A term is one of two kinds:
 Built-in terms (``name``: weight field of :class:`~forte.settings.CostWeights`):
 
 - ``capability`` (w1): ``c_k`` of J1, the smooth surrogate of :mod:`forte.capability.metrics`;
+- ``wrench_capability`` (w1): ``c_k`` of J1 on the residual wrench polytope
+  (:mod:`forte.capability.wrench`), used instead of ``capability`` when the task's payload needs a
+  moment (:func:`forte.planning.wrench_terms.for_requirement`);
 - ``rfp_radius``, ``rfp_cone``, ``static_radius`` (w1 of the baselines): ``1 / max(|value|, eps)``
   of the centred inscribed radius, the cone measure, or the radius with a gravity-only residual;
 - ``manipulability`` (w2): ``1 / max(mu_k, eps_m)``;
@@ -50,7 +53,7 @@ from scipy import sparse
 
 from forte.exceptions import InvalidInputError
 from forte.model.robot import N_BASE, MobileManipulator
-from forte.model.twin import CasadiTwin
+from forte.model.twin import CasadiTwin, rot_z
 from forte.settings import WEIGHT_FIELDS, CostWeights
 from forte.validation import FloatArray
 
@@ -102,6 +105,11 @@ class Stage:
     def J(self) -> ca.SX:
         """World-frame translational arm Jacobian at ``q_k``."""
         return self.twin.arm_jacobian(self.q0)
+
+    @cached_property
+    def J6(self) -> ca.SX:
+        """World-frame 6 x n arm Jacobian ``[J; J_w]`` at ``q_k`` (linear rows first)."""
+        return ca.vertcat(self.J, rot_z(self.q0[2]) @ self.twin.arm_angular_jacobian_base(self.q0[N_BASE:]))
 
     @cached_property
     def tau_static(self) -> ca.SX:
@@ -232,4 +240,4 @@ def _smooth_min(values: ca.SX, scale: ca.SX, beta: float) -> ca.SX:
 
 
 # The built-in terms register themselves when their modules load (they import the base above).
-from forte.planning import capability_terms, motion_terms  # noqa: E402, F401
+from forte.planning import capability_terms, motion_terms, wrench_terms  # noqa: E402, F401

@@ -47,6 +47,8 @@ class MotionSamples(NamedTuple):
         tau_nom: nominal torques RNEA(q_a, dq_a, ddq_a) (K x n).
         A, b: the RFP half-spaces with ``alpha = 1`` (K x 2n x 3, K x 2n).
         ee: world end-effector poses (K x 4 x 4).
+        Jw: world-frame angular arm Jacobians (K x 3 x n), for a task that needs a moment
+            (:func:`with_angular`); ``None`` otherwise.
     """
 
     t: FloatArray
@@ -59,6 +61,12 @@ class MotionSamples(NamedTuple):
     A: FloatArray
     b: FloatArray
     ee: FloatArray
+    Jw: FloatArray | None = None
+
+    @property
+    def task_jacobian(self) -> FloatArray:
+        """``J`` (K x 3 x n), or ``[J; J_w]`` (K x 6 x n) once the angular Jacobians are in."""
+        return self.J if self.Jw is None else np.concatenate([self.J, self.Jw], axis=1)
 
     def segment_of(self, i: int) -> int:
         """The waypoint at or before sample ``i``."""
@@ -112,16 +120,43 @@ def arm_quantities(robot: MobileManipulator, Q: FloatArray, V: FloatArray,
     return J, tau, ee
 
 
+def with_angular(robot: MobileManipulator, samples: MotionSamples) -> MotionSamples:
+    """``samples`` with their angular Jacobians :attr:`MotionSamples.Jw` (world frame)."""
+    if samples.Jw is not None:
+        return samples
+    Jw = np.empty_like(samples.J)
+    for k, q in enumerate(samples.q):
+        local = pin.computeFrameJacobian(robot.model, robot.data, np.ascontiguousarray(q[N_BASE:]),
+                                         robot.ee_frame_id, pin.LOCAL_WORLD_ALIGNED)
+        Jw[k] = robot.base_transform(q[:N_BASE])[:3, :3] @ local[3:]
+    return samples._replace(Jw=Jw)
+
+
 class SampledForce(NamedTuple):
-    """The task force ``f`` (K x 3) and ball radii ``r`` (K) at the samples (times may repeat)."""
+    """The task force ``f`` (K x 3) and ball radii ``r`` (K) at the samples (times may repeat);
+    with a moment (a wrench requirement) also ``m`` (K x 3), the moment ball's radii ``r_m`` (K) and
+    the metric's moment scale ``L`` (:mod:`forte.capability.wrench`)."""
 
     f: FloatArray
     r: FloatArray
+    m: FloatArray | None = None
+    r_m: FloatArray | None = None
+    moment_scale: float = 0.0
+
+    @property
+    def requirement(self) -> FloatArray:
+        """``f`` (K x 3) for a force alone, ``(f, m)`` (K x 6) for a wrench."""
+        return self.f if self.m is None else np.hstack([self.f, self.m])
 
 
 def force_at(force: TaskForce, times: FloatArray) -> SampledForce:
     """The task force (and ball radius) linear in time at ``times``, held outside its range."""
-    if force.t.size == 1:
-        return SampledForce(np.repeat(force.f, times.size, axis=0), np.repeat(force.r, times.size))
-    f = np.stack([np.interp(times, force.t, force.f[:, i]) for i in range(3)], axis=1)
-    return SampledForce(f, np.interp(times, force.t, force.r))
+    def at(x: FloatArray) -> FloatArray:
+        if force.t.size == 1:
+            return np.repeat(x, times.size, axis=0)
+        return np.interp(times, force.t, x) if x.ndim == 1 else \
+            np.stack([np.interp(times, force.t, x[:, i]) for i in range(x.shape[1])], axis=1)
+
+    if force.m is None:
+        return SampledForce(at(force.f), at(force.r))
+    return SampledForce(at(force.f), at(force.r), at(force.m), at(force.r_m), float(force.moment_scale))

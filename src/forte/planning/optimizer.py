@@ -274,8 +274,10 @@ class TrajectoryOptimizer:
 
     # -- solving ------------------------------------------------------------------------
     def parameters(self, t: FloatArray, targets: FloatArray, f: FloatArray, r: FloatArray,
-                   nominal: FloatArray | None = None) -> FloatArray:
-        """Pack the task data into the NLP parameter vector (``nominal``: N x nq, default zeros)."""
+                   nominal: FloatArray | None = None, term_values: dict[str, Any] | None = None) -> FloatArray:
+        """Pack the task data into the NLP parameter vector (``nominal``: N x nq, default zeros;
+        ``term_values``: values of term parameters given by the caller, by name, e.g. the task's
+        moment for ``wrench_capability``, instead of the term's ``parameter_values``)."""
         n = self.n
         t = np.asarray(t, dtype=float)
         dt = np.ones(n)
@@ -288,21 +290,23 @@ class TrajectoryOptimizer:
             "p_d": targets[:, :3, 3].ravel(),
             "R_d": np.concatenate([T[:3, :3].ravel(order="F") for T in targets]),
         }
+        given = term_values or {}
         for term in self._stage:
-            values |= {name: term.parameter_values(name, f, r) for name, _ in term.parameters}
+            values |= {name: np.asarray(given[name], dtype=float).ravel() if name in given
+                       else term.parameter_values(name, f, r) for name, _ in term.parameters}
         for f, ck in zip(self.slots.frames if self.slots else (), self._clear, strict=True):
             values[ck.name] = f.values.ravel()
         return np.concatenate([values[name] for name in self._layout])
 
     def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,
-              nominal: FloatArray | None = None, warm: tuple[FloatArray, FloatArray] | Any | None = None
-              ) -> SolverResult:
+              nominal: FloatArray | None = None, warm: tuple[FloatArray, FloatArray] | Any | None = None,
+              term_values: dict[str, Any] | None = None) -> SolverResult:
         """Solve for the whole-body trajectory (N x nq) from the initial guess ``q_guess``.
 
         ``nominal`` (N x nq) is the nominal trajectory of the nominal and base joint-limit terms
         (default: ``q_guess``). ``warm = (lam_x, lam_g)``, the multipliers of an earlier solve of
         this problem (see ``keep_multipliers``), starts IPOPT from that primal-dual point with a
-        small barrier parameter instead of from scratch.
+        small barrier parameter instead of from scratch. ``term_values``: see :meth:`parameters`.
         """
         n, nq = self.n, self.robot.nq
         targets = np.asarray(targets, dtype=float)
@@ -313,7 +317,7 @@ class TrajectoryOptimizer:
                                    warm if warm is None or not isinstance(warm, tuple) else None)
         if warm is not None and not isinstance(warm, tuple):
             warm = None  # a stagewise iterate does not warm-start IPOPT
-        p = self.parameters(t, targets, f, r, self._nominal)
+        p = self.parameters(t, targets, f, r, self._nominal, term_values)
         lbx, ubx, lbg, ubg = self.bounds(t, q_init)
         x0 = self.full_x(np.clip(np.asarray(q_guess, dtype=float).ravel(), lbx[: n * nq], ubx[: n * nq]))
         start = time.perf_counter()
@@ -361,11 +365,11 @@ class TrajectoryOptimizer:
         return self._stagewise
 
     def cost_terms(self, q: FloatArray, t: Any, targets: Any, f: Any, r: Any,
-                   nominal: FloatArray | None = None) -> dict[str, float]:
+                   nominal: FloatArray | None = None, term_values: dict[str, Any] | None = None) -> dict[str, float]:
         """Unweighted value of each cost term (capability-type terms are their smooth surrogates)."""
         if nominal is None:
             nominal = getattr(self, "_nominal", None)
-        p = self.parameters(t, np.asarray(targets, dtype=float), f, r, nominal)
+        p = self.parameters(t, np.asarray(targets, dtype=float), f, r, nominal, term_values)
         values = np.array(self._terms(self.full_x(q), p)).ravel()
         return dict(zip(self.term_names, map(float, values), strict=True))
 

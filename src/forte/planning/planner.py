@@ -14,15 +14,13 @@ from typing import Any
 
 import numpy as np
 
-from forte.capability.metrics import capability_margin, yoshikawa
-from forte.capability.polytope import directional_capacity, inscribed_radius, trajectory_rfp
 from forte.exceptions import InvalidInputError, TaskFileError
 from forte.force.payload import Payload
 from forte.force.taskforce import TaskForce
-from forte.model.clearance import clearances
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import backward_differences
+from forte.planning.evaluation import evaluate
 from forte.planning.ik import initial_guess
 from forte.planning.methods import METHODS, Method, get_method, method_names
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
@@ -31,7 +29,7 @@ from forte.planning.scene_guess import clear_start
 from forte.planning.scene_solve import blocked_path, solve_in_scene
 from forte.planning.tasks import Task
 from forte.planning.verdict import SOLVER_FAILED, Verdict, arm_acceleration_ratios, capacity_shortfall, judge_plan
-from forte.settings import CapabilityParameters
+from forte.planning.wrench_terms import for_requirement, term_values, uses_capability
 from forte.validation import FloatArray
 
 
@@ -105,36 +103,6 @@ def methods_for(task: Task) -> tuple[str, ...]:
     return tuple(name for name in method_names(task.mode) if METHODS[name].applies_to(task))
 
 
-def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: TaskForce,
-             params: CapabilityParameters | float = CapabilityParameters(),
-             scene: Scene | None = None) -> dict[str, FloatArray]:
-    """Exact per-waypoint metrics of a plan (the columns of metrics.csv).
-
-    ``d`` uses the metric's ``alpha``; the directional capacity (along the desired force) and
-    the inscribed radius are those of the paper's RFP ``P_r,k`` itself (``alpha = 1``);
-    ``clearance`` is the robot's exact signed distance (m) to the nearest body of ``scene``
-    (:mod:`forte.model.clearance`), ``inf`` without a scene (the distance to no body).
-    """
-    alpha = params.alpha if isinstance(params, CapabilityParameters) else float(params)
-    rfp = trajectory_rfp(robot, q, t, alpha=1.0)
-    capacity = directional_capacity(rfp.A, rfp.b, force.direction)
-    return {
-        "t": np.asarray(t, dtype=float),
-        "fx": force.f[:, 0], "fy": force.f[:, 1], "fz": force.f[:, 2],
-        "radius": force.r,
-        "d": capability_margin(rfp.A, alpha * rfp.b, force.f, force.r),  # b scales with alpha
-        "directional_capacity": capacity,
-        "capacity_margin": capacity - (force.magnitude + force.r),
-        "inscribed_radius": inscribed_radius(rfp.A, rfp.b),
-        "manipulability": yoshikawa(rfp.J),
-        "max_torque_ratio": np.max(np.abs(rfp.tau_nom) / robot.torque_limits, axis=1),
-        # nominal torque plus the torque that applies the desired force, tau_nom + J^T f
-        "max_torque_ratio_with_force": np.max(
-            np.abs(rfp.tau_nom + np.einsum("kij,ki->kj", rfp.J, force.f)) / robot.torque_limits, axis=1),
-        "clearance": clearances(robot, scene, q).distance if scene else np.full(len(rfp.J), np.inf),
-    }
-
-
 def resolve_payload(task: Task, estimator_options: dict[str, Any] | None = None) -> Task:
     """The task with its payload mass known: estimated when only a description/image is given."""
     if not task.payload.needs_estimate:
@@ -170,8 +138,7 @@ def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]
     else:
         opt = TrajectoryOptimizer(task.robot, coarse.n, method, task.weights, options=task.solver,
                                   limits=task.limits)
-        sol = opt.solve(coarse.t, coarse.targets, force.f, force.r, coarse.q_init, start_guess(coarse, nominal),
-                        nominal)
+        sol = _solve(opt, coarse, force, start_guess(coarse, nominal), nominal)
     if not sol.success:
         return None
     q = np.column_stack([np.interp(task.t, coarse.t, sol.q[:, j]) for j in range(sol.q.shape[1])])
@@ -194,6 +161,10 @@ def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:
     return guess
 
 
+def _solve(opt: TrajectoryOptimizer, task: Task, force: TaskForce, q: FloatArray, nominal: FloatArray) -> SolverResult:
+    return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q, nominal, term_values=term_values(force))
+
+
 def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None,
               reported: TaskForce | None = None) -> tuple[SolverResult, dict]:
     """Solve the method's NLP (coarse-to-fine unless a guess is given); returns the result and facts
@@ -211,12 +182,12 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
     else:
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
                                   options=options, limits=task.limits)
-        sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q_guess, nominal)
+        sol = _solve(opt, task, force, q_guess, nominal)
     if task.mode == "hold" and guess is None and options.hold_starts > 1:
         def solve_from(q: FloatArray) -> SolverResult:
             if task.scene:  # each start gets the rows of the pairs near it (and near its solution)
                 return solve_in_scene(task, method, force, q, nominal, options)[1]
-            return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q, nominal)
+            return _solve(opt, task, force, q, nominal)
 
         sol, info["starts"] = _best_of_starts(solve_from, task, sol)
     info |= {
@@ -224,7 +195,8 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         "objective": sol.objective, "constraint_violation": sol.constraint_violation,
         "accepted_violation": accepted_violation(options),
         "build_time_s": sol.build_time, "solve_time_s": sol.solve_time, "kernels": sol.codegen,
-        "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, (reported or force).f, (reported or force).r),
+        "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, (rep := reported or force).f, rep.r,
+                                     term_values=term_values(rep)),
         "term_weights": opt.term_weights(), "quadratic_forms": opt.quadratic_forms,
     }
     if "starts" in info:  # the work of every start, the chosen start's own figures under "starts"
@@ -300,7 +272,7 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
     ``task.solver.refine_rounds`` rounds (0: none); the first feasible plan is kept, else the original.
     ``info["refinement"]`` records the rounds.
     """
-    fixable = {"capacity", "acceleration"} if "capability" in spec.terms else {"acceleration"}
+    fixable = {"capacity", "acceleration"} if uses_capability(spec) else {"acceleration"}
     if not sol.success or not verdict.failed or not set(verdict.failed) <= fixable or not task.solver.refine_rounds:
         return sol, info, verdict
     radius, acc = force.r.copy(), task.limits.resolve(task.robot)[1][N_BASE:].copy()
@@ -315,7 +287,7 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
             peak = np.max(np.abs(backward_differences(current.q[:, N_BASE:], task.t)[1]), axis=0)
             acc = np.where(ratio > 1.0, np.minimum(acc, peak) / (1.05 * ratio), acc)
         trial_task = replace(task, limits=replace(task.limits, arm_acceleration=tuple(acc)))
-        trial, trial_info = _optimize(trial_task, spec, TaskForce(force.t, force.f, radius), current.q,
+        trial, trial_info = _optimize(trial_task, spec, replace(force, r=radius), current.q,
                                       reported=force)
         trial_verdict = judge_plan(task, trial.q, force, trial_info)
         rounds.append({"max_added_radius_n": float(np.max(radius - force.r)), "arm_acceleration": acc.tolist(),
@@ -359,9 +331,10 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         info = {"status": status, "success": False, "path_blocked": True}
         verdict = judge_plan(task, q, force)
     elif spec.optimized:
-        sol, info = _optimize(task, spec, force, guess)
+        solved_as = for_requirement(spec, force)  # J1 on the wrench when the payload needs a moment
+        sol, info = _optimize(task, solved_as, force, guess)
         verdict = judge_plan(task, sol.q, force, info)
-        sol, info, verdict = _refine(task, spec, force, sol, info, verdict)
+        sol, info, verdict = _refine(task, solved_as, force, sol, info, verdict)
         q, solved, status = sol.q, sol.success, sol.status
     else:
         q, solved, status = spec.produce(task), True, spec.status

@@ -6,8 +6,8 @@ Every requirement looks at the plan sampled at its waypoints and between them
 much. :func:`forte.planning.verdict.judge` runs the list :data:`REQUIREMENTS`.
 
 - :class:`Capacity`: the force ball inside the alpha-scaled RFP, ``d >= 0`` (Section 4.2), and
-  the RFP's capacity along the force at least ``|f| + r``;
-- :class:`TorqueWithForce`: ``|tau_nom + J^T f| <= tau_max`` at every arm joint;
+  the RFP's capacity along the force at least ``|f| + r`` (a wrench: :mod:`forte.capability.wrench`);
+- :class:`TorqueWithForce`: ``|tau_nom + J^T f| <= tau_max`` at every arm joint (``J6^T w`` with a moment);
 - :class:`JointPositions`, :class:`JointVelocities`, :class:`JointAccelerations`: the arm
   within its joint range (URDF), velocity (URDF) and acceleration limits (the robot
   description), the base within its velocity limits (:class:`forte.settings.KinematicLimits`);
@@ -30,6 +30,7 @@ import numpy as np
 
 from forte.capability.metrics import capability_margin
 from forte.capability.polytope import directional_capacity
+from forte.capability.wrench import requirement_measures
 from forte.force.taskforce import force_directions
 from forte.model.clearance import Clearances, clearances
 from forte.model.robot import N_BASE, MobileManipulator
@@ -170,6 +171,10 @@ class Capacity(Requirement):
 
     def measures(self, ctx: Context) -> list[Measure]:
         s, f = ctx.samples, ctx.force
+        if f.m is not None:  # a wrench: the same two on the residual wrench polytope
+            w = requirement_measures(s.task_jacobian, s.tau_nom, ctx.robot.torque_limits, f, ctx.alpha)
+            return [Measure(-w["d"], 0.0, "N", "the wrench set leaves the alpha-scaled wrench polytope (-d > 0)"),
+                    Measure(w["shortfall"], 0.0, "N", "the polytope's capacity along the wrench is below |f| + r")]
         d = capability_margin(s.A, ctx.alpha * s.b, f.f, f.r)
         short = (np.linalg.norm(f.f, axis=1) + f.r) - directional_capacity(s.A, s.b, force_directions(f.f))
         return [Measure(-d, 0.0, "N", "the force ball leaves the alpha-scaled RFP (-d > 0)"),
@@ -179,14 +184,14 @@ class Capacity(Requirement):
 @dataclass(frozen=True)
 class TorqueWithForce(Requirement):
     """``max_i |tau_nom,i + (J^T f)_i| / tau_max,i <= 1``: the joint torques that move the arm and
-    apply the task force stay within the limits."""
+    apply the task force stay within the limits (with a moment: ``J6^T w``, the full wrench)."""
 
     name: ClassVar[str] = "torque"
     mass_dependent: ClassVar[bool] = True
 
     def measures(self, ctx: Context) -> list[Measure]:
         s = ctx.samples
-        tau = s.tau_nom + np.einsum("kij,ki->kj", s.J, ctx.force.f)
+        tau = s.tau_nom + np.einsum("kij,ki->kj", s.task_jacobian, ctx.force.requirement)
         ratio = np.max(np.abs(tau) / ctx.robot.torque_limits, axis=1)
         return [Measure(ratio, 1.0 + LIMIT_SLACK, "x limit", "a joint torque with the task force exceeds its limit")]
 

@@ -17,7 +17,7 @@ import numpy as np
 import pinocchio as pin
 import yaml
 
-from forte.exceptions import ForteError, InvalidInputError, TaskFileError
+from forte.exceptions import ForteError, TaskFileError
 from forte.force.payload import Payload
 from forte.force.taskforce import (
     AUTHORS_FORCE_RAMP_S,
@@ -30,6 +30,7 @@ from forte.force.taskforce import (
     mass_range_radius,
     payload_force,
 )
+from forte.force.wrench import with_payload_moment
 from forte.model.description import N_BASE
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
@@ -44,6 +45,7 @@ from forte.planning.paths import (
     taught_knots,
     windowed_sine,
 )
+from forte.planning.payload_section import payload_section
 from forte.planning.scene_section import DEFAULT_CLEARANCE, clearance_value, scene_section
 from forte.planning.schema import (
     Reader,
@@ -54,7 +56,7 @@ from forte.planning.schema import (
     rotation,
 )
 from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights, KinematicLimits, SolverOptions
-from forte.validation import MAX_DURATION_S, MAX_FILE_BYTES, MAX_MASS_KG, MAX_WAYPOINTS, FloatArray, payload_mass
+from forte.validation import MAX_DURATION_S, MAX_FILE_BYTES, MAX_WAYPOINTS, FloatArray
 
 MODES = ("trajectory", "hold")
 
@@ -159,7 +161,8 @@ class Task:
         ``tool_force_mass`` (the authors' end-effector load, 1.146 kg on the built-in robot).
         A task with a force profile uses the profile alone when it has no payload mass (the
         paper's Section 5.2), and the profile plus the payload's force (with its radii) when it
-        has one: ``forte simulate`` carries that payload too.
+        has one: ``forte simulate`` carries that payload too. A payload with an offset centre of
+        mass or an inertia adds its moment (:func:`~forte.force.wrench.with_payload_moment`).
         """
         profile = self.force_profile
         m = mass if mass is not None else self.payload.mass
@@ -176,11 +179,12 @@ class Task:
             force = authors_force(self.t, total, self.radius, self.robot.gravity, ramp, self.force_ramp_elapsed)
         else:
             force = payload_force(self.t, self.targets[:, :3, 3], total, self.radius, self.robot.gravity)
+        share = force.f * (m / total)  # the payload's own share: the tool load has no lever arm
         if profile is not None:
-            return TaskForce(self.t, profile.f + force.f, profile.r)
-        if self.radius_rule == "mass-range" and mass is None and self.payload.mass_range is not None:
+            force = TaskForce(self.t, profile.f + force.f, profile.r)
+        elif self.radius_rule == "mass-range" and mass is None and self.payload.mass_range is not None:
             force = mass_range_radius(force, total, m, self.payload.mass_range, self.radius)
-        return force
+        return with_payload_moment(force, self.payload, self.targets[:, :3, :3], share)
 
     def _where(self, key: str) -> str:
         return f"{self.source}: {key}" if self.source else key
@@ -206,32 +210,6 @@ def _force_profile(reader: Reader, t: FloatArray, radius: float) -> ForceAt | No
         vector = r.vector("vector", 3)
         return lambda ts: given_force(ts, np.tile(vector, (len(ts), 1)), radius)
     raise r.error("kind", f"expected 'windowed-sine' or 'constant', got {kind!r}")
-
-
-def _payload(reader: Reader, base: Path, mass: float | None) -> Payload | None:
-    """The payload section (``None`` when the task has none), with ``--mass`` taking precedence."""
-    found = None
-    if reader.has("payload"):
-        pr = reader.sub("payload")
-        pr.unknown({"mass", "description", "image"})
-        image = Path(str(pr.get("image"))) if pr.has("image") else None
-        if image is not None:
-            located = image if image.is_absolute() else base / image
-            if not located.is_file():
-                raise pr.error("image", f"{located}: file does not exist (expected a PNG, JPEG, WebP or GIF image)")
-        found = Payload(mass=pr.number("mass", positive=True, maximum=MAX_MASS_KG, unit=" kg")
-                        if pr.has("mass") else None,
-                        description=str(pr.get("description")) if pr.has("description") else None,
-                        image=None if image is None else str(image if image.is_absolute() else base / image))
-        if found.mass is None and found.description is None and found.image is None:
-            found = None
-    if mass is not None:
-        try:
-            payload_mass(mass, "--mass")
-        except InvalidInputError as exc:
-            raise TaskFileError(str(exc)) from None
-        found = (found or Payload()).with_mass(mass, source="cli")
-    return found
 
 
 def load_task(
@@ -333,7 +311,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
         t = np.zeros(1)
         targets = _hold_pose(reader, robot, T0, teaching)
         targets_at = None
-    payload = _payload(reader, base, mass)
+    payload = payload_section(reader, base, mass)
     force_at = _force_profile(reader, t, radius)
     if force_at is None and payload is None:
         raise reader.error("payload", "give a payload (mass, or description/image) or a force profile")

@@ -28,7 +28,7 @@ from forte.force.taskforce import TaskForce
 from forte.model.clearance import clearances
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
-from forte.planning.motion_samples import SAMPLES_PER_INTERVAL, MotionSamples, force_at, sample_motion
+from forte.planning.motion_samples import SAMPLES_PER_INTERVAL, MotionSamples, force_at, sample_motion, with_angular
 from forte.planning.requirements import (
     REQUIREMENTS,
     Capacity,
@@ -125,6 +125,8 @@ def context(robot: MobileManipulator, samples: MotionSamples, force: TaskForce, 
     targets = None if targets_at is None else np.asarray(targets_at(samples.t), dtype=float)
     scene = scene or Scene()
     distances = clearances(robot, scene, samples.q) if scene else None
+    if force.has_moment:  # the wrench requirement needs the angular Jacobians too
+        samples = with_angular(robot, samples)
     return Context(robot, samples, force_at(force, samples.t), float(alpha), targets, vel, acc, solver, optimized,
                    scene, float(clearance), distances)
 

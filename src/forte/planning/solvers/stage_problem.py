@@ -54,6 +54,8 @@ def supported(opt: TrajectoryOptimizer) -> str | None:
         return "a scene's clearance rows"
     if opt._lateral:
         return "a differential base's lateral rows"
+    if any(t.parameters for t in opt._stage):  # its kernel inputs stop at the weights
+        return "terms with per-waypoint parameters (" + ", ".join(t.name for t in opt._stage if t.parameters) + ")"
     return None
 
 
