@@ -223,3 +223,13 @@ def test_every_optimized_method_solves_the_same_with_both_backends(method):
     assert a.success and b.success and b.backend == "stagewise"
     np.testing.assert_allclose(b.q, a.q, atol=1e-5)
     assert b.objective == pytest.approx(a.objective, rel=1e-7)
+
+
+def test_the_wrench_term_solves_the_same_with_both_backends():
+    """An offset payload (issue 25's wrench term, its per-waypoint moment given by the caller)."""
+    task = load_task(TASKS / "offset-payload.yaml", waypoints=25)
+    plans = [plan(replace(task, solver=replace(task.solver, backend=b, refine_rounds=0)), "forte")
+             for b in ("ipopt", "stagewise")]
+    assert plans[1].solver["backend"] == "stagewise" and "wrench_capability" in plans[1].solver["cost_terms"]
+    np.testing.assert_allclose(plans[1].q, plans[0].q, atol=1e-5)
+    np.testing.assert_allclose(plans[1].metrics["d"], plans[0].metrics["d"], atol=1e-4)

@@ -314,7 +314,7 @@ class TrajectoryOptimizer:
         stagewise = self.stagewise()
         if stagewise is not None:
             return stagewise.solve(t, targets, f, r, q_init, q_guess, self._nominal,
-                                   warm if warm is None or not isinstance(warm, tuple) else None)
+                                   warm if warm is None or not isinstance(warm, tuple) else None, term_values)
         if warm is not None and not isinstance(warm, tuple):
             warm = None  # a stagewise iterate does not warm-start IPOPT
         p = self.parameters(t, targets, f, r, self._nominal, term_values)

@@ -54,8 +54,6 @@ def supported(opt: TrajectoryOptimizer) -> str | None:
         return "a scene's clearance rows"
     if opt._lateral:
         return "a differential base's lateral rows"
-    if any(t.parameters for t in opt._stage):  # its kernel inputs stop at the weights
-        return "terms with per-waypoint parameters (" + ", ".join(t.name for t in opt._stage if t.parameters) + ")"
     return None
 
 
@@ -121,7 +119,7 @@ class StageProblem:
 
     # -- one solve's data -----------------------------------------------------------------
     def task_data(self, t: FloatArray, targets: FloatArray, f: FloatArray, r: FloatArray, q_init: FloatArray,
-                  nominal: FloatArray) -> TaskData:
+                  nominal: FloatArray, term_values: dict[str, FloatArray] | None = None) -> TaskData:
         """Kernel inputs and the rows of a solve (as :meth:`TrajectoryOptimizer.parameters` and
         :meth:`~TrajectoryOptimizer.bounds` pack them for IPOPT)."""
         opt, n, nq = self.opt, self.n, self.nq
@@ -130,8 +128,9 @@ class StageProblem:
         dt[1:] = np.diff(t)
         dt_prev = np.concatenate([[1.0], dt[:-1]])
         f, r = np.asarray(f, float).reshape(n, 3), np.asarray(r, float).reshape(n)
-        terms = [np.asarray(t.parameter_values(name, f, r), float).reshape(n, size)  # e.g. rfp-cone's rays
-                 for t in opt._stage for name, size in t.parameters]
+        given = term_values or {}  # e.g. the task's moment for wrench_capability
+        terms = [np.asarray(given[name] if name in given else t.parameter_values(name, f, r), float).reshape(n, size)
+                 for t in opt._stage for name, size in t.parameters]  # e.g. rfp-cone's rays
         args = [dt_prev[:, None], dt[:, None], f, r[:, None], np.asarray(nominal, float).reshape(n, nq), *terms,
                 self.weights]
         targets = np.asarray(targets, dtype=float)

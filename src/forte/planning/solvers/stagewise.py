@@ -31,8 +31,9 @@ class StagewiseSolver:
         self.ip = InteriorPoint(self.problem, tol=opt.options.tol, constraint_tol=opt.options.constraint_tol,
                                 max_iter=opt.options.max_iter)
 
-    def data(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, nominal: FloatArray) -> TaskData:
-        return self.problem.task_data(t, targets, f, r, q_init, nominal)
+    def data(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, nominal: FloatArray,
+             term_values: dict[str, FloatArray] | None = None) -> TaskData:
+        return self.problem.task_data(t, targets, f, r, q_init, nominal, term_values)
 
     def start(self, q_guess: FloatArray, data: TaskData, warm: Iterate | None) -> Iterate:
         """A cold start from ``q_guess`` or ``warm`` (its barrier parameter at the floor)."""
@@ -47,9 +48,10 @@ class StagewiseSolver:
         return it
 
     def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,
-              nominal: FloatArray, warm: Iterate | None = None) -> Any:
+              nominal: FloatArray, warm: Iterate | None = None, term_values: dict[str, FloatArray] | None = None
+              ) -> SolverResult:
         """Solve to convergence (``warm``: the iterate of an earlier solve of this problem)."""
-        data = self.data(t, targets, f, r, q_init, nominal)
+        data = self.data(t, targets, f, r, q_init, nominal, term_values)
         begin = time.perf_counter()
         with single_threaded_blas():  # small dense factorizations: threads only wait (forte.planning.blas)
             res = self.ip.solve(self.start(q_guess, data, warm), data)
