@@ -97,6 +97,7 @@ class InteriorPoint:
                  max_iter: int = 200) -> None:
         self.pb, self.tol, self.constraint_tol, self.max_iter = problem, tol, constraint_tol, max_iter
         self.mu_min = tol / 10
+        self._trial: tuple | None = None  # the line search's accepted point: (y, f, c, data, alpha, dy)
         self.seconds: Counter[str] = Counter()  # factorization time, summed (kernel time: problem.kernels.clock)
         self._filter: list[tuple[float, float]] = []
         self._filter_mu = -1.0
@@ -137,9 +138,12 @@ class InteriorPoint:
 
     # -- evaluation -----------------------------------------------------------------------
     def evaluate(self, it: Iterate, data: TaskData) -> Evaluation:
+        """Objective, gradient, pose rows and Jacobian, slack residual at ``it`` (the objective and
+        pose rows of the line search's accepted trial point are reused: the same ``y``)."""
         pb = self.pb
-        return Evaluation(pb.objective(it.y, data), pb.gradient(it.y, data), pb.pose(it.y, data),
-                          pb.pose_jacobian(it.y, data), pb.A @ it.y + data.b - it.s)
+        hit = self._trial is not None and self._trial[0] is it.y and self._trial[3] is data
+        f, c = (self._trial[1], self._trial[2]) if hit else (pb.objective(it.y, data), pb.pose(it.y, data))
+        return Evaluation(f, pb.gradient(it.y, data), c, pb.pose_jacobian(it.y, data), pb.A @ it.y + data.b - it.s)
 
     def _dual_residual(self, ev: Evaluation, it: Iterate) -> FloatArray:
         pb = self.pb
@@ -280,7 +284,9 @@ class InteriorPoint:
 
     def _take(self, it: Iterate, dy: FloatArray, lam_new: FloatArray, ds: FloatArray, dzl: FloatArray,
               dzu: FloatArray, a_p: float, a_d: float, mu: float, data: TaskData) -> Iterate:
-        new = Iterate(it.y + a_p * dy, it.lam + a_p * (lam_new - it.lam), it.s + a_p * ds,
+        trial = self._trial
+        y = trial[0] if trial is not None and trial[5] is dy and trial[4] == a_p else it.y + a_p * dy
+        new = Iterate(y, it.lam + a_p * (lam_new - it.lam), it.s + a_p * ds,
                       it.zl + a_d * dzl, it.zu + a_d * dzu, mu)
         lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
         # IPOPT's safeguard: z stays within a factor kappa_sigma of mu / slack
@@ -363,11 +369,13 @@ class InteriorPoint:
             y = it.y + alpha * dy
             c = pb.pose(y, data)
             theta = float(np.abs(c).sum() + (1 - alpha) * np.abs(ev.rA).sum())
-            phi = self._barrier_objective(pb.objective(y, data), it.s + alpha * ds, data, mu)
+            f = pb.objective(y, data)
+            phi = self._barrier_objective(f, it.s + alpha * ds, data, mu)
             verdict = self._acceptable(theta, phi, theta0, phi0, slope, alpha)
             if verdict:
                 if verdict == "h":
                     self._filter.append((0.99999 * theta0, phi0 - 1e-8 * theta0))
+                self._trial = (y, f, c, data, alpha, dy)  # the next evaluation's objective and pose rows
                 return alpha
             if not soc_tried and theta >= theta0:  # second-order correction (Maratos effect)
                 soc_tried = True

@@ -99,7 +99,10 @@ class ReducedSystem:
     def _factor_solve(self, M: FloatArray, rhs: FloatArray, delta: float, U: FloatArray | None,
                       g: FloatArray | None) -> FloatArray:
         if not self.banded:
-            A = M + delta * np.eye(self.nr) if delta else M
+            A = M
+            if delta:
+                A = M.copy()
+                A.flat[:: self.nr + 1] += delta
             return sla.cho_solve(sla.cho_factor(A, lower=True, check_finite=False), rhs, check_finite=False)
         ab = M.copy()
         ab[0] += delta
