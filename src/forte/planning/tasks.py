@@ -55,7 +55,8 @@ from forte.planning.schema import (
     robot_section,
     rotation,
 )
-from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights, KinematicLimits, SolverOptions
+from forte.planning.weights_section import by_joint_name, weight_preset
+from forte.settings import CostWeights, KinematicLimits, SolverOptions
 from forte.validation import MAX_DURATION_S, MAX_FILE_BYTES, MAX_WAYPOINTS, FloatArray
 
 MODES = ("trajectory", "hold")
@@ -318,16 +319,16 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     if force_at is not None and reader.has("force_model"):
         raise reader.error("force_model", "sets a payload's force; this task gives its force profile directly")
     base_names = ("base_x", "base_y", "base_yaw")
-    _by_joint_name(reader, "weights", "joint_dof_weights", (*base_names, *robot.arm_joints),
+    by_joint_name(reader, "weights", "joint_dof_weights", (*base_names, *robot.arm_joints),
                    np.r_[np.zeros(N_BASE), np.ones(robot.n_arm)])
-    weights = dataclass_from(reader, "weights", CostWeights, _weight_preset(reader, mode))
+    weights = dataclass_from(reader, "weights", CostWeights, weight_preset(reader, mode))
     dof = reader.get("weights", {}).get("joint_dof_weights") if isinstance(reader.get("weights"), dict) else None
     if dof is not None and len(weights.joint_dof_weights or ()) != robot.nq:
         raise reader.sub("weights").error("joint_dof_weights", f"expected {robot.nq} values (x, y, yaw and the "
                                           f"{robot.n_arm} arm joints), got {len(weights.joint_dof_weights or ())}")
     solver = dataclass_from(reader, "solver", SolverOptions, SolverOptions())
     for key, default in (("arm_velocity", robot.model.velocityLimit), ("arm_acceleration", robot.acceleration_limits)):
-        _by_joint_name(reader, "limits", key, tuple(robot.arm_joints), default)
+        by_joint_name(reader, "limits", key, tuple(robot.arm_joints), default)
     limits = dataclass_from(reader, "limits", KinematicLimits, KinematicLimits())
     try:
         limits.resolve(robot)
@@ -347,40 +348,6 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                 targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots,
                 radius_rule=radius_rule, force_model=force_model, scene=scene_section(reader, base),
                 clearance=clearance_value(reader))
-
-
-def _by_joint_name(reader: Reader, block: str, key: str, names: tuple[str, ...], default: Any) -> None:
-    """A per-joint field given as ``{joint name: value}`` becomes the list in the robot's order
-    (joints left out keep ``default``'s value); a name the robot lacks is an error naming it."""
-    section = reader.get(block)
-    if not isinstance(section, dict) or not isinstance(section.get(key), dict):
-        return
-    sub = reader.sub(block)
-    given = section[key]
-    unknown = sorted(set(given) - set(names))
-    if unknown:
-        raise sub.error(key, f"no joint named {unknown[0]!r}; the robot's: {', '.join(names)}")
-    if default is None:
-        missing = [n for n in names if n not in given]
-        if missing:
-            raise sub.error(key, f"the robot gives no default: name every joint ({', '.join(missing)} missing)")
-        default = np.zeros(len(names))
-    values = np.array(default, dtype=float).copy()
-    for i, name in enumerate(names):
-        if name in given:
-            values[i] = Reader(given, reader.path, f"{sub.key(key)}.").number(name, nonnegative=True)
-    reader.data[block] = {**section, key: values.tolist()}  # the list the dataclass reader checks as usual
-
-
-def _weight_preset(reader: Reader, mode: str) -> CostWeights:
-    """The weight set named by ``weights.preset`` (default: the mode's, see ``DEFAULT_WEIGHT_SET``)."""
-    name = DEFAULT_WEIGHT_SET[mode]
-    section = reader.get("weights")
-    if isinstance(section, dict) and "preset" in section:
-        name = section["preset"]
-        if name not in WEIGHT_SETS:
-            raise reader.sub("weights").error("preset", f"expected one of {', '.join(WEIGHT_SETS)}, got {name!r}")
-    return WEIGHT_SETS[name]
 
 
 def _hold_pose(reader: Reader, robot: MobileManipulator, T0: FloatArray, teaching: FloatArray | None) -> FloatArray:

@@ -43,6 +43,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import sparse
 
+from forte.planning.solvers.line_search import FilterLineSearch, Trial
 from forte.planning.solvers.reduced_system import DENSE_VARIABLES, ReducedSystem
 from forte.planning.solvers.stage_problem import StageProblem, TaskData
 from forte.validation import FloatArray
@@ -97,11 +98,9 @@ class InteriorPoint:
                  max_iter: int = 200) -> None:
         self.pb, self.tol, self.constraint_tol, self.max_iter = problem, tol, constraint_tol, max_iter
         self.mu_min = tol / 10
-        self._trial: tuple | None = None  # the line search's accepted point: (y, f, c, data, alpha, dy)
+        self.line_search = FilterLineSearch(problem)
+        self._trial: Trial | None = None  # the line search's accepted point (its evaluation is reused)
         self.seconds: Counter[str] = Counter()  # factorization time, summed (kernel time: problem.kernels.clock)
-        self._filter: list[tuple[float, float]] = []
-        self._filter_mu = -1.0
-        self._theta_max = np.inf
         self._reduced_structure()
 
     def _reduced_structure(self) -> None:
@@ -141,8 +140,9 @@ class InteriorPoint:
         """Objective, gradient, pose rows and Jacobian, slack residual at ``it`` (the objective and
         pose rows of the line search's accepted trial point are reused: the same ``y``)."""
         pb = self.pb
-        hit = self._trial is not None and self._trial[0] is it.y and self._trial[3] is data
-        f, c = (self._trial[1], self._trial[2]) if hit else (pb.objective(it.y, data), pb.pose(it.y, data))
+        trial = self._trial
+        hit = trial is not None and trial.y is it.y and trial.data is data
+        f, c = (trial.f, trial.c) if hit else (pb.objective(it.y, data), pb.pose(it.y, data))
         return Evaluation(f, pb.gradient(it.y, data), c, pb.pose_jacobian(it.y, data), pb.A @ it.y + data.b - it.s)
 
     def _dual_residual(self, ev: Evaluation, it: Iterate) -> FloatArray:
@@ -275,17 +275,10 @@ class InteriorPoint:
         dzu = np.where(up, mu / su - it.zu + sig_u * ds, 0.0)
         return ds, dzl, dzu
 
-    def _barrier_objective(self, f: float, s: FloatArray, data: TaskData, mu: float) -> float:
-        lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
-        sl, su = (s - data.lower)[lo], (data.upper - s)[up]
-        if (sl <= 0).any() or (su <= 0).any():
-            return np.inf
-        return f - mu * (np.log(sl).sum() + np.log(su).sum())
-
     def _take(self, it: Iterate, dy: FloatArray, lam_new: FloatArray, ds: FloatArray, dzl: FloatArray,
               dzu: FloatArray, a_p: float, a_d: float, mu: float, data: TaskData) -> Iterate:
         trial = self._trial
-        y = trial[0] if trial is not None and trial[5] is dy and trial[4] == a_p else it.y + a_p * dy
+        y = trial.y if trial is not None and trial.dy is dy and trial.alpha == a_p else it.y + a_p * dy
         new = Iterate(y, it.lam + a_p * (lam_new - it.lam), it.s + a_p * ds,
                       it.zl + a_d * dzl, it.zu + a_d * dzu, mu)
         lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
@@ -342,75 +335,12 @@ class InteriorPoint:
         a_p, a_d = self._fraction_to_boundary(it, ds, dzl, dzu, parts, max(0.99, 1 - mu))
         if not line_search:
             return self._take(it, dy, lam_new, ds, dzl, dzu, a_p, a_d, mu, data), a_p, delta
-        alpha = self._line_search(it, ev, data, dy, ds, lam_new, parts, a_p)
-        if isinstance(alpha, tuple):  # a second-order correction was accepted
-            alpha, dy = alpha
+        alpha, accepted, self._trial = self.line_search.search(it, ev, data, dy, ds, parts, a_p)
+        if accepted is not dy:  # a second-order correction was accepted
+            dy = accepted
             ds, dzl, dzu = self._directions(it, ev, dy, parts, mu)
             a_d = min(a_d, self._fraction_to_boundary(it, ds, dzl, dzu, parts, max(0.99, 1 - mu))[1])
         return self._take(it, dy, lam_new, ds, dzl, dzu, alpha, a_d, mu, data), alpha, delta
-
-    def _line_search(self, it: Iterate, ev: Evaluation, data: TaskData, dy: FloatArray, ds: FloatArray,
-                     lam_new: FloatArray, parts: tuple, a_max: float) -> float | tuple[float, FloatArray]:
-        """IPOPT's filter line search (Waechter and Biegler 2006, simplified: no restoration phase;
-        the smallest step is taken when every trial fails): a trial point is accepted when it
-        decreases the barrier objective enough (Armijo, where the step is a descent direction
-        and the violation is small) or when it decreases the violation or the objective against
-        every filter entry; one second-order correction of the pose rows on the first rejection."""
-        pb, mu = self.pb, it.mu
-        _, _, _, sl, su, lo, up, Y, R = parts
-        theta0 = float(np.abs(ev.c).sum() + np.abs(ev.rA).sum())
-        phi0 = self._barrier_objective(ev.f, it.s, data, mu)
-        slope = float(ev.grad @ dy - mu * (ds[lo] / sl[lo]).sum() + mu * (ds[up] / su[up]).sum())
-        if self._filter_mu != mu:  # a new barrier problem: a new filter
-            self._filter, self._filter_mu = [], mu
-            self._theta_max = 1e4 * max(1.0, theta0)
-        alpha, soc_tried = a_max, False
-        for _ in range(30):
-            y = it.y + alpha * dy
-            c = pb.pose(y, data)
-            theta = float(np.abs(c).sum() + (1 - alpha) * np.abs(ev.rA).sum())
-            f = pb.objective(y, data)
-            phi = self._barrier_objective(f, it.s + alpha * ds, data, mu)
-            verdict = self._acceptable(theta, phi, theta0, phi0, slope, alpha)
-            if verdict:
-                if verdict == "h":
-                    self._filter.append((0.99999 * theta0, phi0 - 1e-8 * theta0))
-                self._trial = (y, f, c, data, alpha, dy)  # the next evaluation's objective and pose rows
-                return alpha
-            if not soc_tried and theta >= theta0:  # second-order correction (Maratos effect)
-                soc_tried = True
-                corr = np.zeros((pb.blocks, pb.nq))
-                corr[pb.posed_block] = np.einsum("pij,pj->pi", Y, -np.linalg.solve(R.transpose(0, 2, 1),
-                                                                                   c[..., None])[..., 0])
-                dy2 = dy + corr.ravel() / max(alpha, 1e-12)
-                y2 = it.y + alpha * dy2
-                c2 = pb.pose(y2, data)
-                theta2 = float(np.abs(c2).sum() + (1 - alpha) * np.abs(ev.rA).sum())
-                ds2 = pb.A @ dy2 + ev.rA  # the slacks follow the corrected step
-                phi2 = self._barrier_objective(pb.objective(y2, data), it.s + alpha * ds2, data, mu)
-                verdict = self._acceptable(theta2, phi2, theta0, phi0, slope, alpha)
-                if verdict:
-                    if verdict == "h":
-                        self._filter.append((0.99999 * theta0, phi0 - 1e-8 * theta0))
-                    return alpha, dy2
-            alpha /= 2
-            if alpha < 1e-10:
-                break
-        return alpha
-
-    def _acceptable(self, theta: float, phi: float, theta0: float, phi0: float, slope: float,
-                    alpha: float) -> str:
-        """"f" (an Armijo step of the objective), "h" (a filter step), or "" (rejected)."""
-        if not np.isfinite(phi) or theta >= self._theta_max:
-            return ""
-        if any(theta >= t and phi >= f for t, f in self._filter):
-            return ""
-        switching = slope < 0 and alpha * (-slope) ** 2.3 > theta0 ** 1.1
-        if switching and theta0 <= 1e-4 * max(1.0, self._theta_max / 1e4):
-            return "f" if phi <= phi0 + 1e-4 * alpha * slope else ""
-        if theta <= (1 - 1e-5) * theta0 or phi <= phi0 - 1e-8 * theta0:
-            return "h" if not (switching and phi <= phi0 + 1e-4 * alpha * slope) else "f"
-        return ""
 
     def solve(self, it: Iterate, data: TaskData, max_iter: int | None = None) -> IPResult:
         """Iterate from ``it`` until IPOPT's convergence test holds (or ``max_iter``)."""
@@ -437,7 +367,7 @@ class InteriorPoint:
 
     def reset(self) -> None:
         """Forget the filter and the last inertia correction (a new solve)."""
-        self._filter, self._filter_mu = [], -1.0
+        self.line_search.reset()
         self.system.reset()
 
     def real_time_iteration(self, it: Iterate, data: TaskData) -> tuple[Iterate, Evaluation]:
