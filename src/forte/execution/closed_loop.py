@@ -84,7 +84,7 @@ class PayloadLoop:
         self.torque_model = WholeBodyTorqueModel(self.sim)
         self.plan_t = self.replanner.task.t.copy()
         self.plan_q = self.replanner.last.q.copy()
-        self.estimates: list[tuple[float, float, float]] = []  # (t, payload kg, sigma) every 100 steps
+        self.estimates: list[tuple[float, float, float | None]] = []  # (t, payload kg, sigma) every 100 steps
         self.mass_added = False
 
     def _identify(self, k: int, q: FloatArray, dq: FloatArray) -> float:
@@ -214,4 +214,9 @@ def task_of_plan(plan_dir: Path, plan: Any) -> Any:
 def make_replan_loop(plan_dir: Path, plan: Any, sim: SimModel, reference: Reference,
                      options: ReplanOptions) -> ReplanLoop:
     """A :class:`ReplanLoop` for the plan in ``plan_dir`` (its method, its task)."""
-    return ReplanLoop(sim, reference, Replanner(task_of_plan(plan_dir, plan), plan.method), options)
+    return ReplanLoop(sim, reference, replanner_of_plan(plan_dir, plan), options)
+
+
+def replanner_of_plan(plan_dir: Path, plan: Any) -> Replanner:
+    """A warm :class:`~forte.planning.replan.Replanner` of the plan in ``plan_dir`` (its method, its task)."""
+    return Replanner(task_of_plan(plan_dir, plan), plan.method)
