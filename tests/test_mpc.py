@@ -135,14 +135,21 @@ def test_mpc_follows_the_plan_and_reports_its_ticks(short_plan, capsys):
 
 
 @pytest.mark.slow
-def test_mpc_carries_the_misjudged_lift_that_fails_open_loop(tmp_path):
-    plan_dir = tmp_path / "light"
-    assert main(["plan", str(ROOT / "examples" / "tasks" / "lift.yaml"), "--mass", "0.35", "--out", str(plan_dir),
-                 "--quiet", "--no-figures"]) == 0
-    open_loop = simulate_plan(plan_dir, mass=2.7, write=False, stop_on_failure=True)
-    assert not open_loop.success and open_loop.reason == "torque saturation"
-    result = simulate_plan(plan_dir, mass=2.7, write=False, stop_on_failure=True,
-                           mpc=MpcOptions(on_miss="delay"))
-    mpc = result.summary["mpc"]
-    assert result.success, result.detail
-    assert mpc["ticks"] == 1101 and mpc["published"] > 0 and abs(mpc["final_mass_estimate"] - 2.7) < 0.01
+def test_the_experiment_carries_the_misjudged_lift_under_mpc_that_fails_open_loop(tmp_path):
+    from forte.experiments import run_mpc
+    from forte.experiments.mpc import SCENARIOS
+
+    misjudged = next(iter(SCENARIOS))
+    doc = run_mpc(tmp_path / "mpc", scenarios=(misjudged,), modes=("open loop", "MPC 100 Hz, misses delayed"),
+                  trials=1)
+    runs = doc["runs"][misjudged]
+    assert not runs["open loop"]["success"] and runs["open loop"]["reason"] == "torque saturation"
+    mpc = runs["MPC 100 Hz, misses delayed"]
+    assert mpc["success"], mpc["detail"]
+    assert mpc["mpc"]["ticks"] == 1101 and mpc["mpc"]["published"] > 0 and mpc["mpc"]["on_miss"] == "delay"
+    assert abs(mpc["mpc"]["final_mass_estimate"] - 2.7) < 0.01
+    assert (tmp_path / "mpc" / "mpc.png").is_file() and doc["generator"] == "forte"
+    text = (tmp_path / "mpc" / "summary.md").read_text()
+    assert "| scenario | mode |" in text and "fails with 'open loop'" in text and "| success | 1 of 1 |" in text
+    with pytest.raises(InvalidInputError, match="scenarios: unknown"):
+        run_mpc(tmp_path / "other", scenarios=("sideways",))

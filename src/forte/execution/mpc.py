@@ -24,7 +24,8 @@ of simulated time (100 Hz: every 10th 1 ms control step) and at each tick
    ``1 / rate_hz``; measured: the wall-clock latency of the re-plan call, its verdict excluded)
    by splicing it into the controller's reference from the horizon's first waypoint on. A
    solve that does not converge is never published (the plan in force stays; counted as
-   *failed*; the same failed problem is not tried again). A solve over its deadline is a
+   *failed*; no solve is tried again before the next waypoint unless the mass departs from the
+   failed one). A solve over its deadline is a
    *miss*: with ``on_miss="drop"`` the plan in force stays and the next tick solves again from
    the planner's newest point; with ``on_miss="delay"`` it is published at the first tick at
    which simulated time has caught up with the solve's wall time, and no solve starts
@@ -33,8 +34,11 @@ of simulated time (100 Hz: every 10th 1 ms control step) and at each tick
 Simulated time stands still while the planner solves; the wall-clock time of every solve is
 measured (on a shared machine it varies from run to run). The log has one entry per tick: time,
 mass estimate, the mass of the plan in force, ``min_d`` (the smallest margin ``d`` of the plan in
-force over its waypoints after the tick, at the mass it was planned for), the solve's kind and time,
-whether it missed its deadline and whether a plan was published.
+force over its waypoints after the tick, at the mass it was planned for, with the derivatives of
+the executed waypoint sequence: a shifted plan's own metrics start it at rest at its first
+waypoint, which makes the margin of the next waypoint mid-motion look several newtons worse than
+what is executed), the solve's kind and time, whether it missed its deadline and whether a plan
+was published.
 """
 
 from __future__ import annotations
@@ -51,6 +55,7 @@ from forte.exceptions import InvalidInputError
 from forte.execution.closed_loop import MIN_PAYLOAD, PayloadLoop, replanner_of_plan
 from forte.execution.control import Reference
 from forte.execution.model import SimModel
+from forte.force.taskforce import TaskForce
 from forte.planning.planner import evaluate
 from forte.planning.replan import ReplanResult
 from forte.validation import FloatArray
@@ -156,7 +161,7 @@ class MpcLoop(PayloadLoop):
         self.queued = list(self.options.estimates)
         self.arrived: list[dict[str, float]] = []
         self.pending: Pending | None = None
-        self.failed_key: tuple[str, int, float] | None = None
+        self.failed: tuple[int, float] | None = None  # waypoint and mass of the last failed solve
         self.busy_ticks = 0
 
     def __call__(self, k: int, q: FloatArray, dq: FloatArray) -> None:
@@ -213,15 +218,14 @@ class MpcLoop(PayloadLoop):
             kind, steps = "resolve", 0
         else:
             return
-        key = (kind, i, target)
-        if key == self.failed_key:
-            return  # this problem failed already: the plan in force stays
+        if self.failed is not None and self.failed[0] == i and not self._departs(target, self.failed[1]):
+            return  # failed at this waypoint for this mass already: the plan in force stays until the next
         result = self._solve_tick(kind, steps, q if kind == "shift" else None, target)
         missed = result.latency_s > self.options.deadline
         entry.update(kind=kind, solve_s=result.latency_s, iterations=result.iterations, missed=missed,
                      solved=result.plan.solved, verdict=result.plan.label)
         if not result.plan.solved:
-            self.failed_key = key
+            self.failed = (i, target)
             return
         self.horizon += steps
         done = Pending(t + result.latency_s, self.horizon, target, result)
@@ -241,20 +245,32 @@ class MpcLoop(PayloadLoop):
     def _target_mass(self) -> float:
         """The mass to solve for: the newest estimate when it departs from the plan in force's."""
         m = max(self.mass, MIN_PAYLOAD)  # a transient estimate below zero means "(almost) nothing"
-        planned = self.published[1]
+        return m if self._departs(m, self.published[1]) else self.published[1]
+
+    def _departs(self, m: float, ref: float) -> bool:
+        """``m`` differs from ``ref`` by ``max(threshold ref, 3 sigma, min_change)`` or more."""
         sigma = self.identifier.sigma if self.options.identify else 0.0
-        if abs(m - planned) < max(self.options.threshold * planned, 3 * sigma, self.options.min_change):
-            return planned
-        return m
+        return abs(m - ref) >= max(self.options.threshold * ref, 3 * sigma, self.options.min_change)
 
     def _publish(self, k: int, done: Pending) -> bool:
         """Splice a converged solve into the reference after step ``k``."""
         plan = done.result.plan
-        n = self.plan_t.size
         self._splice(k, done.start, plan.q, plan.force.f)
-        self.plan_d = np.concatenate([self.plan_d[:done.start], plan.metrics["d"][: n - done.start]])
+        self.plan_d = self._executed_margin(done.start, plan)
         self.published = (done.start, done.mass)
         return True
+
+    def _executed_margin(self, start: int, plan: Any) -> FloatArray:
+        """The margins of the waypoints in force (after a splice from ``start``): the past ones as they
+        were, the new plan's evaluated after the waypoints before it, not at rest as the shifted plan's
+        own metrics have its first waypoint (:meth:`~forte.planning.replan.Replanner.shift`)."""
+        m = self.plan_t.size - start
+        f = np.concatenate([np.repeat(plan.force.f[:1], start, axis=0), plan.force.f[:m]])
+        r = np.concatenate([np.repeat(plan.force.r[:1], start), plan.force.r[:m]])
+        task = self.replanner.task
+        d = evaluate(task.robot, self.plan_q, self.plan_t, TaskForce(self.plan_t, f, r),
+                     task.weights.capability_params)["d"]
+        return np.concatenate([self.plan_d[:start], d[start:]])
 
     def _remaining_min_d(self, t: float) -> float:
         """The smallest margin of the plan in force over its waypoints after ``t`` (the last one at the end)."""
