@@ -12,6 +12,7 @@ EXPERIMENTS: dict[str, tuple[str, str]] = {
     "lift": ("run_lift", "5.3, lifting with 0.33 L and 2.7 L payloads"),
     "hold": ("run_hold", "5.4, single-point holding with 0.33 L and 2.7 L payloads"),
     "replan": ("run_replan", "6 (future work), online re-planning with a misjudged or growing payload"),
+    "mpc": ("run_mpc", "6 (future work), forte as a 100 Hz MPC against open loop and the 10 Hz re-planner"),
 }
 #: Figure formats (the same as :data:`forte.experiments.common.FORMATS`, kept here so that
 #: ``forte --help`` does not import the planner).
@@ -34,7 +35,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, help="output directory (default runs/experiments/NAME)")
     p.add_argument("--trials", type=int,
                    help="simulation trials with a random +-10%% payload-mass error (continuous: planning repeats); "
-                   "default: the paper's (lift, hold: 3; continuous: 6; replan runs once)")
+                   "default: the paper's (lift, hold: 3; continuous: 6; replan runs once; mpc: 3 runs of each MPC "
+                   "mode, whose outcome depends on the solve times)")
     p.add_argument("--waypoints", type=int, help="number of waypoints N (default: the task file's)")
     p.add_argument("--seed", type=int, default=0, help="seed of the mass errors (default 0)")
     p.add_argument("--format", dest="fmt", choices=FORMATS, default="png",

@@ -75,7 +75,21 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "--replan-rate when the estimate departs from the plan's mass")
     p.add_argument("--replan-rate", type=float, default=10.0, metavar="HZ", help="re-plan check rate (10 Hz)")
     p.add_argument("--add-mass", type=_time_and_mass, default=None, metavar="T:KG",
-                   help="the payload gains KG kilograms at time T seconds (with or without --replan)")
+                   help="the payload gains KG kilograms at time T seconds (with or without --replan, --mpc)")
+    p.add_argument("--mpc", type=float, default=None, metavar="HZ",
+                   help="model-predictive control: re-solve the remaining motion at HZ (simulated time) from the "
+                   "measured state for the newest payload estimate; a solve over its 1/HZ deadline is a miss "
+                   "(not with --replan)")
+    p.add_argument("--on-miss", choices=("drop", "delay"), default=None,
+                   help="--mpc: a solve over its deadline is dropped (default), or published once simulated time "
+                   "has caught up with its wall-clock time (the solver busy meanwhile)")
+    p.add_argument("--deadline", type=float, default=None, metavar="S",
+                   help="--mpc: wall-clock budget of a solve in seconds (default 1/HZ)")
+    p.add_argument("--estimate-at", type=_time_and_mass, action="append", default=None, metavar="T:KG",
+                   help="--mpc: an asynchronous payload estimate of KG kilograms (e.g. a VLM answer) arrives at "
+                   "time T seconds (repeatable)")
+    p.add_argument("--no-identify", action="store_true",
+                   help="--mpc: no identification from the joint torques: only --estimate-at changes the mass")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=run)
 
@@ -99,6 +113,28 @@ def _replan_options(args: argparse.Namespace) -> object | None:
     return ReplanOptions(rate_hz=args.replan_rate, add_mass=args.add_mass, enabled=args.replan)
 
 
+def _mpc_options(args: argparse.Namespace) -> object | None:
+    mpc_only = (("--on-miss", args.on_miss is not None), ("--deadline", args.deadline is not None),
+                ("--estimate-at", bool(args.estimate_at)), ("--no-identify", args.no_identify))
+    if args.mpc is None:
+        for flag, given in mpc_only:
+            if given:
+                raise InvalidInputError(f"{flag}: applies to --mpc runs only")
+        return None
+    if args.replan:
+        raise InvalidInputError("--mpc: expected one closed loop, got --replan too")
+    from forte.execution.mpc import MpcOptions
+
+    try:
+        return MpcOptions(rate_hz=args.mpc, deadline_s=args.deadline, on_miss=args.on_miss or "drop",
+                          identify=not args.no_identify, add_mass=args.add_mass,
+                          estimates=tuple(args.estimate_at or ()))
+    except InvalidInputError as exc:  # name the flag, not the field
+        field, _, rest = str(exc).partition(": ")
+        flag = {"rate_hz": "--mpc", "deadline_s": "--deadline"}.get(field, field)
+        raise InvalidInputError(f"{flag}: {rest}") from None
+
+
 def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
@@ -109,6 +145,7 @@ def run(args: argparse.Namespace) -> int:
     if args.video is not None and args.video.suffix.lower() != ".mp4":
         raise InvalidInputError(f"--video: expected a .mp4 file name, got {args.video}")
     _check_arguments(args)
+    mpc = _mpc_options(args)
     th = Thresholds()
     overrides = {k: v for k, v in (("sag", args.sag), ("drop_sag", args.drop_sag),
                                    ("saturation_time", args.saturation_time)) if v is not None}
@@ -128,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
             args.plan_dir, args.mass, force_feedforward=False if args.no_force else None,
             out_dir=args.out, gains=gains, thresholds=th, hold=args.hold,
             stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video, viewer=args.viewer,
-            replan=_replan_options(args), reference=args.reference,
+            replan=None if mpc is not None else _replan_options(args), reference=args.reference, mpc=mpc,
         )
     s = result.summary
     if not args.quiet and s.get("plan_verdict") not in (None, "feasible"):
@@ -145,11 +182,23 @@ def run(args: argparse.Namespace) -> int:
                    f"max {1000 * r['latency_max_s']:.0f} ms" if r["replans"] else "")
         print(f"payload estimate {r['final_mass_estimate']:.3f} kg (sigma {r['final_sigma']:.4f}); "
               f"{r['replans']} re-plans ({r['replans_failed']} not converged){latency}", file=sys.stderr)
+    if "mpc" in s and not args.quiet:
+        print(_mpc_line(s["mpc"]), file=sys.stderr)
     if result.success:
         return 0
     print(f"failure at t = {result.failure_time:.3f} s: {result.reason} ({result.detail}){_touched(result)}; "
           f"wrote {out}/sim.csv, {out}/sim.json", file=sys.stderr)
     return 1
+
+
+def _mpc_line(m: dict[str, Any]) -> str:
+    """The one console line of an MPC run."""
+    times = (f"; solve time median {1000 * m['solve_median_s']:.1f} ms, p95 {1000 * m['solve_p95_s']:.1f} ms, "
+             f"max {1000 * m['solve_max_s']:.1f} ms" if m["solves"] else "")
+    estimate = "" if m["final_sigma"] is None else f" (sigma {m['final_sigma']:.4f})"
+    return (f"MPC at {m['rate_hz']:g} Hz: {m['ticks']} ticks, {m['solves']} solves ({m['published']} published, "
+            f"{m['misses']} over the {1000 * m['deadline_s']:g} ms deadline, {m['failed']} not converged){times}; "
+            f"min d {m['min_d']:.2f} N; payload estimate {m['final_mass_estimate']:.3f} kg{estimate}")
 
 
 def _touched(result: Any, shown: int = 3) -> str:

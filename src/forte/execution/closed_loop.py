@@ -64,15 +64,16 @@ class ReplanOptions:
 
 
 @dataclass
-class ReplanLoop:
-    """The after-step hook of a closed-loop run (see the module docstring)."""
+class PayloadLoop:
+    """What the closed loops share (re-planning here, MPC in :mod:`forte.execution.mpc`): the payload
+    identified online, a payload that grows mid-motion, a new plan spliced into the reference.
+
+    A subclass calls :meth:`_identify` and :meth:`_maybe_add_mass` from its after-step ``__call__``.
+    """
 
     sim: SimModel
     reference: Reference
     replanner: Replanner
-    options: ReplanOptions = field(default_factory=ReplanOptions)
-    log: list[dict[str, Any]] = field(default_factory=list)
-    estimates: list[tuple[float, float, float]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         # the identifier sees everything carried at the end effector: the payload and the robot's
@@ -83,14 +84,12 @@ class ReplanLoop:
         self.torque_model = WholeBodyTorqueModel(self.sim)
         self.plan_t = self.replanner.task.t.copy()
         self.plan_q = self.replanner.last.q.copy()
-        self.offset = 0  # waypoints the planner's horizon has moved
-        self.every = max(1, int(round(1.0 / (self.options.rate_hz * self.sim.timestep))))
+        self.estimates: list[tuple[float, float, float | None]] = []  # (t, payload kg, sigma) every 100 steps
         self.mass_added = False
 
-    def __call__(self, k: int, q: FloatArray, dq: FloatArray) -> None:
-        """After step ``k`` (state ``q, dq`` before it): identify, maybe re-plan, maybe add mass."""
+    def _identify(self, k: int, q: FloatArray, dq: FloatArray) -> float:
+        """Feed step ``k`` (state ``q, dq`` before it) to the identifier; the payload estimate (kg)."""
         sim = self.sim
-        t = k * sim.timestep
         qpos = sim.data.qpos.copy()
         qpos[sim.qpos_idx] = q  # the state the step started from (qacc belongs to it)
         qvel = sim.data.qvel.copy()
@@ -99,13 +98,11 @@ class ReplanLoop:
         m = self.identifier.add(*self.torque_model(qpos, qvel, sim.data.qacc, sim.data.qfrc_actuator[arm]))
         m -= self.tool_mass  # the payload
         if k % 100 == 0:
-            self.estimates.append((t, m, self.identifier.sigma))
-        self._maybe_add_mass(t)
-        if self.options.enabled and k % self.every == 0 and k > 0:
-            self._maybe_replan(k, m)
+            self.estimates.append((k * sim.timestep, m, self.identifier.sigma))
+        return m
 
-    def _maybe_add_mass(self, t: float) -> None:
-        add = self.options.add_mass
+    def _maybe_add_mass(self, t: float, add: tuple[float, float] | None) -> None:
+        """At time ``t``: the payload gains ``add[1]`` kg once ``t >= add[0]`` (``add``: none)."""
         if add is None or self.mass_added or t < add[0] or self.sim.payload_body < 0:
             return
         body = self.sim.payload_body
@@ -113,6 +110,43 @@ class ReplanLoop:
         self.sim.model.body_mass[body] = old + add[1]
         self.sim.model.body_inertia[body] *= (old + add[1]) / max(old, 1e-9)
         self.mass_added = True
+
+    def _splice(self, k: int, j: int, new_q: FloatArray, new_f: FloatArray) -> None:
+        """Future reference from the new plan (its first waypoint is waypoint ``j`` of the grid)."""
+        n = self.plan_t.size
+        combined = np.concatenate([self.plan_q[:j], new_q[: n - j]])
+        force = np.concatenate([_force_at(self.reference, self.plan_t[:j]), new_f[: n - j]])
+        ref = interpolate_plan(self.plan_t, combined, self.reference.t, self.plan_t, force)
+        future = slice(k + 1, None)
+        for name in ("q", "dq", "ddq", "f"):
+            getattr(self.reference, name)[future] = getattr(ref, name)[future]
+        self.plan_q = combined
+
+    def _estimate_summary(self) -> dict[str, Any]:
+        """The final payload estimate and the estimates every 100 steps."""
+        _, m, s = self.estimates[-1] if self.estimates else (0.0, float("nan"), float("nan"))
+        return {"final_mass_estimate": m, "final_sigma": s,
+                "estimates": [{"t": t, "mass": m, "sigma": s} for t, m, s in self.estimates]}
+
+
+@dataclass
+class ReplanLoop(PayloadLoop):
+    """The after-step hook of a closed-loop run (see the module docstring)."""
+
+    options: ReplanOptions = field(default_factory=ReplanOptions)
+    log: list[dict[str, Any]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        self.offset = 0  # waypoints the planner's horizon has moved
+        self.every = max(1, int(round(1.0 / (self.options.rate_hz * self.sim.timestep))))
+
+    def __call__(self, k: int, q: FloatArray, dq: FloatArray) -> None:
+        """After step ``k`` (state ``q, dq`` before it): identify, maybe re-plan, maybe add mass."""
+        m = self._identify(k, q, dq)
+        self._maybe_add_mass(k * self.sim.timestep, self.options.add_mass)
+        if self.options.enabled and k % self.every == 0 and k > 0:
+            self._maybe_replan(k, m)
 
     def _maybe_replan(self, k: int, m: float) -> None:
         m = max(m, MIN_PAYLOAD)  # a transient estimate below zero means "(almost) nothing"
@@ -135,28 +169,15 @@ class ReplanLoop:
         self.offset = j
         self._splice(k, j, result.plan.q, result.plan.force.f)
 
-    def _splice(self, k: int, j: int, new_q: FloatArray, new_f: FloatArray) -> None:
-        """Future reference from the new plan (its first waypoint is waypoint ``j`` of the grid)."""
-        n = self.plan_t.size
-        combined = np.concatenate([self.plan_q[:j], new_q[: n - j]])
-        force = np.concatenate([_force_at(self.reference, self.plan_t[:j]), new_f[: n - j]])
-        ref = interpolate_plan(self.plan_t, combined, self.reference.t, self.plan_t, force)
-        future = slice(k + 1, None)
-        for name in ("q", "dq", "ddq", "f"):
-            getattr(self.reference, name)[future] = getattr(ref, name)[future]
-        self.plan_q = combined
-
     def summary(self) -> dict[str, Any]:
         """Re-plan count and latency statistics, final estimate."""
         lat = np.array([e["latency_s"] for e in self.log]) if self.log else np.zeros(0)
-        t, m, s = self.estimates[-1] if self.estimates else (0.0, float("nan"), float("nan"))
         return {
             "replans": len(self.log), "replans_failed": sum(not e["success"] for e in self.log),
             "latency_median_s": float(np.median(lat)) if lat.size else None,
             "latency_p95_s": float(np.percentile(lat, 95)) if lat.size else None,
             "latency_max_s": float(lat.max()) if lat.size else None,
-            "final_mass_estimate": m, "final_sigma": s, "log": self.log,
-            "estimates": [{"t": t, "mass": m, "sigma": s} for t, m, s in self.estimates],
+            "log": self.log, **self._estimate_summary(),
         }
 
 
@@ -164,7 +185,6 @@ def _force_at(reference: Reference, times: FloatArray) -> FloatArray:
     """The reference's task force at ``times`` (nearest control step)."""
     idx = np.clip(np.searchsorted(reference.t, times), 0, reference.t.size - 1)
     return reference.f[idx]
-
 
 
 def task_of_plan(plan_dir: Path, plan: Any) -> Any:
@@ -194,4 +214,9 @@ def task_of_plan(plan_dir: Path, plan: Any) -> Any:
 def make_replan_loop(plan_dir: Path, plan: Any, sim: SimModel, reference: Reference,
                      options: ReplanOptions) -> ReplanLoop:
     """A :class:`ReplanLoop` for the plan in ``plan_dir`` (its method, its task)."""
-    return ReplanLoop(sim, reference, Replanner(task_of_plan(plan_dir, plan), plan.method), options)
+    return ReplanLoop(sim, reference, replanner_of_plan(plan_dir, plan), options)
+
+
+def replanner_of_plan(plan_dir: Path, plan: Any) -> Replanner:
+    """A warm :class:`~forte.planning.replan.Replanner` of the plan in ``plan_dir`` (its method, its task)."""
+    return Replanner(task_of_plan(plan_dir, plan), plan.method)

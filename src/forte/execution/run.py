@@ -182,6 +182,7 @@ def simulate_plan(
     write: bool = True,
     replan: Any = None,
     reference: str = "spline",
+    mpc: Any = None,
 ) -> SimResult:
     """Simulate the plan in ``plan_dir`` and (with ``write``) store ``sim.csv`` and ``sim.json``.
 
@@ -218,6 +219,10 @@ def simulate_plan(
             run (and after writing the results) wait until the user closes the window.
         replan: :class:`~forte.execution.closed_loop.ReplanOptions` to identify the payload
             online and re-plan the remaining motion (:mod:`forte.execution.closed_loop`).
+        mpc: :class:`~forte.execution.mpc.MpcOptions` to run the plan under model-predictive
+            control: the remaining motion re-solved at a fixed rate from the measured state, with
+            online identification and asynchronous payload estimates (:mod:`forte.execution.mpc`);
+            not with ``replan``.
         reference: How the waypoints become the controller's reference: ``"spline"`` (clamped
             cubic spline) or ``"plan"`` (the plan's own backward-difference velocities and
             accelerations at every waypoint); see :mod:`forte.execution.reference`.
@@ -238,6 +243,8 @@ def simulate_plan(
         TaskFileError: malformed plan directory; InvalidInputError: bad gains mapping or
         arguments; SimulationError: model or rendering problems, no display for ``viewer``.
     """
+    if replan is not None and mpc is not None:
+        raise InvalidInputError("replan, mpc: expected one closed loop, got both")
     plan = read_plan_dir(plan_dir)
     robot = plan.robot if torque_limits is None else with_torque_limits(plan.robot, torque_limits)
     true_mass = plan.payload.mass if mass is None else check_mass(mass)
@@ -260,6 +267,10 @@ def simulate_plan(
         from forte.execution.closed_loop import make_replan_loop
 
         loop = make_replan_loop(Path(plan_dir), plan, sim, reference, replan)
+    elif mpc is not None:
+        from forte.execution.mpc import make_mpc_loop
+
+        loop = make_mpc_loop(Path(plan_dir), plan, sim, reference, mpc)
     result = run_simulation(
         sim, reference, gains=gains, thresholds=thresholds,
         reaction_force=plan.payload.mass is None and plan.force is not None and bool(np.any(plan.force.f)),
@@ -270,7 +281,7 @@ def simulate_plan(
     result.summary["force_feedforward_share"] = force_share if gains.force_feedforward else 0.0
     result.summary["reference"] = reference_kind
     if loop is not None:
-        result.summary["replanning"] = loop.summary()
+        result.summary["mpc" if mpc is not None else "replanning"] = loop.summary()
     if recorder is not None:
         result.summary["rendered"] = [str(p) for p in recorder.finish()]
     if write:
