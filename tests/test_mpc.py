@@ -78,7 +78,8 @@ def test_an_async_estimate_is_applied_at_the_first_tick_at_or_after_its_time(sho
         return 1.5 if len(polled) == 50 else None
 
     # a deadline no solve misses: what is published here does not depend on the machine's speed
-    _, mpc = _mpc(short_plan, rate_hz=30, deadline_s=10.0, identify=False, estimates=((0.8, 2.7),), source=source)
+    _, mpc = _mpc(short_plan, rate_hz=30, deadline_s=10.0, identify=False, estimates=((0.8, 2.7),), source=source,
+                  solver="converged")  # a converged solve publishes the new mass at once (a real-time step may not)
     log = mpc["log"]
     before = [e for e in log if e["t"] < 0.8]
     first = next(e for e in log if e["t"] >= 0.8)
@@ -94,7 +95,7 @@ def test_an_async_estimate_is_applied_at_the_first_tick_at_or_after_its_time(sho
 
 def test_a_failed_solve_is_never_published_and_is_counted(short_plan):
     # 200 kg needs more than the task's 20 IPOPT iterations from the 0.35 kg solution (and cold)
-    _, mpc = _mpc(short_plan, identify=False, estimates=((0.5, 200.0),))
+    _, mpc = _mpc(short_plan, identify=False, estimates=((0.5, 200.0),), solver="converged", backend="ipopt")
     log = mpc["log"]
     failed = [i for i, e in enumerate(log) if e["kind"] is not None and not e["solved"]]
     assert failed and mpc["failed"] == len(failed)
@@ -132,7 +133,7 @@ def test_mpc_follows_the_plan_and_reports_its_ticks(short_plan, capsys):
     assert mpc["misses"] == 0 and mpc["failed"] == 0 and mpc["published"] == mpc["solves"]
     assert mpc["solve_median_s"] <= mpc["solve_p95_s"] <= mpc["solve_max_s"]
     assert abs(mpc["final_mass_estimate"] - 0.35) < 0.01 and mpc["min_d"] > 0
-    assert "MPC at 100 Hz: 521 ticks" in err and "over the 10000 ms deadline" in err
+    assert "MPC at 100 Hz (real-time iterations): 521 ticks" in err and "over the 10000 ms deadline" in err
 
 
 @pytest.mark.slow
@@ -141,16 +142,32 @@ def test_the_experiment_carries_the_misjudged_lift_under_mpc_that_fails_open_loo
     from forte.experiments.mpc import SCENARIOS
 
     misjudged = next(iter(SCENARIOS))
-    doc = run_mpc(tmp_path / "mpc", scenarios=(misjudged,), modes=("open loop", "MPC 100 Hz, misses delayed"),
+    doc = run_mpc(tmp_path / "mpc", scenarios=(misjudged,), modes=("open loop", "MPC 100 Hz, real-time iterations"),
                   trials=1)
     runs = doc["runs"][misjudged]
     assert not runs["open loop"]["success"] and runs["open loop"]["reason"] == "torque saturation"
-    mpc = runs["MPC 100 Hz, misses delayed"]
+    mpc = runs["MPC 100 Hz, real-time iterations"]
     assert mpc["success"], mpc["detail"]
-    assert mpc["mpc"]["ticks"] == 1101 and mpc["mpc"]["published"] > 0 and mpc["mpc"]["on_miss"] == "delay"
+    assert mpc["mpc"]["ticks"] == 1101 and mpc["mpc"]["published"] > 0 and mpc["mpc"]["solver"] == "rti"
     assert abs(mpc["mpc"]["final_mass_estimate"] - 2.7) < 0.01
     assert (tmp_path / "mpc" / "mpc.png").is_file() and doc["generator"] == "forte"
     text = (tmp_path / "mpc" / "summary.md").read_text()
     assert "| scenario | mode |" in text and "fails with 'open loop'" in text and "| success | 1 of 1 |" in text
     with pytest.raises(InvalidInputError, match="scenarios: unknown"):
         run_mpc(tmp_path / "other", scenarios=("sideways",))
+
+
+def test_real_time_iterations_carry_a_misjudged_payload_and_never_publish_an_unsound_step(short_plan):
+    """One Newton step per tick after the payload turns out 2.7 kg: the steps right after the jump
+    leave pose errors above the tolerance (not published, the plan in force stays), later ones are
+    published; every step is a real-time iteration (0 or 1 Newton steps)."""
+    result, mpc = _mpc(short_plan, deadline_s=10.0, identify=False, estimates=((0.3, 2.7),))
+    log = mpc["log"]
+    steps = [e for e in log if e["kind"] is not None]
+    unsound = [i for i, e in enumerate(log) if e["kind"] is not None and not e["solved"]]
+    assert unsound and mpc["failed"] == len(unsound) and all(log[i]["reason"] == "violation" for i in unsound)
+    for i in unsound:
+        assert not log[i]["published"] and log[i]["planned_mass"] == log[i - 1]["planned_mass"]
+    assert any(e["published"] and e["planned_mass"] == 2.7 for e in steps)
+    assert all(e["iterations"] in (0, 1) for e in steps) and mpc["solver"] == "rti"
+    assert result.success, result.detail

@@ -88,6 +88,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--estimate-at", type=_time_and_mass, action="append", default=None, metavar="T:KG",
                    help="--mpc: an asynchronous payload estimate of KG kilograms (e.g. a VLM answer) arrives at "
                    "time T seconds (repeatable)")
+    p.add_argument("--mpc-solver", choices=("rti", "stagewise", "ipopt"), default=None,
+                   help="--mpc: one real-time iteration of the stagewise solver per tick (rti, default), or a "
+                   "warm re-plan to convergence with the stagewise solver or IPOPT")
     p.add_argument("--no-identify", action="store_true",
                    help="--mpc: no identification from the joint torques: only --estimate-at changes the mass")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
@@ -115,7 +118,8 @@ def _replan_options(args: argparse.Namespace) -> object | None:
 
 def _mpc_options(args: argparse.Namespace) -> object | None:
     mpc_only = (("--on-miss", args.on_miss is not None), ("--deadline", args.deadline is not None),
-                ("--estimate-at", bool(args.estimate_at)), ("--no-identify", args.no_identify))
+                ("--estimate-at", bool(args.estimate_at)), ("--no-identify", args.no_identify),
+                ("--mpc-solver", args.mpc_solver is not None))
     if args.mpc is None:
         for flag, given in mpc_only:
             if given:
@@ -128,7 +132,9 @@ def _mpc_options(args: argparse.Namespace) -> object | None:
     try:
         return MpcOptions(rate_hz=args.mpc, deadline_s=args.deadline, on_miss=args.on_miss or "drop",
                           identify=not args.no_identify, add_mass=args.add_mass,
-                          estimates=tuple(args.estimate_at or ()))
+                          estimates=tuple(args.estimate_at or ()),
+                          solver="rti" if args.mpc_solver in (None, "rti") else "converged",
+                          backend=args.mpc_solver if args.mpc_solver in ("stagewise", "ipopt") else "stagewise")
     except InvalidInputError as exc:  # name the flag, not the field
         field, _, rest = str(exc).partition(": ")
         flag = {"rate_hz": "--mpc", "deadline_s": "--deadline"}.get(field, field)
@@ -196,8 +202,11 @@ def _mpc_line(m: dict[str, Any]) -> str:
     times = (f"; solve time median {1000 * m['solve_median_s']:.1f} ms, p95 {1000 * m['solve_p95_s']:.1f} ms, "
              f"max {1000 * m['solve_max_s']:.1f} ms" if m["solves"] else "")
     estimate = "" if m["final_sigma"] is None else f" (sigma {m['final_sigma']:.4f})"
-    return (f"MPC at {m['rate_hz']:g} Hz: {m['ticks']} ticks, {m['solves']} solves ({m['published']} published, "
-            f"{m['misses']} over the {1000 * m['deadline_s']:g} ms deadline, {m['failed']} not converged){times}; "
+    kind = "real-time iterations" if m.get("solver") == "rti" else f"converged {m.get('backend', 'ipopt')} solves"
+    return (f"MPC at {m['rate_hz']:g} Hz ({kind}): {m['ticks']} ticks, {m['solves']} solves "
+            f"({m['published']} published, "
+            f"{m['misses']} over the {1000 * m['deadline_s']:g} ms deadline, {m['failed']} "
+            f"{'not sound' if m.get('solver') == 'rti' else 'not converged'}){times}; "
             f"min d {m['min_d']:.2f} N; payload estimate {m['final_mass_estimate']:.3f} kg{estimate}")
 
 

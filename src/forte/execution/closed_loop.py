@@ -217,6 +217,7 @@ def make_replan_loop(plan_dir: Path, plan: Any, sim: SimModel, reference: Refere
     return ReplanLoop(sim, reference, replanner_of_plan(plan_dir, plan), options)
 
 
-def replanner_of_plan(plan_dir: Path, plan: Any) -> Replanner:
-    """A warm :class:`~forte.planning.replan.Replanner` of the plan in ``plan_dir`` (its method, its task)."""
-    return Replanner(task_of_plan(plan_dir, plan), plan.method)
+def replanner_of_plan(plan_dir: Path, plan: Any, backend: str | None = None) -> Replanner:
+    """A warm :class:`~forte.planning.replan.Replanner` of the plan in ``plan_dir`` (its method, its
+    task; ``backend``: the NLP solver, default the task's)."""
+    return Replanner(task_of_plan(plan_dir, plan), plan.method, backend=backend)

@@ -57,9 +57,13 @@ from forte.execution.control import Reference
 from forte.execution.model import SimModel
 from forte.force.taskforce import TaskForce
 from forte.planning.planner import evaluate
+from forte.planning.realtime import RealTimeIteration
 from forte.planning.replan import ReplanResult
+from forte.settings import SOLVER_BACKENDS
 from forte.validation import FloatArray
 
+#: What a tick's solve is: one real-time iteration, or a warm re-plan to convergence.
+MPC_SOLVERS = ("rti", "converged")
 #: How the loop treats a solve that overruns its deadline.
 ON_MISS = ("drop", "delay")
 #: Simulated-time tolerance of "at or after" (s): tick times are sums of 1 ms steps.
@@ -80,6 +84,11 @@ class MpcOptions:
         add_mass: ``(t, kg)``: the payload gains ``kg`` at time ``t`` (s), or ``None``.
         estimates: asynchronous estimates ``(t, kg)``: ``kg`` arrives at simulated time ``t``.
         source: polled at every tick with the simulated time; returns a new estimate (kg) or ``None``.
+        solver: ``"rti"`` (default): one real-time iteration of the stagewise solver per tick
+            (:class:`~forte.planning.realtime.RealTimeIteration`), also between changes until it
+            has converged; ``"converged"``: a warm re-plan to convergence with ``backend``.
+        backend: the NLP solver of ``"converged"`` solves (``stagewise`` or ``ipopt``; ``"rti"``
+            always uses ``stagewise``).
     """
 
     rate_hz: float = 100.0
@@ -91,8 +100,14 @@ class MpcOptions:
     add_mass: tuple[float, float] | None = None
     estimates: tuple[tuple[float, float], ...] = ()
     source: Callable[[float], float | None] | None = None
+    solver: str = "rti"
+    backend: str = "stagewise"
 
     def __post_init__(self) -> None:
+        if self.solver not in MPC_SOLVERS:
+            raise InvalidInputError(f"solver: expected one of {', '.join(MPC_SOLVERS)}, got {self.solver!r}")
+        if self.backend not in SOLVER_BACKENDS:
+            raise InvalidInputError(f"backend: expected one of {', '.join(SOLVER_BACKENDS)}, got {self.backend!r}")
         if not (_finite(self.rate_hz) and 0 < self.rate_hz <= 1000):
             raise InvalidInputError(f"rate_hz: expected a rate in (0, 1000] Hz (the control loop runs at 1 kHz), "
                                     f"got {self.rate_hz}")
@@ -130,6 +145,16 @@ def _timed_mass(item: Any) -> bool:
     return _finite(t) and _finite(kg) and t >= 0 and kg > 0
 
 
+class _RealTimePlan(NamedTuple):
+    """A published real-time step in the shape :meth:`MpcLoop._publish` reads (``result.plan``)."""
+
+    step: Any
+
+    @property
+    def plan(self) -> Any:
+        return self.step  # .q and .force, as a Plan has them
+
+
 class Pending(NamedTuple):
     """A converged solve waiting for publication: when, from which waypoint, for which mass."""
 
@@ -163,6 +188,8 @@ class MpcLoop(PayloadLoop):
         self.pending: Pending | None = None
         self.failed: tuple[int, float] | None = None  # waypoint and mass of the last failed solve
         self.busy_ticks = 0
+        self.rti = RealTimeIteration(self.replanner) if self.options.solver == "rti" else None
+        self.rti_mass, self.rti_converged = self.published[1], True
 
     def __call__(self, k: int, q: FloatArray, dq: FloatArray) -> None:
         """After step ``k`` (state ``q, dq`` before it): identify, maybe add mass, tick."""
@@ -214,10 +241,12 @@ class MpcLoop(PayloadLoop):
         target = self._target_mass()
         if i > self.horizon:
             kind, steps = "shift", i - self.horizon
-        elif (self.horizon, target) != self.published:
-            kind, steps = "resolve", 0
+        elif (self.horizon, target) != self.published or (self.rti is not None and not self.rti_converged):
+            kind, steps = "resolve", 0  # (real-time iterations: also until the iterate has converged)
         else:
             return
+        if self.rti is not None:
+            return self._rti_tick(k, t, q, kind, steps, target, entry)
         if self.failed is not None and self.failed[0] == i and not self._departs(target, self.failed[1]):
             return  # failed at this waypoint for this mass already: the plan in force stays until the next
         result = self._solve_tick(kind, steps, q if kind == "shift" else None, target)
@@ -229,6 +258,26 @@ class MpcLoop(PayloadLoop):
             return
         self.horizon += steps
         done = Pending(t + result.latency_s, self.horizon, target, result)
+        if not missed:
+            entry["published"] = self._publish(k, done)
+        elif self.options.on_miss == "delay":
+            self.pending = done
+
+    def _rti_tick(self, k: int, t: float, q: FloatArray, kind: str, steps: int, target: float,
+                  entry: dict[str, Any]) -> None:
+        """One real-time iteration: the problem moves on (horizon, mass) whether or not the step is
+        sound; a sound step within its deadline is published (a late one as ``on_miss`` says)."""
+        step = self.rti.step(mass=None if target == self.rti_mass else target, steps=steps,
+                             q_now=q if kind == "shift" else None)
+        self.horizon += steps
+        self.rti_mass, self.rti_converged = target, step.converged
+        missed = step.latency_s > self.options.deadline
+        entry.update(kind=kind, solve_s=step.latency_s, iterations=0 if step.converged else 1, missed=missed,
+                     solved=step.published, verdict="real-time iteration", reason=step.reason or None,
+                     kkt_error=step.kkt_error)
+        if not step.published:
+            return  # unsound (or failed): the plan in force stays, the next tick steps again
+        done = Pending(t + step.latency_s, self.horizon, target, _RealTimePlan(step))
         if not missed:
             entry["published"] = self._publish(k, done)
         elif self.options.on_miss == "delay":
@@ -285,6 +334,7 @@ class MpcLoop(PayloadLoop):
         stat = (lambda f: float(f(times))) if times.size else (lambda f: None)
         return {
             "rate_hz": self.options.rate_hz, "tick_period_s": self.every * self.sim.timestep,
+            "solver": self.options.solver, "backend": "stagewise" if self.rti is not None else self.options.backend,
             "deadline_s": self.options.deadline, "on_miss": self.options.on_miss,
             "identify": self.options.identify, "ticks": len(self.log), "solves": len(solves),
             "published": sum(e["published"] for e in self.log), "misses": sum(e["missed"] for e in solves),
@@ -297,4 +347,5 @@ class MpcLoop(PayloadLoop):
 
 def make_mpc_loop(plan_dir: Path, plan: Any, sim: SimModel, reference: Reference, options: MpcOptions) -> MpcLoop:
     """An :class:`MpcLoop` for the plan in ``plan_dir`` (its method, its task)."""
-    return MpcLoop(sim, reference, replanner_of_plan(plan_dir, plan), options)
+    backend = "stagewise" if options.solver == "rti" else options.backend
+    return MpcLoop(sim, reference, replanner_of_plan(plan_dir, plan, backend), options)
