@@ -46,6 +46,11 @@ def main() -> int:
             print(f"no plan from forte ros within {args.timeout:g} s", file=sys.stderr)
             return 1
         print("first plan:", json.dumps(statuses[-1]))
+        # the latched plan can arrive before discovery has matched our publisher with the node's
+        # subscription; a message published before that match is lost (volatile topic)
+        if not wait(lambda: publisher.get_subscription_count() > 0):
+            print(f"forte ros does not subscribe to /forte/payload_mass within {args.timeout:g} s", file=sys.stderr)
+            return 1
         before = len(trajectories)
         sent = time.perf_counter()
         publisher.publish(Float64(data=args.mass))
