@@ -54,6 +54,8 @@ NOT_RUN: list[tuple[str, str]] = [
 REDUCED: list[tuple[str, str, str]] = [
     ("forte experiment hold --weights authors-hold-as-run --out runs/experiments/hold-as-run",
      "--trials 1 --no-weight-sweep", "~1 min with 3 trials and the weight sweep"),
+    ("forte experiment wrench --out runs/experiments/wrench", "--offsets 0.2",
+     "18 plans and 36 MuJoCo runs, ~1.2 min on 2 cores; the 0.2 m offset here (test_wrench_experiment.py runs it too)"),
     ("forte sweep examples/sweeps/lift.yaml --workers 8", "--dry-run",
      "50 cells, ~80 s on 2 cores; the demo sweep of the same page computes its grid"),
     ("forte sweep examples/sweeps/mass-scan.yaml --ray", "--dry-run",

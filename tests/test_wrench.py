@@ -270,7 +270,7 @@ def test_moment_columns_against_m_a_minus_g_and_the_offset_by_hand(tmp_path):
     np.testing.assert_allclose(m["max_torque_ratio_with_force"], ratio, atol=1e-9)
     out = write_plan(result, tmp_path / "quintic", figures=False)
     header = next(csv.reader((out / "metrics.csv").open()))
-    assert header == [*METRIC_COLUMNS, "mx", "my", "mz"]
+    assert header == [*METRIC_COLUMNS, "mx", "my", "mz", "tipover_margin"]  # the MOCA base states its footprint
     doc = json.loads((out / "plan.json").read_text())
     assert doc["payload"]["com"] == [0.0, -0.2, 0.0] and doc["payload"]["moment_scale"] == pytest.approx(0.2)
     assert doc["force"]["lever_m"] == pytest.approx(0.2) and doc["force"]["moment_scale"] == pytest.approx(0.2)

@@ -21,6 +21,8 @@ spectral radius of the linearised loop; with the rotor inertia of a geared joint
 it stays below 1 (0.9966 along the quintic lift, 2.36 there without it).
 ``J_v`` is the world-frame translational Jacobian of the end effector at the *simulated* state and
 ``f_d`` the plan's desired task force (for a payload: ``m (a - g)``, the force the arm exerts on it).
+When the plan requires a moment (a payload whose centre of mass is off the hand), the feedforward
+is the full wrench's, ``tau_F = J6(q)^T (f_d, m_d)`` with ``J6 = [J_v; J_w]`` (:attr:`Reference.m`).
 
 Base (velocity interface), admittance::
 
@@ -116,7 +118,8 @@ class ArmImpedance:
         q_d: FloatArray, dq_d: FloatArray, ddq_d: FloatArray,
         J_v: FloatArray, f_d: FloatArray,
     ) -> ArmCommand:
-        """Torque for arm state ``(q, dq)``, reference ``(q_d, dq_d, ddq_d)``, Jacobian and force."""
+        """Torque for arm state ``(q, dq)``, reference ``(q_d, dq_d, ddq_d)``, Jacobian and force (or
+        ``J6`` (6 x n) and the wrench ``(f_d, m_d)``)."""
         tau = (self.robot.rnea(q, dq, ddq_d) + self.armature * ddq_d
                + self.K * (q_d - q) + self.D * (dq_d - dq))
         if self.use_force:
@@ -173,13 +176,15 @@ class BaseAdmittance:
 
 @dataclass(frozen=True)
 class Reference:
-    """Whole-body reference ``q_d, dq_d, ddq_d`` (T x nq) and task force ``f_d`` (T x 3) at times ``t``."""
+    """Whole-body reference ``q_d, dq_d, ddq_d`` (T x nq) and task force ``f_d`` (T x 3) at times ``t``,
+    with the task moment ``m_d`` (T x 3, world frame, at the end effector) when the plan needs one."""
 
     t: FloatArray
     q: FloatArray
     dq: FloatArray
     ddq: FloatArray
     f: FloatArray
+    m: FloatArray | None = None
 
 
 def interpolate_plan(

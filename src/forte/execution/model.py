@@ -24,8 +24,8 @@ agreement ~1e-12 Nm):
   on the link that carries the end-effector frame, and a site ``ee`` at the end-effector frame;
 * a payload body of configurable mass rigidly attached at the end effector (welded: a sphere
   of radius ``payload_radius`` centred at ``payload_com`` in the end-effector frame, inertia
-  ``2/5 m r^2``). The weld never breaks, so a *payload drop* is judged from the motion (see
-  :class:`forte.execution.judge.Thresholds`);
+  ``2/5 m r^2`` or ``payload_inertia``; :func:`forte.execution.bodies.carried_body`). The weld
+  never breaks, so a *payload drop* is judged from the motion (see :class:`forte.execution.judge.Thresholds`);
 * torque actuators ``tau_<joint>`` on the arm joints with ``ctrlrange = +-robot.torque_limits``
   (MuJoCo clips the control, so the arm can never exceed its limits); velocity actuators
   ``v_base_x/y/yaw`` with gain ``kv`` on the base joints (the base is velocity-controlled,
@@ -50,6 +50,7 @@ import pinocchio as pin
 
 from forte.exceptions import InvalidInputError, SimulationError
 from forte.execution.arm_spec import ARM_PREFIX, load_arm_spec
+from forte.execution.bodies import _principal, _rot_to_quat, _solid_sphere, combined_tool
 from forte.execution.contact import add_scene, enable_robot_contacts
 from forte.model.description import (
     BASE_BOX_HALF_XY,
@@ -58,7 +59,7 @@ from forte.model.description import (
     BASE_MASS,
     PAYLOAD_RADIUS,
 )
-from forte.model.robot import N_BASE, MobileManipulator, ToolLoad
+from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
 from forte.validation import FloatArray, as_positive, as_vector
 
@@ -74,53 +75,6 @@ ARM_ARMATURE = 0.1
 FIXED_BASE_ARMATURE = 1e9
 #: Names of the base joints in the MuJoCo model, in planner order ``[x, y, yaw]``.
 BASE_JOINTS = ("base_x", "base_y", "base_yaw")
-
-
-def _rot_to_quat(R: FloatArray) -> FloatArray:
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(R, dtype=float).reshape(9))
-    return quat
-
-
-def _principal(inertia: FloatArray) -> tuple[list[float], list[float]]:
-    """Principal moments (floored at 1e-9: MuJoCo rejects zero inertia) and their axes' quaternion."""
-    w, V = np.linalg.eigh(0.5 * (inertia + inertia.T))
-    if np.linalg.det(V) < 0:
-        V[:, 0] = -V[:, 0]
-    return np.maximum(w, 1e-9).tolist(), _rot_to_quat(V).tolist()
-
-
-def _solid_sphere(mass: float, radius: float) -> tuple[float, float, float]:
-    i = 0.4 * mass * radius**2
-    return (i, i, i)
-
-
-def combined_tool(
-    tool: ToolLoad | None, mass: float, com: Any = (0.0, 0.0, 0.0), radius: float = 0.05
-) -> ToolLoad | None:
-    """The tool load plus a payload sphere (``mass``, ``com``, ``radius``) as one :class:`ToolLoad`.
-
-    Used to give Pinocchio the dynamics of the simulated end-effector body (tool + payload):
-    ``m = m_t + m_p``, ``c = (m_t c_t + m_p c_p) / m`` and, by the parallel-axis theorem,
-    ``I = sum_i I_i + m_i (|r_i|^2 E - r_i r_i^T)`` with ``r_i = c_i - c``.
-    """
-    mass = as_positive(mass, "payload mass", allow_zero=True)
-    if mass == 0.0:
-        return tool
-    parts = [(mass, np.asarray(com, dtype=float), np.diag(_solid_sphere(mass, radius)))]
-    if tool is not None:
-        parts.append((tool.mass, np.asarray(tool.com, dtype=float), np.asarray(tool.inertia)))
-    total = sum(p[0] for p in parts)
-    c = sum(p[0] * p[1] for p in parts) / total
-    inertia = np.zeros((3, 3))
-    for m, ci, Ii in parts:
-        r = ci - c
-        inertia += Ii + m * (r @ r * np.eye(3) - np.outer(r, r))
-    inertia = 0.5 * (inertia + inertia.T)
-    return ToolLoad(
-        mass=float(total), com=tuple(float(v) for v in c),
-        inertia=tuple(tuple(float(v) for v in row) for row in inertia),
-    )
 
 
 def armature_vector(armature: Any, n_arm: int) -> FloatArray:
@@ -187,10 +141,13 @@ class SimModel:
         T[:3, 3] = self.data.site_xpos[self.ee_site]
         return T
 
-    def ee_jacobian(self) -> FloatArray:
-        """World-frame translational Jacobian of the end effector w.r.t. the arm joints (3 x n)."""
-        mujoco.mj_jacSite(self.model, self.data, self._jacp, None, self.ee_site)
-        return self._jacp[:, self.dof_idx[N_BASE:]].copy()
+    def ee_jacobian(self, angular: bool = False) -> FloatArray:
+        """World-frame translational Jacobian of the end effector w.r.t. the arm joints (3 x n);
+        with ``angular``, ``[J_v; J_w]`` (6 x n), the wrench's (``tau = J^T (f, m)``)."""
+        jacr = np.zeros_like(self._jacp) if angular else None
+        mujoco.mj_jacSite(self.model, self.data, self._jacp, jacr, self.ee_site)
+        J = self._jacp if jacr is None else np.vstack([self._jacp, jacr])
+        return J[:, self.dof_idx[N_BASE:]].copy()
 
     def inverse_dynamics(self, q_a: Any, dq_a: Any, ddq_a: Any) -> FloatArray:
         """Arm torques from ``mj_inverse`` with the base at rest.
@@ -215,6 +172,7 @@ def build_sim_model(
     *,
     payload_com: Any = (0.0, 0.0, 0.0),
     payload_radius: float = PAYLOAD_RADIUS,
+    payload_inertia: Any = None,
     meshes: bool = False,
     timestep: float = 1e-3,
     base_mass: float = BASE_MASS,
@@ -230,6 +188,8 @@ def build_sim_model(
         payload_mass: Payload mass in kg (0: no payload body).
         payload_com: Payload centre in the end-effector frame (m).
         payload_radius: Radius of the payload sphere (m), sets its inertia ``2/5 m r^2``.
+        payload_inertia: The payload's inertia about ``payload_com`` (3 x 3, end-effector axes,
+            kg m^2) instead of the sphere's (:func:`forte.execution.bodies.carried_body`).
         meshes: Keep the URDF meshes (for rendering; no contacts either way).
         timestep: Integration step (s).
         base_mass: Mass of the base body (kg).
@@ -245,8 +205,8 @@ def build_sim_model(
     payload_mass = as_positive(payload_mass, "mass", allow_zero=True)
     rotor = armature_vector(armature, robot.n_arm)
     spec = build_sim_spec(robot, payload_mass, payload_com=payload_com, payload_radius=payload_radius,
-                          meshes=meshes, timestep=timestep, base_mass=base_mass, base_inertia=base_inertia,
-                          base_kv=base_kv, armature=rotor, scene=scene)
+                          payload_inertia=payload_inertia, meshes=meshes, timestep=timestep, base_mass=base_mass,
+                          base_inertia=base_inertia, base_kv=base_kv, armature=rotor, scene=scene)
     return _index_model(robot, _compile(spec), payload_mass, rotor, scene)
 
 
@@ -256,6 +216,7 @@ def build_sim_spec(
     *,
     payload_com: Any = (0.0, 0.0, 0.0),
     payload_radius: float = PAYLOAD_RADIUS,
+    payload_inertia: Any = None,
     meshes: bool = False,
     timestep: float = 1e-3,
     base_mass: float = BASE_MASS,
@@ -277,7 +238,7 @@ def build_sim_spec(
     if root is None:
         raise SimulationError(f"urdf: {robot.urdf_path} has no link below the world")
     frame.attach_body(root, ARM_PREFIX, "")
-    _add_end_effector(spec, robot, payload_mass, com, payload_radius)
+    _add_end_effector(spec, robot, payload_mass, com, payload_radius, payload_inertia)
     _add_actuators(spec, robot, base_kv)
     if scene is not None:
         add_scene(spec, scene)
@@ -336,7 +297,7 @@ def _add_base(spec: mujoco.MjSpec, robot: MobileManipulator, mass: float,
 
 
 def _add_end_effector(spec: mujoco.MjSpec, robot: MobileManipulator, payload_mass: float,
-                      com: FloatArray, payload_radius: float) -> None:
+                      com: FloatArray, payload_radius: float, inertia: Any = None) -> None:
     """The ``ee`` site, the tool body and the payload body on the end-effector link."""
     # End effector: the Pinocchio frame placement relative to its parent joint; the MuJoCo body
     # of that joint has the URDF child-link frame, which is Pinocchio's joint frame.
@@ -361,9 +322,12 @@ def _add_end_effector(spec: mujoco.MjSpec, robot: MobileManipulator, payload_mas
         payload = link.add_body(name="payload", pos=ee_pos, quat=ee_quat)
         payload.explicitinertial = True
         payload.ipos = com.tolist()
-        payload.iquat = [1.0, 0.0, 0.0, 0.0]
         payload.mass = payload_mass
-        payload.inertia = list(_solid_sphere(payload_mass, payload_radius))
+        if inertia is None:
+            payload.iquat = [1.0, 0.0, 0.0, 0.0]
+            payload.inertia = list(_solid_sphere(payload_mass, payload_radius))
+        else:  # principal axes ourselves, as the tool's
+            payload.inertia, payload.iquat = _principal(np.asarray(inertia, dtype=float))
         payload.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[payload_radius, 0, 0], pos=com.tolist(),
                          rgba=[0.9, 0.5, 0.1, 1], contype=0, conaffinity=0, mass=0.0)
 
@@ -403,3 +367,6 @@ def _index_model(robot: MobileManipulator, model: mujoco.MjModel, payload_mass: 
         payload_body=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "payload"),
         armature=rotor, scene=scene,
     )
+
+__all__ = ["ARM_ARMATURE", "BASE_JOINTS", "BASE_KV", "SimModel", "armature_vector", "build_sim_model",
+           "build_sim_spec", "combined_tool", "whole_body_mjcf"]

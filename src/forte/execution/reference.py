@@ -16,6 +16,7 @@ Two interpolations of the same waypoints ``q_k`` at times ``t_k``:
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -30,8 +31,14 @@ REFERENCE_KINDS: tuple[str, ...] = ("spline", "plan")
 
 
 def plan_reference(t_plan: Any, q_plan: Any, times: Any, force_t: Any = None, force: Any = None,
-                   kind: str = "spline") -> Reference:
-    """The controller's reference of a plan, sampled at ``times`` (``kind``: module docstring)."""
+                   kind: str = "spline", moment: Any = None) -> Reference:
+    """The controller's reference of a plan, sampled at ``times`` (``kind``: module docstring); the
+    task ``moment`` (N x 3 at ``force_t``, or None) linear in time as the force."""
+    ref = _reference(t_plan, q_plan, times, force_t, force, kind)
+    return ref if moment is None else replace(ref, m=interpolate_force(ref.t, force_t, moment))
+
+
+def _reference(t_plan: Any, q_plan: Any, times: Any, force_t: Any, force: Any, kind: str) -> Reference:
     if kind not in REFERENCE_KINDS:
         raise InvalidInputError(f"reference: expected one of {', '.join(REFERENCE_KINDS)}, got {kind!r}")
     tp = check_times(t_plan, "t")

@@ -8,7 +8,10 @@ derivatives) and calls
 and :class:`forte.execution.control.BaseAdmittance` per MuJoCo step and judges every step
 (:class:`forte.execution.judge.Judge`). When the plan has no payload (``payload.mass`` null) but
 a task force, the force is an interaction with the environment: its reaction ``-f_d`` is
-applied at the end effector.
+applied at the end effector. A payload whose centre of mass is off the hand (``payload.com``,
+``payload.inertia`` in plan.json) is simulated there, with its inertia
+(:func:`forte.execution.bodies.carried_body`), and the feedforward applies the plan's whole wrench,
+``J6^T (f, m)`` (:mod:`forte.execution.control`).
 
 ``sim.csv`` holds every ``record_every``-th control step: ``t``; the whole-body joint error
 ``e_x_b, e_y_b, e_yaw, e_q1..e_qn`` (``q_d - q``, yaw wrapped); the applied arm torques
@@ -40,6 +43,7 @@ import numpy as np
 
 from forte.exceptions import InvalidInputError
 from forte.execution.arm_spec import ARM_PREFIX, geometry_loadable
+from forte.execution.bodies import carried_body
 from forte.execution.contact import touches
 from forte.execution.control import ArmCommand, ArmImpedance, BaseAdmittance, ControlGains, Reference
 from forte.execution.gains import default_gains, describe_gains, gains_from_mapping, sampled_loop_radius_at
@@ -80,10 +84,11 @@ class _ControlStep:
         T = sim.ee_pose()
         ee_err = T[:3, 3] - T_d[:3, 3]
         tilt = float(np.arccos(np.clip(T[:3, 2] @ T_d[:3, 2], -1.0, 1.0)))
-        J = sim.ee_jacobian()
         f_d = ref.f[k]
+        wrench = ref.m is not None  # a moment too: the feedforward is J6^T (f, m)
+        J = sim.ee_jacobian(angular=wrench)
         cmd = self.arm.command(q[N_BASE:], dq[N_BASE:], q_d[N_BASE:], ref.dq[k, N_BASE:],
-                               ref.ddq[k, N_BASE:], J, f_d)
+                               ref.ddq[k, N_BASE:], J, np.r_[f_d, ref.m[k]] if wrench else f_d)
         v_cmd = self.base.command(q[:N_BASE], dq[:N_BASE], q_d[:N_BASE], ref.dq[k, :N_BASE])
         if sim.robot.base == "fixed":  # a fixed base is held: its velocity actuators commanded zero
             v_cmd = np.zeros(N_BASE)
@@ -253,13 +258,18 @@ def simulate_plan(
     hold = as_positive(hold, "hold", allow_zero=True)
     offscreen = frames_dir is not None or video is not None
     # the robot's end-effector load that the plan's force includes (tool_force_mass) is carried
-    # physically with the payload: one welded body of both masses
-    carried = (true_mass or 0.0) + (robot.tool_force_mass if plan.payload.mass is not None else 0.0)
+    # physically with the payload, at the payload's centre of mass with its inertia: one welded body
+    carried, com, inertia = carried_body(true_mass or 0.0, plan.payload.com, plan.payload.inertia,
+                                         robot.tool_force_mass if plan.payload.mass is not None else 0.0)
     # contact with the scene and the floor, unless the URDF's geometry cannot be loaded and there is no scene
     scene = plan.scene if plan.scene or geometry_loadable(robot) else None
-    sim = build_sim_model(robot, carried, meshes=offscreen or viewer, timestep=timestep, scene=scene)
+    sim = build_sim_model(robot, carried, payload_com=com, payload_inertia=inertia, meshes=offscreen or viewer,
+                          timestep=timestep, scene=scene)
     gains = _resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
-    reference_kind, reference = reference, _plan_reference(plan, sim.timestep, hold, force_share, kind=reference)
+    # the moment is the payload's alone: none without it
+    moment_share = 0.0 if mass is not None and true_mass == 0.0 and force_feedforward is None else force_share
+    reference_kind, reference = reference, _plan_reference(plan, sim.timestep, hold, force_share, reference,
+                                                           moment_share)
     recorder = FrameRecorder(sim, _optional_path(frames_dir), _optional_path(video), fps) if offscreen else None
     live = LiveViewer(sim) if viewer else None
     loop = None
@@ -337,13 +347,14 @@ def _resolve_gains(gains: ControlGains | Mapping[str, Any] | None, sim: SimModel
 
 
 def _plan_reference(plan: Plan, dt: float, hold: float, force_share: float = 1.0,
-                    kind: str = "spline") -> Reference:
+                    kind: str = "spline", moment_share: float = 1.0) -> Reference:
     """The plan's reference at every control step ``t_0 + k dt`` up to ``hold`` s after its end
-    (the force times ``force_share``)."""
+    (the force times ``force_share``; the moment, when the plan has one, times ``moment_share``)."""
     steps = int(round((plan.t[-1] - plan.t[0] + hold) / dt)) + 1
     times = plan.t[0] + dt * np.arange(steps)
     force_t, force = (None, None) if plan.force is None else (plan.force.t, force_share * np.asarray(plan.force.f))
-    return plan_reference(plan.t, plan.q, times, force_t, force, kind)
+    moment = None if plan.force is None or plan.force.m is None else moment_share * np.asarray(plan.force.m)
+    return plan_reference(plan.t, plan.q, times, force_t, force, kind, moment)
 
 
 def write_results(result: SimResult, out_dir: Path) -> tuple[Path, Path]:

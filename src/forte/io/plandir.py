@@ -79,6 +79,8 @@ METRIC_COLUMNS = ("t", "fx", "fy", "fz", "radius", "d", "directional_capacity", 
 LEGACY_METRIC_COLUMNS = METRIC_COLUMNS[:-1]
 #: The columns added after :data:`METRIC_COLUMNS` when the task needs a moment (N m, world frame).
 MOMENT_COLUMNS = ("mx", "my", "mz")
+#: The column added last when the robot states its base support (m, :mod:`forte.model.stability`).
+STABILITY_COLUMNS = ("tipover_margin",)
 
 
 # -- writing ----------------------------------------------------------------------------------
@@ -117,7 +119,7 @@ def fill_plan_dir(plan: Plan, directory: Path, figures: bool = True) -> None:
     name = TRAJECTORY_FILE if plan.solved else LAST_ITERATE_FILE
     write_csv(directory / name, trajectory_header(plan.robot.n_arm), np.column_stack([plan.t, plan.q]))
     if plan.metrics:
-        columns = METRIC_COLUMNS + (MOMENT_COLUMNS if "mx" in plan.metrics else ())
+        columns = METRIC_COLUMNS + tuple(c for c in MOMENT_COLUMNS + STABILITY_COLUMNS if c in plan.metrics)
         write_csv(directory / METRICS_FILE, list(columns), np.column_stack([plan.metrics[c] for c in columns]))
     doc = plan_document(plan)
     doc["robot"] = store_robot(plan.robot, directory)
@@ -289,14 +291,16 @@ def read_controller(plan_dir: str | Path) -> dict[str, Any]:
 
 def read_metrics(plan_dir: str | Path) -> dict[str, FloatArray]:
     """The columns of ``metrics.csv`` (:data:`METRIC_COLUMNS`, then :data:`MOMENT_COLUMNS` when the
-    task needs a moment, or the older :data:`LEGACY_METRIC_COLUMNS` without ``clearance``); empty
+    task needs a moment and :data:`STABILITY_COLUMNS` when the robot states its base support, or
+    the older :data:`LEGACY_METRIC_COLUMNS` without ``clearance``); empty
     when the plan has none."""
     path = Path(plan_dir) / METRICS_FILE
     if not path.is_file():
         return {}
     rows = list(csv.reader(path.read_text(encoding="utf-8").splitlines()))
     header = [h.strip() for h in rows[0]] if rows else []
-    if header not in (list(METRIC_COLUMNS), list(LEGACY_METRIC_COLUMNS), list(METRIC_COLUMNS + MOMENT_COLUMNS)):
+    tails = ((), MOMENT_COLUMNS, STABILITY_COLUMNS, MOMENT_COLUMNS + STABILITY_COLUMNS)
+    if header != list(LEGACY_METRIC_COLUMNS) and header not in [list(METRIC_COLUMNS + tail) for tail in tails]:
         raise TaskFileError(f"{path}: header: expected {','.join(METRIC_COLUMNS)}, got {','.join(header)}")
     body = [r for r in rows[1:] if any(c.strip() for c in r)]
     try:  # d may be +-inf (vacuous or empty RFP rows), clearance inf (no scene): no finiteness check here

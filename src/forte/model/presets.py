@@ -15,6 +15,9 @@ Built in:
   chain on its own differential-drive base (``base: differential``; the URDF's ``base_footprint``
   is the base frame, so no mount), tool ``arm_tool_link``.
 
+Every preset states its base's support (:mod:`forte.model.base_support`): the ur5 and kinova stand
+on the built-in MOCA base (``AUTHORS_BASE``), TIAGo on its own (``TIAGO_BASE``, its URDF's wheels).
+
 Homes are postures away from singularities and joint limits (a URDF carries none): the UR5's
 and TIAGo's a usual ready pose, the Kinova's the posture forte's planner settled in from its
 ready pose (its 0.63 rad/s joint speed limits made the move there the plan's bottleneck); a
@@ -31,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from forte.exceptions import InvalidInputError
+from forte.model.base_support import AUTHORS_BASE, TIAGO_BASE
 from forte.model.description import AUTHORS_MOUNT
 from forte.model.robot import MobileManipulator, default_robot
 
@@ -79,13 +83,14 @@ for _preset in (
     RobotPreset("moca-like", "forte's earlier MOCA estimate (Panda, panda_hand_tcp, a tool box)", variant="moca-like"),
     RobotPreset("ur5", "Universal Robots UR5 on the holonomic base", MappingProxyType({
         "urdf": "erd:ur_description/urdf/ur5_robot.urdf", "ee_frame": "tool0", "mount": np.array(AUTHORS_MOUNT),
-        "home_arm": (0.0, -1.75, 1.85, -1.67, -1.57, 0.0)})),
+        "home_arm": (0.0, -1.75, 1.85, -1.67, -1.57, 0.0), "base_support": AUTHORS_BASE})),
     RobotPreset("kinova", "Kinova Jaco 2, 6 DoF (j2s6s200), on the holonomic base", MappingProxyType({
         "urdf": "erd:kinova_description/robots/kinova.urdf", "ee_frame": "j2s6s200_end_effector",
-        "mount": np.array(AUTHORS_MOUNT), "home_arm": (1.09, 3.67, 2.38, 3.33, 2.35, 1.49)})),
+        "mount": np.array(AUTHORS_MOUNT), "home_arm": (1.09, 3.67, 2.38, 3.33, 2.35, 1.49),
+        "base_support": AUTHORS_BASE})),
     RobotPreset("tiago", "PAL TIAGo (no hand): torso lift and 7-DoF arm on its differential base", MappingProxyType({
         "urdf": "erd:tiago_description/robots/tiago_no_hand.urdf", "ee_frame": "arm_tool_link",
         "arm_joints": ("torso_lift_joint", *(f"arm_{i}_joint" for i in range(1, 8))), "base": "differential",
-        "home_arm": (0.2, 1.6, 0.3, -1.2, 1.9, -1.57, 1.0, 0.0)})),
+        "home_arm": (0.2, 1.6, 0.3, -1.2, 1.9, -1.57, 1.0, 0.0), "base_support": TIAGO_BASE})),
 ):
     register_robot_preset(_preset)

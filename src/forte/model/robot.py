@@ -13,9 +13,7 @@ Two ways to account for what the end effector carries besides the payload:
 - ``tool_force_mass``: a mass (kg) added to the payload in the *required force*
   ``f = (m_payload + m_tool) (a - g)`` and not to the arm dynamics (the authors' setup: the
   Franka end-effector load ``m_total``, 1.146 kg identified).
-
 The payload itself always enters through the desired task force (paper, Section 5).
-
 The built-in default (:func:`default_robot`, preset ``authors``) is the authors' description:
 Panda base at (0.2575, 0, 0.52) m, end-effector frame = flange (``panda_link8``) rotated -45 deg
 about z plus 0.10 m along z (``ee_offset`` on the URDF's ``panda_hand`` frame, which is exactly
@@ -35,6 +33,7 @@ import numpy as np
 import pinocchio as pin
 
 from forte.exceptions import InvalidInputError, RobotModelError
+from forte.model.base_support import AUTHORS_BASE, check_support
 from forte.model.description import (
     AUTHORS_EE_OFFSET,
     AUTHORS_HAND_MASS,
@@ -93,6 +92,9 @@ class MobileManipulator:
             ``differential`` (no lateral velocity in the base frame) or ``fixed`` (it stays at
             the initial configuration's base). Not part of the kinematics or the kernels: the
             planner imposes it with bounds and rows (:mod:`forte.planning.base_rows`).
+        base_support: The base's support polygon, mass and centre of mass
+            (:class:`~forte.model.base_support.BaseSupport`, or its dict); ``None``: not stated
+            (no tip-over margin, :mod:`forte.model.stability`).
     """
 
     urdf: str | Path
@@ -110,6 +112,7 @@ class MobileManipulator:
     hand_link: str = "panda_hand"
     tool_force_mass: float = 0.0
     base: str = "holonomic"
+    base_support: Any = None
 
     def __post_init__(self) -> None:
         if self.base not in BASE_MODES:
@@ -129,6 +132,7 @@ class MobileManipulator:
                 raise InvalidInputError("ee_offset: expected a 4x4 rigid transform (orthonormal rotation)")
             self.ee_offset = offset
         self.tool_force_mass = as_positive(self.tool_force_mass, "tool_force_mass", allow_zero=True)
+        self.base_support = check_support(self.base_support)
         if self.hand_mass is not None:
             self.hand_mass = as_positive(self.hand_mass, "hand_mass")
         try:
@@ -224,6 +228,7 @@ class MobileManipulator:
             "hand_link": self.hand_link if self.hand_mass is not None else None,  # only what it names
             "tool_force_mass": self.tool_force_mass,
             "base": self.base,
+            "base_support": None if self.base_support is None else self.base_support.to_dict(),
         }
 
     @cached_property
@@ -295,17 +300,11 @@ class MobileManipulator:
         J[3:, N_BASE:] = R @ J_arm[3:]
         return J
 
-    # -- dynamics -----------------------------------------------------------------------
     def rnea(self, q_a: Any, dq_a: Any, ddq_a: Any) -> FloatArray:
         """Arm inverse dynamics ``tau = M(q) ddq + C(q, dq) dq + g(q)`` (base held fixed)."""
-        q_a = as_vector(q_a, "q_a", self.n_arm)
-        dq_a = as_vector(dq_a, "dq_a", self.n_arm)
-        ddq_a = as_vector(ddq_a, "ddq_a", self.n_arm)
+        q_a, dq_a, ddq_a = (as_vector(x, name, self.n_arm) for x, name in ((q_a, "q_a"), (dq_a, "dq_a"),
+                                                                            (ddq_a, "ddq_a")))
         return np.array(pin.rnea(self.model, self.data, q_a, dq_a, ddq_a))
-
-
-#: Robot presets by name: ``authors`` (the default) and ``moca-like`` (forte's earlier estimate).
-ROBOT_PRESETS: tuple[str, ...] = ("authors", "moca-like")
 
 
 def default_robot(torque_limits: Any = PAPER_TORQUE_LIMITS, variant: str = "authors",
@@ -321,7 +320,8 @@ def default_robot(torque_limits: Any = PAPER_TORQUE_LIMITS, variant: str = "auth
     - ``"moca-like"``: forte's earlier estimate: ``panda_hand_tcp``, :data:`MOCA_MOUNT`, the
       :data:`MOCA_TOOL` box in the arm dynamics, the Panda's ready pose as home.
 
-    Both use the paper's torque limits (60 Nm joints 1-4, 12 Nm joints 5-7).
+    Both use the paper's torque limits (60 Nm joints 1-4, 12 Nm joints 5-7) and stand on the authors'
+    MOCA base (:data:`~forte.model.base_support.AUTHORS_BASE`: support polygon, 151 kg).
 
     Examples:
         >>> import forte
@@ -332,6 +332,7 @@ def default_robot(torque_limits: Any = PAPER_TORQUE_LIMITS, variant: str = "auth
     common: dict[str, Any] = {
         "urdf": "erd:panda_description/urdf/panda.urdf", "arm_joints": PANDA_ARM_JOINTS,
         "torque_limits": torque_limits, "acceleration_limits": PANDA_ACCELERATION_LIMITS,
+        "base_support": AUTHORS_BASE,
     }
     if variant == "authors":
         kwargs = common | {
@@ -343,7 +344,7 @@ def default_robot(torque_limits: Any = PAPER_TORQUE_LIMITS, variant: str = "auth
         kwargs = common | {"ee_frame": "panda_hand_tcp", "mount": np.array(MOCA_MOUNT), "tool": MOCA_TOOL,
                            "name": "moca-panda", "home_arm": PANDA_HOME}
     else:
-        raise InvalidInputError(f"robot preset: expected one of {', '.join(ROBOT_PRESETS)}, got {variant!r}")
+        raise InvalidInputError(f"robot preset: expected one of authors, moca-like, got {variant!r}")
     if "urdf" in overrides:  # another arm: the Panda's own values do not apply
         for key in ("home_arm", "acceleration_limits", "hand_mass", "arm_joints"):
             kwargs.pop(key, None)
@@ -374,6 +375,7 @@ def robot_from_description(desc: dict[str, Any]) -> MobileManipulator:
             hand_link=desc.get("hand_link") or "panda_hand",
             tool_force_mass=desc.get("tool_force_mass", 0.0),
             base=desc.get("base", "holonomic"),
+            base_support=desc.get("base_support"),
         )
     except KeyError as exc:
         raise RobotModelError(f"robot description: missing field {exc}") from exc

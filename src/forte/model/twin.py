@@ -25,6 +25,17 @@ from forte.model.robot import N_BASE, MobileManipulator
 Expr = ca.SX
 
 
+def body_force(m: float, c: Expr, Ic: Expr, v: Expr, w: Expr, a: Expr, al: Expr) -> tuple[Expr, Expr]:
+    """Spatial force ``(f, n)`` (about the frame's origin) of a rigid body of mass ``m``, centre of
+    mass ``c`` and rotational inertia ``Ic`` about it, moving with the spatial twist ``(v, w)`` and
+    spatial acceleration ``(a, al)`` (Featherstone's convention): ``f = m (a + al x c) + w x h_v``,
+    ``n = Ic al + c x m (a + al x c) + w x L + v x h_v`` with ``h_v = m (v + w x c)``, ``L = Ic w + c x h_v``."""
+    h = m * (a + ca.cross(al, c))
+    hv = m * (v + ca.cross(w, c))
+    L = Ic @ w + ca.cross(c, hv)
+    return h + ca.cross(w, hv), Ic @ al + ca.cross(c, h) + ca.cross(w, L) + ca.cross(v, hv)
+
+
 @dataclass(frozen=True)
 class _Joint:
     parent: int  # index in the twin's joint list, -1 for the root
@@ -184,28 +195,32 @@ class CasadiTwin:
     # -- dynamics -----------------------------------------------------------------------
     def rnea(self, q_a: Expr, dq_a: Expr, ddq_a: Expr) -> Expr:
         """Arm joint torques of the recursive Newton-Euler algorithm (base held fixed)."""
+        zero = ca.DM.zeros(3, 1)
+        return self._newton_euler(q_a, dq_a, ddq_a, (zero, zero, ca.DM([0.0, 0.0, self.gravity]), zero))[0]
+
+    def _newton_euler(self, q_a: Expr, dq_a: Expr, ddq_a: Expr,
+                      root: tuple[Expr, Expr, Expr, Expr]) -> tuple[Expr, Expr, Expr]:
+        """RNEA with the base frame moving with the spatial twist ``(v, w)`` and acceleration
+        ``(a, al)`` of ``root`` (base frame; gravity by the trick ``a += (0, 0, g)``): the arm's
+        joint torques and the spatial force ``(f, n)`` the base exerts on the arm (base frame,
+        about its origin)."""
         n = self.n_arm
         vel: list[tuple[Expr, Expr]] = []
+        acc: list[tuple[Expr, Expr]] = []
         forces: list[list[Expr]] = []
         locals_ = [self._local(j, q_a[j]) for j in range(n)]
-        gravity_acc = (ca.DM([0.0, 0.0, self.gravity]), ca.DM.zeros(3, 1))
-        acc: list[tuple[Expr, Expr]] = []
         for j, joint in enumerate(self._joints):
             R, p = locals_[j]
             Rt = R.T
-            if joint.parent < 0:
-                v_par, w_par = ca.DM.zeros(3, 1), ca.DM.zeros(3, 1)
-                a_par, al_par = gravity_acc
-            else:
-                v_par, w_par = vel[joint.parent]
-                a_par, al_par = acc[joint.parent]
+            v_par, w_par = (root[0], root[1]) if joint.parent < 0 else vel[joint.parent]
+            a_par, al_par = (root[2], root[3]) if joint.parent < 0 else acc[joint.parent]
             axis = ca.DM(joint.axis)
             w = Rt @ w_par
             v = Rt @ (v_par + ca.cross(w_par, p))
             al = Rt @ al_par
             a = Rt @ (a_par + ca.cross(al_par, p))
             if joint.revolute:
-                sw, sv = axis * dq_a[j], ca.DM.zeros(3, 1)
+                sw = axis * dq_a[j]
                 w = w + sw
                 al = al + axis * ddq_a[j] + ca.cross(w, sw)
                 a = a + ca.cross(v, sw)
@@ -215,27 +230,48 @@ class CasadiTwin:
                 a = a + axis * ddq_a[j] + ca.cross(w, sv)
             vel.append((v, w))
             acc.append((a, al))
-            m, c, Ic = joint.mass, ca.DM(joint.com), ca.DM(joint.inertia_com)
-            # Spatial inertia times a motion (v, w) about the joint origin.
-            h = m * (a + ca.cross(al, c))
-            n_ = Ic @ al + ca.cross(c, h)
-            hv = m * (v + ca.cross(w, c))
-            L = Ic @ w + ca.cross(c, hv)
-            f = h + ca.cross(w, hv)
-            tq = n_ + ca.cross(w, L) + ca.cross(v, hv)
-            forces.append([f, tq])
-        tau = [None] * n
+            forces.append(list(body_force(joint.mass, ca.DM(joint.com), ca.DM(joint.inertia_com), v, w, a, al)))
+        tau: list[Expr] = [None] * n
+        root_f, root_n = ca.DM.zeros(3, 1), ca.DM.zeros(3, 1)
         for j in reversed(range(n)):
             joint = self._joints[j]
             f, tq = forces[j]
             axis = ca.DM(joint.axis)
             tau[j] = ca.dot(axis, tq) if joint.revolute else ca.dot(axis, f)
+            R, p = locals_[j]
+            fr, nr = R @ f, R @ tq + ca.cross(p, R @ f)
             if joint.parent >= 0:
-                R, p = locals_[j]
-                fr = R @ f
                 forces[joint.parent][0] = forces[joint.parent][0] + fr
-                forces[joint.parent][1] = forces[joint.parent][1] + R @ tq + ca.cross(p, fr)
-        return ca.vertcat(*tau)
+                forces[joint.parent][1] = forces[joint.parent][1] + nr
+            else:
+                root_f, root_n = root_f + fr, root_n + nr
+        return ca.vertcat(*tau), root_f, root_n
+
+    def ground_wrench(self, q2: Expr, q1: Expr, q0: Expr, dt1: Expr, dt0: Expr, f: Expr, m: Expr) -> Expr:
+        """The floor's wrench ``(F, N_O)`` (6, base frame, about its origin on the floor) at ``q0``
+        with the paper's backward differences over the window ``q2, q1, q0`` (whole body), the task
+        wrench ``(f, m)`` (world frame) at the end effector: the Newton-Euler sums of
+        :mod:`forte.model.stability` (the base's support body, the arm's universe body moved by the
+        mount, the arm's links). Needs ``robot.base_support``."""
+        support, universe = self.robot.base_support, self.robot.model.inertias[0]
+        dq0, dq1 = (q0 - q1) / dt0, (q1 - q2) / dt1
+        ddq = (dq0 - dq1) / dt0
+        Rt = rot_z(q0[2]).T
+        w0 = ca.vertcat(0, 0, dq0[2])
+        v0 = Rt @ ca.vertcat(dq0[0], dq0[1], 0)
+        a0 = Rt @ ca.vertcat(ddq[0], ddq[1], 0) - ca.cross(w0, v0) + ca.DM([0.0, 0.0, self.gravity])
+        root = (v0, w0, a0, ca.vertcat(0, 0, ddq[2]))
+        _, F, N = self._newton_euler(q0[N_BASE:], dq0[N_BASE:], ddq[N_BASE:], root)
+        mount = self.robot.mount
+        bodies = [(support.mass, np.array(support.com), np.zeros((3, 3))),
+                  (universe.mass, mount[:3, :3] @ universe.lever + mount[:3, 3],
+                   mount[:3, :3] @ universe.inertia @ mount[:3, :3].T)]
+        for mass, com, inertia in bodies:
+            fb, nb = body_force(mass, ca.DM(com), ca.DM(inertia), v0, w0, a0, root[3])
+            F, N = F + fb, N + nb
+        _, p_ee = self.arm_ee_pose(q0[N_BASE:])
+        f_b, m_b = Rt @ f, Rt @ m
+        return ca.vertcat(F + f_b, N + m_b + ca.cross(p_ee, f_b))
 
     # -- numeric wrappers ---------------------------------------------------------------
     def functions(self) -> dict[str, ca.Function]:

@@ -118,6 +118,18 @@ class Stage:
         return self.twin.rnea(self.q0[N_BASE:], zero, zero)
 
 
+class TermSetting(NamedTuple):
+    """A setting a term declares (issue 25, item 6: terms own their parameters): a task sets it in
+    ``terms: {TERM: {NAME: value}}`` and the term receives it as its per-waypoint NLP parameter
+    ``parameter`` (no kernel is rebuilt for another value)."""
+
+    name: str
+    parameter: str
+    default: float
+    unit: str
+    doc: str
+
+
 class CostTerm:
     """Base class of a cost term; subclasses set the class attributes and one method.
 
@@ -128,7 +140,8 @@ class CostTerm:
             (default: ``name``); a term without one uses ``default_weight``.
         default_weight: the weight when neither the method nor ``CostWeights`` gives one.
         parameters: per-waypoint NLP parameters the term needs, ``(name, size)`` pairs, filled
-            by :meth:`parameter_values`.
+            by :meth:`parameter_values` or by the caller (:meth:`task_values`).
+        settings: the values a task may set (:class:`TermSetting`), each filling a parameter.
     """
 
     name: ClassVar[str] = ""
@@ -136,6 +149,14 @@ class CostTerm:
     weight_field: ClassVar[str | None] = None
     default_weight: ClassVar[float] = 1.0
     parameters: ClassVar[tuple[tuple[str, int], ...]] = ()
+    settings: ClassVar[tuple[TermSetting, ...]] = ()
+
+    @classmethod
+    def task_values(cls, force: Any, settings: dict[str, float]) -> dict[str, FloatArray]:
+        """The values of the term's parameters for a task force and the task's ``settings``
+        (default: each declared setting, given or its default, at every waypoint)."""
+        n = len(force.t)
+        return {s.parameter: np.full(n, float(settings.get(s.name, s.default))) for s in cls.settings}
 
     @classmethod
     def from_weights(cls, weights: CostWeights) -> CostTerm:
@@ -240,4 +261,4 @@ def _smooth_min(values: ca.SX, scale: ca.SX, beta: float) -> ca.SX:
 
 
 # The built-in terms register themselves when their modules load (they import the base above).
-from forte.planning import capability_terms, motion_terms, wrench_terms  # noqa: E402, F401
+from forte.planning import capability_terms, motion_terms, tipover_terms, wrench_terms  # noqa: E402, F401

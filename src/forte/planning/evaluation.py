@@ -11,6 +11,7 @@ from forte.force.taskforce import TaskForce
 from forte.model.clearance import clearances
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
+from forte.model.stability import trajectory_tipover_margin
 from forte.settings import CapabilityParameters
 from forte.validation import FloatArray
 
@@ -25,6 +26,8 @@ def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: Task
     ``clearance`` is the robot's exact signed distance (m) to the nearest body of ``scene``
     (:mod:`forte.model.clearance`), ``inf`` without a scene. With a moment (a wrench requirement)
     ``d``, the capacity and the torque follow it, plus ``mx, my, mz`` (:func:`~forte.capability.wrench.wrench_metrics`).
+    A robot that states its base support gets ``tipover_margin`` (m, the ZMP's distance to the
+    support polygon's edge, positive inside; :func:`~forte.model.stability.trajectory_tipover_margin`).
     """
     alpha = params.alpha if isinstance(params, CapabilityParameters) else float(params)
     rfp = trajectory_rfp(robot, q, t, alpha=1.0)
@@ -43,4 +46,5 @@ def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: Task
         "max_torque_ratio_with_force": np.max(
             np.abs(rfp.tau_nom + np.einsum("kij,ki->kj", rfp.J, force.f)) / robot.torque_limits, axis=1),
         "clearance": clearances(robot, scene, q).distance if scene else np.full(len(rfp.J), np.inf),
-    } | (wrench_metrics(robot, q, t, force, alpha) if force.has_moment else {})
+    } | (wrench_metrics(robot, q, t, force, alpha) if force.has_moment else {}) | (
+        {} if robot.base_support is None else {"tipover_margin": trajectory_tipover_margin(robot, q, t, force)})

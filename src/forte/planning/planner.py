@@ -28,8 +28,9 @@ from forte.planning.requirements import TRACKING_ORIENTATION_TOL, orientation_er
 from forte.planning.scene_guess import clear_start
 from forte.planning.scene_solve import blocked_path, solve_in_scene
 from forte.planning.tasks import Task
+from forte.planning.terms_section import term_settings, term_values, with_task_terms
 from forte.planning.verdict import SOLVER_FAILED, Verdict, arm_acceleration_ratios, capacity_shortfall, judge_plan
-from forte.planning.wrench_terms import for_requirement, term_values, uses_capability
+from forte.planning.wrench_terms import for_requirement, uses_capability
 from forte.validation import FloatArray
 
 
@@ -162,7 +163,8 @@ def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:
 
 
 def _solve(opt: TrajectoryOptimizer, task: Task, force: TaskForce, q: FloatArray, nominal: FloatArray) -> SolverResult:
-    return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q, nominal, term_values=term_values(force))
+    return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q, nominal,
+                     term_values=term_values(opt.method_spec, force, task.terms))
 
 
 def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None,
@@ -196,8 +198,9 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         "accepted_violation": accepted_violation(options),
         "build_time_s": sol.build_time, "solve_time_s": sol.solve_time, "kernels": sol.codegen,
         "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, (rep := reported or force).f, rep.r,
-                                     term_values=term_values(rep)),
-        "term_weights": opt.term_weights(), "quadratic_forms": opt.quadratic_forms,
+                                     term_values=term_values(method, rep, task.terms)),
+        "term_weights": opt.term_weights(), "term_settings": term_settings(method, task.terms),
+        "quadratic_forms": opt.quadratic_forms,
     }
     if "starts" in info:  # the work of every start, the chosen start's own figures under "starts"
         starts = info["starts"]
@@ -331,7 +334,8 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         info = {"status": status, "success": False, "path_blocked": True}
         verdict = judge_plan(task, q, force)
     elif spec.optimized:
-        solved_as = for_requirement(spec, force)  # J1 on the wrench when the payload needs a moment
+        # J1 on the wrench when the payload needs a moment; the task's own terms (e.g. tipover) added
+        solved_as = with_task_terms(for_requirement(spec, force), task.terms)
         sol, info = _optimize(task, solved_as, force, guess)
         verdict = judge_plan(task, sol.q, force, info)
         sol, info, verdict = _refine(task, solved_as, force, sol, info, verdict)

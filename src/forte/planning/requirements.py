@@ -12,8 +12,10 @@ much. :func:`forte.planning.verdict.judge` runs the list :data:`REQUIREMENTS`.
   within its joint range (URDF), velocity (URDF) and acceleration limits (the robot
   description), the base within its velocity limits (:class:`forte.settings.KinematicLimits`);
   checked whether or not the NLP imposed them;
-- :class:`BaseMode`: the base moves as its mode allows (:attr:`MobileManipulator.base`): a fixed
-  base stays put, a differential drive has no lateral velocity;
+- :class:`~forte.planning.base_requirements.Tipover`: the whole robot's zero-moment point inside the
+  base's support polygon (a robot that states one), :mod:`forte.model.stability`;
+- :class:`~forte.planning.base_requirements.BaseMode`: the base moves as its mode allows
+  (:attr:`MobileManipulator.base`): a fixed base stays put, a differential drive has no lateral velocity;
 - :class:`Tracking`: the end effector on the task's path (position and orientation);
 - :class:`SelfCollision`: no collision between the arm's URDF collision meshes;
 - :class:`Clearance`: the whole robot (arm collision meshes, base box) keeps the task's
@@ -24,7 +26,7 @@ much. :func:`forte.planning.verdict.judge` runs the list :data:`REQUIREMENTS`.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar, NamedTuple
+from typing import ClassVar
 
 import numpy as np
 
@@ -33,12 +35,17 @@ from forte.capability.polytope import directional_capacity
 from forte.capability.wrench import requirement_measures
 from forte.force.taskforce import force_directions
 from forte.model.clearance import Clearances, clearances
-from forte.model.robot import N_BASE, MobileManipulator
-from forte.model.scene import Scene
+from forte.model.robot import N_BASE
 from forte.model.self_collision import arm_geometry
-from forte.planning.base_rows import lateral_displacement
-from forte.planning.motion_samples import MotionSamples, SampledForce
-from forte.planning.scene_section import DEFAULT_CLEARANCE
+from forte.planning.base_requirements import (
+    FIXED_BASE_TOL,
+    LATERAL_SPEED_TOL,
+    SPLINE_LATERAL_SPEED_TOL,
+    BaseMode,
+    Tipover,
+)
+from forte.planning.motion_samples import MotionSamples
+from forte.planning.requirement_base import Context, Measure, Requirement, Violation, exceeded
 from forte.validation import FloatArray
 
 #: End-effector position error (m) and orientation error (rad) a plan may have against its task's path.
@@ -48,118 +55,8 @@ TRACKING_ORIENTATION_TOL = 0.05
 LIMIT_SLACK = 1e-6
 #: Joint position slack (rad): the NLP's bounds are met to IPOPT's tolerance.
 POSITION_SLACK = 1e-6
-#: Lateral base speed (m/s) a differential drive may show at the waypoints: the NLP's rows hold
-#: there to IPOPT's tolerance (1e-13 m/s measured).
-LATERAL_SPEED_TOL = 1e-3
-#: ... and between them, on the executed spline: a cubic through (x, y, yaw) is not itself a
-#: differential-drive path, it drifts sideways where the base turns while driving. Measured (forte
-#: on the shipped tasks with ``base: differential``): 0.1 mm/s on lift.yaml, 0.2 mm/s on the test's
-#: drive-and-turn, 2.8, 5.8 and 8.1 mm/s on around-the-crate, through-the-doorway and
-#: table-to-shelf (base turning at up to 0.8 rad/s while driving at 0.5 m/s).
-SPLINE_LATERAL_SPEED_TOL = 1e-2
-#: How far (m, rad) a fixed base may move from its initial pose (its variables are bounded there).
-FIXED_BASE_TOL = 1e-9
 #: IPOPT statuses that count as converged.
 CONVERGED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-
-
-class Violation(NamedTuple):
-    """A failed requirement.
-
-    Attributes:
-        requirement: the requirement's name (``capacity``, ``torque``, ...).
-        detail: one line: what failed, where and by how much.
-        worst: the worst value of the judged quantity, ``limit``: the value it had to respect
-            (both in ``units``).
-        waypoints: waypoints at which it fails (empty when only between waypoints or for the solver).
-        first_time: the first time (s) at which it fails (``None`` for the solver).
-    """
-
-    requirement: str
-    detail: str
-    worst: float
-    limit: float
-    units: str
-    waypoints: tuple[int, ...]
-    first_time: float | None
-
-    def to_json(self) -> dict[str, Any]:
-        return {"requirement": self.requirement, "detail": self.detail, "worst": self.worst, "limit": self.limit,
-                "units": self.units, "waypoints": list(self.waypoints), "first_time": self.first_time}
-
-
-class Context(NamedTuple):
-    """What the requirements judge: the sampled plan, its force, the robot and the solver facts.
-
-    Attributes:
-        robot, samples: the robot and the plan sampled (:mod:`forte.planning.motion_samples`).
-        force: the task force and ball radii at the samples.
-        alpha: the metric's ``alpha``.
-        targets: the task's end-effector poses at the samples (K x 4 x 4), ``None``: unknown.
-        velocity_limits, acceleration_limits: whole-body limits (nq; ``inf`` where none).
-        solver: the solver's facts (``{}`` for a plan that was not optimized).
-        optimized: whether the plan came from the solver.
-        scene, clearance: the static bodies around the robot and the distance (m) to keep from them.
-        distances: the exact robot-scene clearance at every sample (``None``: not computed yet;
-            :class:`Clearance` computes it when the scene is not empty).
-    """
-
-    robot: MobileManipulator
-    samples: MotionSamples
-    force: SampledForce
-    alpha: float
-    targets: FloatArray | None
-    velocity_limits: FloatArray
-    acceleration_limits: FloatArray
-    solver: dict[str, Any]
-    optimized: bool
-    scene: Scene = Scene()
-    clearance: float = DEFAULT_CLEARANCE
-    distances: Clearances | None = None
-
-
-def exceeded(ctx: Context, name: str, value: FloatArray, limit: float, units: str, what: str) -> Violation | None:
-    """The violation where ``value`` (one per sample) exceeds ``limit``, else ``None``."""
-    bad = value > limit
-    if not np.any(bad):
-        return None
-    s = ctx.samples
-    worst = int(np.argmax(value))
-    at_waypoints = tuple(int(k) for k in np.flatnonzero(bad[s.waypoint]))
-    first = float(s.t[np.flatnonzero(bad)[0]])
-    where = (f"at {len(at_waypoints)} of {len(s.waypoint)} waypoints" if at_waypoints
-             else "between waypoints only")
-    detail = (f"{what} {where}, first at t = {first:.3g} s; worst {value[worst]:.4g} {units} "
-              f"(limit {limit:.4g}) at t = {s.t[worst]:.3g} s")
-    return Violation(name, detail, float(value[worst]), float(limit), units, at_waypoints, first)
-
-
-class Measure(NamedTuple):
-    """One sampled quantity a requirement bounds: it fails where ``value > limit``."""
-
-    value: FloatArray
-    limit: float
-    units: str
-    what: str
-
-
-@dataclass(frozen=True)
-class Requirement:
-    """One requirement: :meth:`measures` gives its sampled quantities and their limits, and
-    :meth:`check` returns ``None`` or a :class:`Violation` for the first one that is exceeded."""
-
-    name: ClassVar[str] = ""
-    mass_dependent: ClassVar[bool] = False  # changes with the payload mass (the force)
-
-    def measures(self, ctx: Context) -> list[Measure]:
-        raise NotImplementedError
-
-    def check(self, ctx: Context) -> Violation | None:
-        for m in self.measures(ctx):
-            found = exceeded(ctx, self.name, m.value, m.limit, m.units, m.what)
-            if found is not None:
-                return found
-        return None
 
 
 @dataclass(frozen=True)
@@ -243,33 +140,6 @@ class JointAccelerations(Requirement):
     def ratios(samples: MotionSamples, acceleration_limits: FloatArray) -> FloatArray:
         """Per arm joint: the worst ``|ddq_i| / a_max,i`` over the samples (whole-body limits in)."""
         return np.max(np.abs(samples.ddq[:, N_BASE:]) / acceleration_limits[N_BASE:], axis=0)
-
-
-@dataclass(frozen=True)
-class BaseMode(Requirement):
-    """A ``fixed`` base never leaves its initial pose (m, rad); a ``differential`` one has no
-    lateral velocity in its own frame: at the waypoints the plan's step at the interval's midpoint
-    heading (the NLP's row, :mod:`forte.planning.base_rows`) over ``dt``, at most
-    :data:`LATERAL_SPEED_TOL`; between them the spline's velocity at its own heading, at most
-    :data:`SPLINE_LATERAL_SPEED_TOL`. Nothing for ``holonomic``."""
-
-    name: ClassVar[str] = "base_mode"
-
-    def measures(self, ctx: Context) -> list[Measure]:
-        s, mode = ctx.samples, ctx.robot.base
-        if mode == "fixed":
-            moved = np.max(np.abs(s.q[:, :N_BASE] - s.q[:1, :N_BASE]), axis=1)
-            return [Measure(moved, FIXED_BASE_TOL, "m or rad", "the fixed base moves")]
-        if mode != "differential":
-            return []
-        yaw = s.q[:, 2]
-        between = np.abs(-np.sin(yaw) * s.dq[:, 0] + np.cos(yaw) * s.dq[:, 1])
-        between[s.waypoint] = 0.0
-        at = np.zeros(len(s.t))  # the first waypoint has no step
-        at[s.waypoint[1:]] = np.abs(lateral_displacement(s.q[s.waypoint])) / np.diff(s.t[s.waypoint])
-        return [Measure(at, LATERAL_SPEED_TOL, "m/s", "the differential base moves sideways"),
-                Measure(between, SPLINE_LATERAL_SPEED_TOL, "m/s",
-                        "the differential base's spline moves sideways between waypoints")]
 
 
 def orientation_errors(ee: FloatArray, targets: FloatArray) -> FloatArray:
@@ -394,6 +264,11 @@ class Solver(Requirement):
 #: The requirements every plan is judged on, in the order their failures are reported (a plan
 #: that runs into the scene is reported for that first: one line names the pair).
 REQUIREMENTS: tuple[Requirement, ...] = (
-    Solver(), Clearance(), Capacity(), TorqueWithForce(), JointPositions(), JointVelocities(),
+    Solver(), Clearance(), Capacity(), TorqueWithForce(), Tipover(), JointPositions(), JointVelocities(),
     JointAccelerations(), BaseMode(), Tracking(), SelfCollision(),
 )
+
+__all__ = ["CONVERGED", "FIXED_BASE_TOL", "LATERAL_SPEED_TOL", "REQUIREMENTS", "SPLINE_LATERAL_SPEED_TOL",
+           "BaseMode", "Capacity", "Clearance", "Context", "JointAccelerations", "JointPositions", "JointVelocities",
+           "Measure", "Requirement", "SelfCollision", "Solver", "Tipover", "TorqueWithForce", "Tracking", "Violation",
+           "exceeded", "orientation_errors", "scene_distances"]

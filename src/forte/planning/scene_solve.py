@@ -16,7 +16,7 @@ from forte.planning.collision_slots import assign_slots, missing_pairs
 from forte.planning.methods import Method
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer
 from forte.planning.tasks import Task
-from forte.planning.wrench_terms import term_values
+from forte.planning.terms_section import term_values
 from forte.validation import FloatArray
 
 
@@ -56,7 +56,7 @@ def solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatA
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=fix, options=options,
                                   limits=task.limits, slots=slots, keep_multipliers=keep_multipliers)
         sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, start, nominal,
-                        term_values=term_values(force))
+                        term_values=term_values(method, force, task.terms))
         missing = missing_pairs(task.robot, sol.q, task.scene, task.clearance, slots)
         rounds.append({"rows": slots.rows, "slots": {ck.name: ck.slots for ck in opt._clear},
                        "iterations": sol.iterations, "missing_pairs": len(missing)})

@@ -12,8 +12,16 @@ import numpy as np
 import pinocchio as pin
 
 from forte.exceptions import ForteError, TaskFileError
+from forte.model.base_support import BaseSupport, box_support
 from forte.model.presets import ROBOT_PRESETS, preset_robot
-from forte.model.robot import BASE_MODES, MobileManipulator, ToolLoad, default_robot, with_torque_limits
+from forte.model.robot import (
+    BASE_MODES,
+    MobileManipulator,
+    ToolLoad,
+    default_robot,
+    robot_from_description,
+    with_torque_limits,
+)
 from forte.settings import CapabilityParameters
 from forte.validation import MAX_MASS_KG, FloatArray, _short
 
@@ -146,7 +154,7 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
         return default_robot(**overrides)
     r = reader.sub("robot")
     r.unknown({"preset", "urdf", "ee_frame", "arm_joints", "mount", "tool", "torque_limits", "gravity", "name",
-               "tool_force_mass", "home_arm", "acceleration_limits", "base"})
+               "tool_force_mass", "home_arm", "acceleration_limits", "base", *SUPPORT_FIELDS})
     kwargs: dict[str, Any] = {}
     if r.has("base"):
         kwargs["base"] = r.choice("base", BASE_MODES, "holonomic")
@@ -214,11 +222,41 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
                 raise reader.error("torque_limits", f"expected a list of {robot.n_arm} numbers (one per arm "
                                    f"joint), got {top_limits.size}")
             robot = with_torque_limits(robot, top_limits)
-        return robot
+        return support_section(r, robot)
     except TaskFileError:
         raise
     except ForteError as exc:
         raise r.error("", str(exc)) from exc
+
+
+#: The ``robot:`` fields that state the base's support (:mod:`forte.model.base_support`).
+SUPPORT_FIELDS = ("base_footprint", "base_mass", "base_com")
+
+
+def support_section(r: Reader, robot: MobileManipulator) -> MobileManipulator:
+    """``robot`` with the base support of ``robot.base_footprint`` (a list of ``[x, y]`` vertices, m,
+    base frame; ``box``: forte's base box with the simulator's base mass; ``null``: none) and
+    ``base_mass`` (kg, default 0 with a list) and ``base_com`` (m) on top of the footprint or of
+    the preset's support."""
+    if not any(key in r.data for key in SUPPORT_FIELDS):
+        return robot
+    support = robot.base_support
+    if "base_footprint" in r.data:
+        value = r.get("base_footprint")
+        if value is None:
+            support = None
+        elif value == "box":
+            support = box_support(robot.mount[2, 3])
+        else:
+            support = BaseSupport(value, source="the task file")
+    if support is None and (r.has("base_mass") or r.has("base_com")):
+        raise r.error("base_footprint", "required with base_mass or base_com (the support polygon, m)")
+    if support is not None:
+        mass = r.number("base_mass", nonnegative=True, maximum=MAX_MASS_KG, unit=" kg") if r.has("base_mass") \
+            else support.mass
+        com = tuple(r.vector("base_com", 3)) if r.has("base_com") else support.com
+        support = dataclasses.replace(support, mass=mass, com=com)
+    return robot_from_description({**robot.describe(), "base_support": support})
 
 
 #: Fields of a ``controller:`` block (their values are checked against the robot by

@@ -55,6 +55,7 @@ from forte.planning.schema import (
     robot_section,
     rotation,
 )
+from forte.planning.terms_section import terms_section
 from forte.planning.weights_section import by_joint_name, weight_preset
 from forte.settings import CostWeights, KinematicLimits, SolverOptions
 from forte.validation import MAX_DURATION_S, MAX_FILE_BYTES, MAX_WAYPOINTS, FloatArray
@@ -116,6 +117,9 @@ class Task:
     scene: Scene = field(default_factory=Scene)
     #: Distance (m) the plan keeps from every scene body (:data:`DEFAULT_CLEARANCE`).
     clearance: float = DEFAULT_CLEARANCE
+    #: Cost terms the task adds to every optimized method, with their weight and settings
+    #: (``terms:``, :mod:`forte.planning.terms_section`).
+    terms: dict[str, dict[str, float]] = field(default_factory=dict)
 
     @property
     def n(self) -> int:
@@ -273,7 +277,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     reader.unknown({"name", "robot", "mode", "initial_configuration", "path", "pose", "payload", "force",
                     "uncertainty_radius", "uncertainty_rule", "force_model", "weights", "torque_limits", "solver",
                     "teaching_configuration", "limits", "controller", "require_capacity", "scene", "scene_file",
-                    "clearance"})
+                    "clearance", "terms"})
     base = path.parent if path else Path.cwd()
     robot = robot_section(reader, base)
     mode = reader.choice("mode", MODES, "trajectory")
@@ -347,7 +351,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                 teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
                 targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots,
                 radius_rule=radius_rule, force_model=force_model, scene=scene_section(reader, base),
-                clearance=clearance_value(reader))
+                clearance=clearance_value(reader), terms=terms_section(reader))
 
 
 def _hold_pose(reader: Reader, robot: MobileManipulator, T0: FloatArray, teaching: FloatArray | None) -> FloatArray:
