@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 from scipy import sparse
+from scipy.linalg.lapack import dpotrf, dpotrs
 
 from forte.validation import FloatArray
 
@@ -99,11 +100,13 @@ class ReducedSystem:
     def _factor_solve(self, M: FloatArray, rhs: FloatArray, delta: float, U: FloatArray | None,
                       g: FloatArray | None) -> FloatArray:
         if not self.banded:
-            A = M
+            A = M.copy()
             if delta:
-                A = M.copy()
                 A.flat[:: self.nr + 1] += delta
-            return sla.cho_solve(sla.cho_factor(A, lower=True, check_finite=False), rhs, check_finite=False)
+            c, info = dpotrf(A, lower=1, clean=0, overwrite_a=1)  # LAPACK directly: the wrappers cost more
+            if info != 0:
+                raise np.linalg.LinAlgError("not positive definite")
+            return dpotrs(c, rhs, lower=1)[0]
         ab = M.copy()
         ab[0] += delta
         cb = sla.cholesky_banded(ab, lower=True, check_finite=False)

@@ -105,6 +105,8 @@ class StageProblem:
         self.owner = np.asarray(free, dtype=int)  # the waypoint each block is (tied ones copy it)
         self.owner_x = np.concatenate([k * nq + np.arange(nq) for k in free]).astype(int)  # x index of each y
         rows = np.flatnonzero(self.ymap >= 0)
+        self._gather = np.where(self.ymap >= 0, self.ymap, self.ny)  # x_of: y extended by a 0
+        self._free_x_idx = rows
         self.T = sparse.csr_matrix((np.ones(rows.size), (rows, self.ymap[rows])), shape=(n * nq, self.ny))
 
     def _kinematic_matrix(self) -> None:
@@ -209,7 +211,8 @@ class StageProblem:
 
     # -- evaluations ----------------------------------------------------------------------
     def x_of(self, y: FloatArray, data: TaskData) -> FloatArray:
-        return self.T @ y + data.x_fix
+        """``T y + x_fix`` (``T`` a selection: a gather)."""
+        return np.append(y, 0.0)[self._gather] + data.x_fix
 
     def objective(self, y: FloatArray, data: TaskData) -> float:
         x = self.x_of(y, data)
@@ -220,7 +223,7 @@ class StageProblem:
         x = self.x_of(y, data)
         g = self.kernels.grad(self.n, self._win(x), *data.stage_args)[0]
         gx = np.bincount(self._widx.ravel(), weights=g.ravel(), minlength=x.size) + self.quadratic_gradient(x)
-        return self.T.T @ gx
+        return np.bincount(self.ymap[self._free_x_idx], gx[self._free_x_idx], minlength=self.ny)  # T^T gx
 
     def quadratic_gradient(self, x: FloatArray) -> FloatArray:
         """``Q x = D x + R^T (g * R x)``."""
