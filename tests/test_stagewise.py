@@ -106,14 +106,15 @@ def test_newton_step_solves_the_full_kkt_system():
     data = pb.task_data(task.t, task.targets, f.f, f.r, task.q_init, nominal)
     it = ip.start(pb.y_of(start_guess(task, nominal)), data)
     ev = ip.evaluate(it, data)
-    ev.extras["hess"] = pb.stage_hessians(it.y, data)
+    ev.extras["hess"] = it.scale * pb.stage_hessians(it.y, data)  # the objective as scaled (IPOPT's rule)
+    assert 0 < it.scale <= 1
     dy, lam_new, delta, parts = ip.step(it, ev, data, it.mu)
     sigma = parts[0]
     # the y Hessian from IPOPT's own Lagrangian Hessian (upper triangle) and the barrier
     p = opt.parameters(task.t, task.targets, f.f, f.r, nominal)
     lam_g = np.zeros(opt._g.size1_out(0))
     lam_g[: it.lam.size] = it.lam.ravel()
-    hu = opt._nlp_options["hess_lag"](opt.full_x(pb.x_of(it.y, data).reshape(task.n, -1)), p, 1.0, lam_g)
+    hu = opt._nlp_options["hess_lag"](opt.full_x(pb.x_of(it.y, data).reshape(task.n, -1)), p, it.scale, lam_g)
     hu = np.array(hu.full())[: pb.T.shape[0], : pb.T.shape[0]]
     Hx = hu + np.triu(hu, 1).T
     H = pb.T.T @ Hx @ pb.T + (pb.A.T @ np.diag(sigma) @ pb.A) + delta * np.eye(pb.ny)

@@ -122,7 +122,7 @@ class RealTimeIteration:
             violation = max(float(np.abs(c).max(initial=0.0)), _row_violation(solver, it.y, data))
             reason = "violation" if not violation <= self.violation_tol else ""
         result = SolverResult(q=q, success=converged, status="Solve_Succeeded" if converged else "Real_Time_Step",
-                              iterations=0 if converged else 1, objective=float(ev.f),
+                              iterations=0 if converged else 1, objective=float(ev.f) / it.scale,
                               constraint_violation=violation, build_time=0.0, solve_time=0.0,
                               codegen=rp.optimizer.codegen, iterate=it)
         if reason not in ("not finite", "solver error"):  # the replanner follows the newest problem

@@ -49,6 +49,7 @@ from forte.planning.solvers.stage_problem import StageProblem, TaskData
 from forte.validation import FloatArray
 
 S_MAX = 100.0  # IPOPT's s_max of the scaled optimality error
+MAX_GRADIENT = 100.0  # IPOPT's nlp_scaling_max_gradient: the objective is scaled so that its gradient stays below
 KAPPA_EPS = 10.0
 KAPPA_SIGMA = 1e10
 
@@ -63,11 +64,12 @@ class Iterate:
     zl: FloatArray
     zu: FloatArray
     mu: float
+    scale: float = 1.0  # objective scaling (IPOPT's gradient-based: max |grad f| at the start <= 100)
 
     def copy(self) -> Iterate:
         def cp(a: FloatArray | None) -> FloatArray | None:
             return None if a is None else a.copy()
-        return Iterate(self.y.copy(), self.lam.copy(), self.s.copy(), cp(self.zl), cp(self.zu), self.mu)
+        return Iterate(self.y.copy(), self.lam.copy(), self.s.copy(), cp(self.zl), cp(self.zu), self.mu, self.scale)
 
 
 class StepInfo(NamedTuple):
@@ -142,8 +144,9 @@ class InteriorPoint:
         pb = self.pb
         trial = self._trial
         hit = trial is not None and trial.y is it.y and trial.data is data
-        f, c = (trial.f, trial.c) if hit else (pb.objective(it.y, data), pb.pose(it.y, data))
-        return Evaluation(f, pb.gradient(it.y, data), c, pb.pose_jacobian(it.y, data), pb.A @ it.y + data.b - it.s)
+        f, c = (trial.f, trial.c) if hit else (it.scale * pb.objective(it.y, data), pb.pose(it.y, data))
+        return Evaluation(f, it.scale * pb.gradient(it.y, data), c, pb.pose_jacobian(it.y, data),
+                          pb.A @ it.y + data.b - it.s)
 
     def _dual_residual(self, ev: Evaluation, it: Iterate) -> FloatArray:
         pb = self.pb
@@ -219,18 +222,18 @@ class InteriorPoint:
         U = g_rows = None
         if self.system.banded:
             Zm = sparse.csr_matrix((Z.reshape(-1), self.z_indices, self.z_indptr), shape=(pb.ny, self.nr))
-            M = self.system.assemble(Hred, bounds, Zm.T @ (pb.Dy @ Zm))
+            M = self.system.assemble(Hred, bounds, it.scale * (Zm.T @ (pb.Dy @ Zm)))
             M[0, self.padded] += 1.0
             if pb.g.size:
-                U, g_rows = np.einsum("bna,bnl->bal", Z, self._rt).reshape(self.nr, -1), pb.g
+                U, g_rows = np.einsum("bna,bnl->bal", Z, self._rt).reshape(self.nr, -1), it.scale * pb.g
         else:
-            M = self.system.assemble(Hred, bounds, self._reduced_quadratic(Z))
+            M = self.system.assemble(Hred, bounds, it.scale * self._reduced_quadratic(Z))
             M[self.padded, self.padded] += 1.0
 
         def hv(v: FloatArray) -> FloatArray:
             vw = np.append(v, 0.0)[self.wy]
             out = np.bincount(self.wy.ravel(), np.matmul(Hw, vw[:, :, None]).ravel(), minlength=pb.ny + 1)
-            return out[: pb.ny] + pb.quadratic_product(v) + bdiag * v
+            return out[: pb.ny] + it.scale * pb.quadratic_product(v) + bdiag * v
 
         pY = -np.linalg.solve(R.transpose(0, 2, 1), ev.c[..., None])[..., 0]  # P x 6
         ypy = np.zeros((pb.blocks, nq))
@@ -280,7 +283,7 @@ class InteriorPoint:
         trial = self._trial
         y = trial.y if trial is not None and trial.dy is dy and trial.alpha == a_p else it.y + a_p * dy
         new = Iterate(y, it.lam + a_p * (lam_new - it.lam), it.s + a_p * ds,
-                      it.zl + a_d * dzl, it.zu + a_d * dzu, mu)
+                      it.zl + a_d * dzl, it.zu + a_d * dzu, mu, it.scale)
         lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
         # IPOPT's safeguard: z stays within a factor kappa_sigma of mu / slack
         sl, su = np.where(lo, new.s - data.lower, 1.0), np.where(up, data.upper - new.s, 1.0)
@@ -297,6 +300,7 @@ class InteriorPoint:
         s = self._push(v, data)
         lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
         it = Iterate(y0.copy(), np.zeros((pb.posed.size, 6)), s, lo * 1.0, up * 1.0, mu0)
+        it.scale = min(1.0, MAX_GRADIENT / max(float(np.abs(pb.gradient(y0, data)).max(initial=0.0)), 1e-300))
         ev = self.evaluate(it, data)
         it.lam = self.least_squares_multipliers(ev, it)
         return it
@@ -330,6 +334,8 @@ class InteriorPoint:
         """One Newton step from ``it`` at ``it.mu``: the new iterate, its step length and delta."""
         mu = it.mu
         ev.extras["hess"] = self.pb.stage_hessians(it.y, data)
+        if it.scale != 1.0:
+            ev.extras["hess"] *= it.scale
         dy, lam_new, delta, parts = self.step(it, ev, data, mu)
         ds, dzl, dzu = self._directions(it, ev, dy, parts, mu)
         a_p, a_d = self._fraction_to_boundary(it, ds, dzl, dzu, parts, max(0.99, 1 - mu))
@@ -353,7 +359,7 @@ class InteriorPoint:
                 return IPResult(it, False, k, "Invalid_Number_Detected", ev.f, np.inf, history)
             err0, viol = self.error(ev, it, data, 0.0)
             if err0 <= self.tol and viol <= self.constraint_tol:
-                return IPResult(it, True, k, "Solve_Succeeded", ev.f, viol, history)
+                return IPResult(it, True, k, "Solve_Succeeded", ev.f / it.scale, viol, history)
             if k == max_iter:
                 break
             while it.mu > self.mu_min and self.error(ev, it, data, it.mu)[0] <= KAPPA_EPS * it.mu:
@@ -361,9 +367,9 @@ class InteriorPoint:
             try:
                 it, alpha, delta = self.iteration(it, ev, data)
             except np.linalg.LinAlgError:
-                return IPResult(it, False, k, "Error_In_Step_Computation", ev.f, viol, history)
+                return IPResult(it, False, k, "Error_In_Step_Computation", ev.f / it.scale, viol, history)
             history.append(StepInfo(err0, viol, alpha, delta))
-        return IPResult(it, False, max_iter, "Maximum_Iterations_Exceeded", ev.f, viol, history)
+        return IPResult(it, False, max_iter, "Maximum_Iterations_Exceeded", ev.f / it.scale, viol, history)
 
     def reset(self) -> None:
         """Forget the filter and the last inertia correction (a new solve)."""

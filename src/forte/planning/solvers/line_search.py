@@ -72,7 +72,7 @@ class FilterLineSearch:
         for _ in range(30):
             y = it.y + alpha * dy
             c = pb.pose(y, data)
-            f = pb.objective(y, data)
+            f = it.scale * pb.objective(y, data)
             theta = float(np.abs(c).sum() + (1 - alpha) * np.abs(ev.rA).sum())
             if self._accept(theta, barrier_objective(f, it.s + alpha * ds, data, mu), ref, alpha):
                 return alpha, dy, Trial(y, f, c, data, alpha, dy)
@@ -85,7 +85,7 @@ class FilterLineSearch:
                 y2 = it.y + alpha * dy2
                 theta2 = float(np.abs(pb.pose(y2, data)).sum() + (1 - alpha) * np.abs(ev.rA).sum())
                 ds2 = pb.A @ dy2 + ev.rA  # the slacks follow the corrected step
-                phi2 = barrier_objective(pb.objective(y2, data), it.s + alpha * ds2, data, mu)
+                phi2 = barrier_objective(it.scale * pb.objective(y2, data), it.s + alpha * ds2, data, mu)
                 if self._accept(theta2, phi2, ref, alpha):
                     return alpha, dy2, None
             alpha /= 2

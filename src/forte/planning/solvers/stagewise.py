@@ -74,4 +74,4 @@ class StagewiseSolver:
         y = it.y.reshape(pb.blocks, pb.nq)[src].ravel()
         posed = {int(k): i for i, k in enumerate(pb.posed)}
         lam_src = [posed.get(min(int(k) + steps, pb.n - 1), pb.posed.size - 1) for k in pb.posed]
-        return Iterate(y, it.lam[lam_src], it.s.copy(), None, None, it.mu)  # type: ignore[arg-type]
+        return Iterate(y, it.lam[lam_src], it.s.copy(), None, None, it.mu, it.scale)  # type: ignore[arg-type]
