@@ -198,7 +198,7 @@ def test_outputs_record_the_clearance_and_read_back(robot, tmp_path):
     assert block["body"] == "wall" and block["min_m"] < 0 and block["required_m"] == 0.02
     assert block["min_m"] == result.verdict.clearance["min_m"] and 0 <= block["t"] <= 10.0
     metrics = read_metrics(out)
-    assert list(metrics) == list(METRIC_COLUMNS)
+    assert list(metrics) == [*METRIC_COLUMNS, "tipover_margin"]  # the MOCA base states its support polygon
     assert np.min(metrics["clearance"]) >= block["min_m"] - 1e-12  # the waypoints are among the samples
     assert read_plan_dir(out).verdict.clearance == block
     # without a scene: the column holds inf (the distance to no body) and plan.json has no block
@@ -207,7 +207,8 @@ def test_outputs_record_the_clearance_and_read_back(robot, tmp_path):
     assert "clearance" not in json.loads((plain / "plan.json").read_text())
     # a metrics.csv written before the clearance column is still read
     lines = (plain / "metrics.csv").read_text().splitlines()
-    (plain / "metrics.csv").write_text("\n".join(line.rsplit(",", 1)[0] for line in lines) + "\n")
+    keep = len(LEGACY_METRIC_COLUMNS)  # the columns before clearance (and the tip-over margin after it)
+    (plain / "metrics.csv").write_text("\n".join(",".join(line.split(",")[:keep]) for line in lines) + "\n")
     assert list(read_metrics(plain)) == list(LEGACY_METRIC_COLUMNS)
 
 
