@@ -1,6 +1,15 @@
 """Re-planning benchmark (issue 14). Prints its figures; nothing is asserted.
 
 Run: python benchmarks/bench_replan.py [--replans 60] [--waypoints 41] [--seed 0] [--no-check] [--sqp]
+     [--ipopt-only] [--no-cold]
+
+Each case runs with IPOPT's converged re-plan, the stagewise solver's converged re-plan and one
+real-time iteration (:mod:`forte.planning.realtime`, from the converged solution of the last mass),
+in the same run, with their ratios; then the 0.35 -> 2.7 kg jump followed by consecutive real-time
+iterations until converged, where a converged stagewise re-plan's time goes (kernel evaluations,
+factorizations, the rest of the solve, outside the solve) and cold plans at N = 41 and 400 with
+both solvers. The lines are named ``mass changes, converged (IPOPT)``, ``mass changes, converged
+(stagewise)``, ``mass changes, one real-time iteration (stagewise)`` and likewise for the shifts.
 
 On the authors' lift (``examples/tasks/lift.yaml``, N = 41), with a warm
 :class:`forte.planning.replan.Replanner`:

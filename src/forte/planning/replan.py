@@ -29,14 +29,14 @@ does not converge is retried once from the cold initial guess; if that fails too
 so (``success`` false) and the last good solution is kept: a re-plan never returns an
 unconverged plan as a success.
 
-Why IPOPT and not a real-time-iteration SQP: from the last solution IPOPT's warm iterations are
-already Newton steps on the KKT system (nearly all of full length, the inequalities inactive,
-the barrier at ``tol / 10``, the Hessian perturbed only where its inertia is wrong); an SQP
-takes at best the same steps, and the sparse QP solvers (OSQP, proxsuite) need a convex
-Hessian, which the capability terms' Lagrangian Hessian is not (``benchmarks/bench_replan.py
---sqp``: CasADi's SQP with OSQP and a regularized Hessian does not converge in 50 iterations).
-What a re-plan's time goes to is IPOPT's KKT factorizations (about two thirds) and the stage
-Hessian kernels; the re-plan runs them with one BLAS thread (:mod:`forte.planning.blas`).
+The solver is the task's (``solver.backend``, or ``backend=``): IPOPT, warm-started from the last
+primal-dual point, or the stagewise interior-point method (:mod:`forte.planning.solvers`), which
+takes the same Newton steps with a factorization of the null-space reduced system and warm-starts
+from its last iterate; :mod:`forte.planning.realtime` takes one of those steps per call (real-time
+iterations). The sparse QP solvers (OSQP, proxsuite) need a convex Hessian, which the capability
+terms' Lagrangian Hessian is not (``benchmarks/bench_replan.py --sqp``: CasADi's SQP with OSQP and
+a regularized Hessian does not converge in 50 iterations). The re-plan runs with one BLAS thread
+(:mod:`forte.planning.blas`).
 """
 
 from __future__ import annotations
