@@ -75,14 +75,19 @@ def whole_body_model(robot: MobileManipulator) -> tuple[pin.Model, int]:
 
 
 def root_motion(q_b: FloatArray, dq_b: FloatArray, ddq_b: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """The free-flyer's configuration (7), twist and its derivative (6 each, base frame) of a planar
-    base pose ``(x, y, yaw)`` with its velocity and acceleration (module docstring)."""
-    c, s = np.cos(q_b[2]), np.sin(q_b[2])
-    Rt = np.array([[c, s], [-s, c]])
-    v = Rt @ dq_b[:2]
-    a = Rt @ ddq_b[:2] - dq_b[2] * np.array([-v[1], v[0]])  # - omega x v, omega = (0, 0, yaw')
-    config = np.array([q_b[0], q_b[1], 0.0, 0.0, 0.0, np.sin(q_b[2] / 2), np.cos(q_b[2] / 2)])
-    return config, np.r_[v, 0.0, 0.0, 0.0, dq_b[2]], np.r_[a, 0.0, 0.0, 0.0, ddq_b[2]]
+    """The free-flyer's configuration (7), twist and its derivative (6 each, base frame) of planar
+    base poses ``(x, y, yaw)`` with their velocities and accelerations (module docstring); rows of
+    K x 3 arrays, or one pose."""
+    q_b, dq_b, ddq_b = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q_b, dq_b, ddq_b))
+    yaw, rate = q_b[:, 2], dq_b[:, 2]
+    c, s = np.cos(yaw), np.sin(yaw)
+    v = np.column_stack([c * dq_b[:, 0] + s * dq_b[:, 1], -s * dq_b[:, 0] + c * dq_b[:, 1]])  # R^T v
+    a = np.column_stack([c * ddq_b[:, 0] + s * ddq_b[:, 1], -s * ddq_b[:, 0] + c * ddq_b[:, 1]])
+    a += rate[:, None] * np.column_stack([v[:, 1], -v[:, 0]])  # - omega x v, omega = (0, 0, yaw')
+    zeros = np.zeros((len(q_b), 3))
+    config = np.column_stack([q_b[:, :2], zeros, np.sin(yaw / 2), np.cos(yaw / 2)])
+    out = config, np.column_stack([v, zeros, rate]), np.column_stack([a, zeros, ddq_b[:, 2]])
+    return out if len(q_b) > 1 else tuple(x[0] for x in out)  # type: ignore[return-value]
 
 
 def ground_wrench(robot: MobileManipulator, q: Any, dq: Any, ddq: Any, wrench: Any = None) -> FloatArray:
@@ -98,17 +103,16 @@ def ground_wrench(robot: MobileManipulator, q: Any, dq: Any, ddq: Any, wrench: A
     model, ee = whole_body_model(robot)
     data = model.createData()
     joint = model.frames[ee].parentJoint
+    config, v, a = (np.atleast_2d(x) for x in root_motion(q[:, :N_BASE], dq[:, :N_BASE], ddq[:, :N_BASE]))
+    qs, vs, accs = (np.column_stack([x, y[:, N_BASE:]]) for x, y in ((config, q), (v, dq), (a, ddq)))
+    fext = [pin.Force.Zero() for _ in range(model.njoints)]
     out = np.empty((len(q), 6))
     for k in range(len(q)):
-        config, v, a = root_motion(q[k, :N_BASE], dq[k, :N_BASE], ddq[k, :N_BASE])
-        qk = np.r_[config, q[k, N_BASE:]]
-        pin.framesForwardKinematics(model, data, qk)
-        p = data.oMf[ee].translation
-        at_origin = pin.Force(w[k, :3], w[k, 3:] + np.cross(p, w[k, :3]))  # world frame, about its origin
-        fext = [pin.Force.Zero() for _ in range(model.njoints)]
-        fext[joint] = -data.oMi[joint].actInv(at_origin)  # the payload's push on the hand, joint frame
-        tau = pin.rnea(model, data, qk, np.r_[v, dq[k, N_BASE:]], np.r_[a, ddq[k, N_BASE:]], fext)
-        out[k] = tau[:6]
+        pin.framesForwardKinematics(model, data, qs[k])
+        p, f = data.oMf[ee].translation, w[k, :3]
+        moment = w[k, 3:] + np.array([p[1] * f[2] - p[2] * f[1], p[2] * f[0] - p[0] * f[2], p[0] * f[1] - p[1] * f[0]])
+        fext[joint] = -data.oMi[joint].actInv(pin.Force(f, moment))  # the payload's push on the hand, joint frame
+        out[k] = pin.rnea(model, data, qs[k], vs[k], accs[k], fext)[:6]
     return out
 
 
