@@ -234,3 +234,34 @@ def test_the_wrench_term_solves_the_same_with_both_backends():
     assert plans[1].solver["backend"] == "stagewise" and "wrench_capability" in plans[1].solver["cost_terms"]
     np.testing.assert_allclose(plans[1].q, plans[0].q, atol=1e-5)
     np.testing.assert_allclose(plans[1].metrics["d"], plans[0].metrics["d"], atol=1e-4)
+
+
+def test_kernels_without_a_compiler_give_the_same_numbers():
+    """The horizon loop over the compiled kernels and its fallback (CasADi's mapped virtual-machine
+    functions, used without a C compiler) agree on every kernel."""
+    from forte.planning.kernels import build_kernels
+    from forte.planning.solvers.native import StageKernels
+
+    task = load_task(TASKS / "lift.yaml", waypoints=12)
+    opt, _ = _optimizers(task)
+    native = StageKernels(opt.kernels)
+    vm = dict(build_kernels(task.robot, "forte", task.weights))
+    virtual = StageKernels(type(opt.kernels)(*(vm[k] for k in ("stage_cost", "stage_grad", "stage_hess",
+                                                                "stage_terms", "pose", "pose_jac", "pose_hess")),
+                                            "virtual-machine"))
+    assert native.native and not virtual.native
+    pb = StagewiseSolver(opt).problem
+    f = task.force()
+    data = pb.task_data(task.t, task.targets, f.f, f.r, task.q_init, task.nominal())
+    rng = np.random.default_rng(5)
+    x = pb.x_of(pb.y_of(start_guess(task, task.nominal())) + 0.05 * rng.standard_normal(pb.ny), data)
+    z = pb._win(x)
+    for name in ("cost", "grad", "hess"):
+        a, b = (getattr(k, name)(task.n, z, *data.stage_args)[0] for k in (native, virtual))
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-10)
+    q = x.reshape(task.n, -1)
+    lam = rng.standard_normal((task.n, 6))
+    for name, extra in (("pose", ()), ("pose_jac", ()), ("pose_hess", (lam,))):
+        args = (q, data.p_d, data.R_d, *extra)
+        np.testing.assert_allclose(getattr(native, name)(task.n, *args)[0], getattr(virtual, name)(task.n, *args)[0],
+                                   rtol=1e-10, atol=1e-10)
