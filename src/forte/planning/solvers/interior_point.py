@@ -123,10 +123,8 @@ class InteriorPoint:
         # y index of each window entry (ny: a fixed slot)
         wy = wb[:, :, None] * nq + np.arange(nq)[None, None, :]
         self.wy = np.where(wy >= pb.ny, pb.ny, wy).reshape(n, 3 * nq)
-        rows = np.repeat(np.arange(pb.ny), r)
         cols = (np.arange(pb.ny)[:, None] // nq * r + np.arange(r)[None, :]).ravel()
-        self.z_indices, self.z_indptr = cols, np.arange(0, pb.ny * r + 1, r)
-        self._zrows = rows
+        self.z_indices, self.z_indptr = cols, np.arange(0, pb.ny * r + 1, r)  # Z's CSR layout (banded form)
         self.padded = np.zeros(0, int)
         if r == nq:  # unposed blocks (identity), posed blocks padded with zero columns
             self.padded = (pb.posed_block[:, None] * r + np.arange(nq - 6, nq)[None, :]).ravel()

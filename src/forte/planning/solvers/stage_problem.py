@@ -67,7 +67,7 @@ class StageProblem:
         self.opt, self.n, self.nq = opt, opt.n, opt.robot.nq
         self.kernels = StageKernels(opt.kernels)
         self._free_stages()
-        self.window = self.ymap[opt._window_index()].T.copy()  # n x 3nq, -1: fixed
+        self._widx = opt._window_index().T.copy()  # x index of each window entry [q_{k-2}; q_{k-1}; q_k]
         self.posed = opt._pose_steps  # x waypoints with pose rows
         self.posed_block = self.block_of[self.posed]
         if np.unique(self.posed_block).size != self.posed_block.size or (self.posed_block < 0).any():
@@ -83,7 +83,7 @@ class StageProblem:
         self.Ry = sparse.csr_matrix(self.R @ self.T)
         self.Qy = self.Dy + (self.Ry.T @ sparse.diags(self.g) @ self.Ry if self.g.size else 0)
         self._kinematic_matrix()
-        self.window_block = self.block_of[opt._window_index()[::self.nq].T // self.nq]  # n x 3, -1: fixed
+        self.window_block = self.block_of[self._widx[:, :: self.nq] // self.nq]  # n x 3, -1: fixed
 
     # -- structure ------------------------------------------------------------------------
     def _free_stages(self) -> None:
@@ -257,8 +257,7 @@ class StageProblem:
         return h.reshape(-1, self.nq, self.nq)
 
     def _win(self, x: FloatArray) -> FloatArray:
-        if not hasattr(self, "_widx"):
-            self._widx = self.opt._window_index().T.copy()
+        """The stage windows of ``x`` (n x 3nq)."""
         return x[self._widx]
 
     def y_of(self, q: FloatArray) -> FloatArray:
