@@ -104,8 +104,8 @@ class RealTimeIteration:
         data = solver.data(task.t, task.targets, pb.force.f, pb.force.r, task.q_init, pb.nominal)
         it = solver.start(pb.guess, data, pb.warm)
         ev = ip.evaluate(it, data)
-        error, _ = ip.error(ev, it, data, 0.0)
-        converged = error <= ip.tol and ip.violation(ev, it, data) <= ip.constraint_tol
+        error, start_violation = ip.error(ev, it, data, 0.0)
+        converged = error <= ip.tol and start_violation <= ip.constraint_tol
         reason = ""
         if not converged:
             ip.reset()  # each tick's problem is new: no filter entries from another one
@@ -118,8 +118,7 @@ class RealTimeIteration:
         if not reason and not (np.isfinite(q).all() and np.isfinite(it.lam).all()):
             reason = "not finite"
         if not reason:
-            c = solver.problem.pose(it.y, data)
-            violation = max(float(np.abs(c).max(initial=0.0)), _row_violation(solver, it.y, data))
+            violation = ip.violation(solver.problem.pose(it.y, data), it.y, data)
             reason = "violation" if not violation <= self.violation_tol else ""
         result = SolverResult(q=q, success=converged, status="Solve_Succeeded" if converged else "Real_Time_Step",
                               iterations=0 if converged else 1, objective=float(ev.f) / it.scale,
@@ -129,7 +128,3 @@ class RealTimeIteration:
             rp.task, rp.force, rp.nominal, rp.last = task, pb.force, pb.nominal, result
         return result, error, converged, reason, violation
 
-
-def _row_violation(solver: object, y: FloatArray, data: object) -> float:
-    v = solver.problem.A @ y + data.b  # type: ignore[attr-defined]
-    return float(np.maximum(np.maximum(data.lower - v, v - data.upper), 0).max(initial=0.0))  # type: ignore[attr-defined]

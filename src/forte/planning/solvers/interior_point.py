@@ -163,15 +163,15 @@ class InteriorPoint:
         s_d = max(S_MAX, (np.abs(it.lam).sum() + np.abs(it.zl[lo]).sum() + np.abs(it.zu[up]).sum())
                   / max(m + it.y.size, 1)) / S_MAX
         s_c = max(S_MAX, (np.abs(it.zl[lo]).sum() + np.abs(it.zu[up]).sum()) / max(it.s.size, 1)) / S_MAX
-        viol = self.violation(ev, it, data)
+        viol = self.violation(ev.c, it.y, data)
         err = max(np.abs(rd).max(initial=0) / s_d, viol, np.abs(comp).max(initial=0) / s_c)
         return float(err), viol
 
-    def violation(self, ev: Evaluation, it: Iterate, data: TaskData) -> float:
-        """Largest violation of the pose rows and of the rows' bounds at ``y`` (as IPOPT reports)."""
-        v = self.pb.A @ it.y + data.b
+    def violation(self, c: FloatArray, y: FloatArray, data: TaskData) -> float:
+        """Largest violation of the pose rows ``c`` and of the rows' bounds at ``y`` (as IPOPT reports)."""
+        v = self.pb.A @ y + data.b
         rows = np.maximum(np.maximum(data.lower - v, v - data.upper), 0)
-        return float(max(np.abs(ev.c).max(initial=0), rows.max(initial=0)))
+        return float(max(np.abs(c).max(initial=0), rows.max(initial=0)))
 
     # -- the Newton step ------------------------------------------------------------------
     def bases(self, J: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
