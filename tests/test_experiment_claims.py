@@ -471,7 +471,7 @@ def test_torque_limits_reach_the_runner_and_bad_values_are_one_line(tmp_path, mo
 
 def test_a_torque_limit_set_changes_the_task_robot_and_the_summary_names_it(tmp_path):
     from forte.model.description import PAPER_TORQUE_LIMITS, torque_limit_set
-    from forte.model.robot import torque_limit_name, with_torque_limits
+    from forte.model.presets import torque_limit_name, with_torque_limits
     from forte.planning.tasks import load_task
 
     task = load_task(common.task_path("hold"))

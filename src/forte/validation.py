@@ -43,11 +43,17 @@ def as_array(value: Any, name: str, shape: tuple[int | None, ...]) -> FloatArray
         InvalidInputError: naming ``name``, the expected and the received shape, or the first
             non-finite entry.
     """
-    reject_bools(value, name)
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError) as exc:
-        raise InvalidInputError(f"{name}: expected numbers, got {_short(value)}") from exc
+    if isinstance(value, np.ndarray) and value.dtype == np.float64:
+        arr = value  # the common case inside forte: no bools to reject, nothing to convert
+    else:
+        reject_bools(value, name)
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise InvalidInputError(f"{name}: expected numbers, got {_short(value)}") from exc
+    if arr.ndim == len(shape) and all(s is None or a == s for a, s in zip(arr.shape, shape, strict=True)) \
+            and np.isfinite(arr).all():
+        return arr
     dims = tuple("N" if s is None else str(s) for s in shape)
     expected = "(" + ", ".join(dims) + ("," if len(dims) == 1 else "") + ")"
     if arr.ndim != len(shape) or any(

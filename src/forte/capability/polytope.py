@@ -44,7 +44,7 @@ def nominal_torques(robot: MobileManipulator, q: Any, t: Any) -> FloatArray:
     Q = as_array(q, "q", (times.size, robot.nq))
     qa = Q[:, 3:]
     dq, ddq = backward_differences(qa, times, "q_a")
-    return np.array([robot.rnea(a, b, c) for a, b, c in zip(qa, dq, ddq, strict=True)])
+    return robot.rnea_along(qa, dq, ddq)
 
 
 def residual_margins(tau_nom: Any, tau_max: Any, tau_min: Any = None) -> tuple[FloatArray, FloatArray]:
@@ -153,7 +153,7 @@ class TrajectoryRFP:
 def trajectory_rfp(robot: MobileManipulator, q: Any, t: Any, alpha: float = 1.0) -> TrajectoryRFP:
     """Dynamic RFPs of a whole-body trajectory ``q`` (N x nq) at times ``t``."""
     tau_nom = nominal_torques(robot, q, t)
-    J = np.array([robot.arm_jacobian(qk) for qk in np.asarray(q, dtype=float)])
+    J = robot.arm_jacobians(q)
     A, b = halfspaces(J, *residual_margins(tau_nom, robot.torque_limits), alpha=alpha)
     return TrajectoryRFP(J=J, tau_nom=tau_nom, A=A, b=b, alpha=alpha)
 

@@ -54,7 +54,8 @@ from forte.execution.render import FrameRecorder, FrameSink, LiveViewer
 from forte.execution.run_log import RunLog
 from forte.io.outputs import atomic_write
 from forte.io.plandir import read_plan_dir
-from forte.model.robot import N_BASE, MobileManipulator, with_torque_limits
+from forte.model.presets import with_torque_limits
+from forte.model.robot import N_BASE, MobileManipulator
 from forte.planning.planner import Plan
 from forte.validation import FloatArray, as_positive, payload_mass
 

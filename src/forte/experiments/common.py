@@ -22,7 +22,7 @@ from forte.io.outputs import GENERATOR
 from forte.io.plandir import FORMAT_VERSION, TRAJECTORY_FILE, plan_summary, write_plan
 from forte.io.reports import jsonable, package_versions
 from forte.model.description import torque_limit_set
-from forte.model.robot import torque_limit_name, with_torque_limits
+from forte.model.presets import torque_limit_name, with_torque_limits
 from forte.planning.methods import METHODS, method_names
 from forte.planning.planner import Plan, plan
 from forte.planning.tasks import Task, load_task

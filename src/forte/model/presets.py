@@ -35,8 +35,8 @@ import numpy as np
 
 from forte.exceptions import InvalidInputError
 from forte.model.base_support import AUTHORS_BASE, TIAGO_BASE
-from forte.model.description import AUTHORS_MOUNT
-from forte.model.robot import MobileManipulator, default_robot
+from forte.model.description import AUTHORS_MOUNT, TORQUE_LIMIT_SETS
+from forte.model.robot import MobileManipulator, default_robot, robot_from_description
 
 
 @dataclass(frozen=True)
@@ -94,3 +94,21 @@ for _preset in (
         "home_arm": (0.2, 1.6, 0.3, -1.2, 1.9, -1.57, 1.0, 0.0), "base_support": TIAGO_BASE})),
 ):
     register_robot_preset(_preset)
+
+
+def with_torque_limits(robot: MobileManipulator, limits: Any) -> MobileManipulator:
+    """``robot`` with other torque limits: Nm (one value for every arm joint, or one per joint), or
+    ``None`` for the efforts of its URDF."""
+    if limits is not None:
+        limits = [float(v) for v in np.broadcast_to(np.asarray(limits, dtype=float), (robot.n_arm,))]
+    return robot_from_description({**robot.describe(), "torque_limits": limits})
+
+
+def torque_limit_name(robot: MobileManipulator) -> str:
+    """The set of :data:`~forte.model.description.TORQUE_LIMIT_SETS` that ``robot``'s limits equal
+    (``paper`` first), else ``custom``."""
+    for name, limits in TORQUE_LIMIT_SETS.items():
+        values = robot.model.effortLimit if limits is None else limits
+        if len(values) == robot.n_arm and np.array_equal(robot.torque_limits, np.asarray(values, dtype=float)):
+            return name
+    return "custom"

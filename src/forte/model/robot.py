@@ -50,7 +50,6 @@ from forte.model.description import (
     PANDA_HOME,
     PAPER_TORQUE_LIMITS,
     STANDARD_GRAVITY,
-    TORQUE_LIMIT_SETS,
     ToolLoad,
     example_robot_data_dir,
     resolve_urdf,
@@ -276,12 +275,7 @@ class MobileManipulator:
 
     def arm_jacobian(self, q: Any) -> FloatArray:
         """World-frame translational Jacobian ``J_t`` (3 x n_arm) with the base held fixed."""
-        q = self.check_configuration(q)
-        q_b, q_a = self.split(q)
-        J = pin.computeFrameJacobian(
-            self.model, self.data, q_a, self.ee_frame_id, pin.LOCAL_WORLD_ALIGNED
-        )
-        return pin.rpy.rpyToMatrix(0.0, 0.0, float(q_b[2])) @ J[:3]
+        return self.arm_jacobians(self.check_configuration(q)[None])[0]
 
     def whole_body_jacobian(self, q: Any) -> FloatArray:
         """World-frame 6 x nq Jacobian (linear; angular) of the end effector w.r.t. ``q``."""
@@ -305,6 +299,21 @@ class MobileManipulator:
         q_a, dq_a, ddq_a = (as_vector(x, name, self.n_arm) for x, name in ((q_a, "q_a"), (dq_a, "dq_a"),
                                                                             (ddq_a, "ddq_a")))
         return np.array(pin.rnea(self.model, self.data, q_a, dq_a, ddq_a))
+
+    def rnea_along(self, q_a: Any, dq_a: Any, ddq_a: Any) -> FloatArray:
+        """:meth:`rnea` at each row of K x n_arm arrays (checked once, not per row)."""
+        q_a = as_array(q_a, "q_a", (None, self.n_arm))
+        dq_a, ddq_a = as_array(dq_a, "dq_a", q_a.shape), as_array(ddq_a, "ddq_a", q_a.shape)
+        return np.array([pin.rnea(self.model, self.data, *row) for row in zip(q_a, dq_a, ddq_a, strict=True)])
+
+    def arm_jacobians(self, q: Any) -> FloatArray:
+        """:meth:`arm_jacobian` at each row of K x nq configurations (K x 3 x n_arm): the arm's
+        Jacobian in its mount frame rotated by the base yaw."""
+        q = as_array(q, "q", (None, self.nq))
+        J = np.array([pin.computeFrameJacobian(self.model, self.data, qa, self.ee_frame_id, pin.LOCAL_WORLD_ALIGNED)[:3]
+                      for qa in q[:, N_BASE:]])
+        c, s = np.cos(q[:, 2])[:, None], np.sin(q[:, 2])[:, None]
+        return np.stack([c * J[:, 0] - s * J[:, 1], s * J[:, 0] + c * J[:, 1], J[:, 2]], axis=1)
 
 
 def default_robot(torque_limits: Any = PAPER_TORQUE_LIMITS, variant: str = "authors",
@@ -379,21 +388,3 @@ def robot_from_description(desc: dict[str, Any]) -> MobileManipulator:
         )
     except KeyError as exc:
         raise RobotModelError(f"robot description: missing field {exc}") from exc
-
-
-def with_torque_limits(robot: MobileManipulator, limits: Any) -> MobileManipulator:
-    """``robot`` with other torque limits: Nm (one value for every arm joint, or one per joint), or
-    ``None`` for the efforts of its URDF."""
-    if limits is not None:
-        limits = [float(v) for v in np.broadcast_to(np.asarray(limits, dtype=float), (robot.n_arm,))]
-    return robot_from_description({**robot.describe(), "torque_limits": limits})
-
-
-def torque_limit_name(robot: MobileManipulator) -> str:
-    """The set of :data:`~forte.model.description.TORQUE_LIMIT_SETS` that ``robot``'s limits equal
-    (``paper`` first), else ``custom``."""
-    for name, limits in TORQUE_LIMIT_SETS.items():
-        values = robot.model.effortLimit if limits is None else limits
-        if len(values) == robot.n_arm and np.array_equal(robot.torque_limits, np.asarray(values, dtype=float)):
-            return name
-    return "custom"

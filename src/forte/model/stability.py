@@ -102,17 +102,22 @@ def ground_wrench(robot: MobileManipulator, q: Any, dq: Any, ddq: Any, wrench: A
         w[:, : given.shape[1]] = given
     model, ee = whole_body_model(robot)
     data = model.createData()
-    joint = model.frames[ee].parentJoint
     config, v, a = (np.atleast_2d(x) for x in root_motion(q[:, :N_BASE], dq[:, :N_BASE], ddq[:, :N_BASE]))
     qs, vs, accs = (np.column_stack([x, y[:, N_BASE:]]) for x, y in ((config, q), (v, dq), (a, ddq)))
-    fext = [pin.Force.Zero() for _ in range(model.njoints)]
-    out = np.empty((len(q), 6))
+    out, p = np.empty((len(q), 6)), np.empty((len(q), 3))
     for k in range(len(q)):
-        pin.framesForwardKinematics(model, data, qs[k])
-        p, f = data.oMf[ee].translation, w[k, :3]
-        moment = w[k, 3:] + np.array([p[1] * f[2] - p[2] * f[1], p[2] * f[0] - p[0] * f[2], p[0] * f[1] - p[1] * f[0]])
-        fext[joint] = -data.oMi[joint].actInv(pin.Force(f, moment))  # the payload's push on the hand, joint frame
-        out[k] = pin.rnea(model, data, qs[k], vs[k], accs[k], fext)[:6]
+        out[k] = pin.rnea(model, data, qs[k], vs[k], accs[k])[:6]
+        if wrench is not None:
+            pin.framesForwardKinematics(model, data, qs[k])
+            p[k] = data.oMf[ee].translation
+    if wrench is not None:
+        # RNEA is linear in the external forces: the root's wrench with the payload's push on the
+        # hand is the free motion's plus that push moved to the root's frame (x, y, 0, Rz(yaw))
+        f, moment = w[:, :3], w[:, 3:] + np.cross(p, w[:, :3])  # about the world origin
+        moment -= np.cross(np.column_stack([q[:, :2], np.zeros(len(q))]), f)  # about the base origin
+        c, s = np.cos(q[:, 2]), np.sin(q[:, 2])
+        for part, v in ((slice(0, 3), f), (slice(3, 6), moment)):  # R(yaw)^T v
+            out[:, part] += np.column_stack([c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1], v[:, 2]])
     return out
 
 

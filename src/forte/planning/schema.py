@@ -13,14 +13,13 @@ import pinocchio as pin
 
 from forte.exceptions import ForteError, TaskFileError
 from forte.model.base_support import BaseSupport, box_support
-from forte.model.presets import ROBOT_PRESETS, preset_robot
+from forte.model.presets import ROBOT_PRESETS, preset_robot, with_torque_limits
 from forte.model.robot import (
     BASE_MODES,
     MobileManipulator,
     ToolLoad,
     default_robot,
     robot_from_description,
-    with_torque_limits,
 )
 from forte.settings import CapabilityParameters
 from forte.validation import MAX_MASS_KG, FloatArray, _short
