@@ -1,4 +1,4 @@
-"""``forte experiment {continuous,lift,hold,replan,wrench}``: re-run the paper's experiments
+"""``forte experiment {continuous,lift,hold,replan,wrench,contact}``: re-run the paper's experiments
 (Sections 5.2-5.4) and the ones beyond it (online re-planning, offset payloads)."""
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ EXPERIMENTS: dict[str, tuple[str, str]] = {
     "replan": ("run_replan", "6 (future work), online re-planning with a misjudged or growing payload"),
     "mpc": ("run_mpc", "6 (future work), forte as a 100 Hz MPC against open loop and the 10 Hz re-planner"),
     "wrench": ("run_wrench", "6 (future work, issue 25), offset payloads: the wrench vs the force-only metric"),
+    "contact": ("run_contact", "6 (future work, issue 25), contact-rich tasks: push, drawer, carry with a partner"),
 }
 #: Figure formats (the same as :data:`forte.experiments.common.FORMATS`, kept here so that
 #: ``forte --help`` does not import the planner).

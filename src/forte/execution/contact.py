@@ -40,6 +40,9 @@ from forte.model.scene import Box, Capsule, Cylinder, Mesh, Scene, Sphere
 #: Contact bits (see the module docstring).
 ARM = 1
 BASE = 2
+#: Contact bit of a contact task's object and the hand's pusher plate (:mod:`forte.execution.contact_objects`):
+#: their contacts are the task's, not touches of the robot.
+OBJECT = 4
 #: Name prefix of the scene's bodies in the MuJoCo model.
 SCENE_PREFIX = "scene/"
 #: What a touch of the floor plane (a geom of the world body) is called.
@@ -127,6 +130,8 @@ def touches(model: mujoco.MjModel, data: mujoco.MjData, arm_prefix: str) -> list
     wrench = np.zeros(6)
     for i in range(data.ncon):
         c = data.contact[i]
+        if (model.geom_contype[c.geom1] | model.geom_contype[c.geom2]) & OBJECT:
+            continue  # the task's object: its contacts are the task (forte.execution.contact_objects)
         b1, b2 = int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])
         static1, static2 = model.body_weldid[b1] == 0, model.body_weldid[b2] == 0
         if static1 == static2:  # not a robot-versus-world pair (the contact bits never make one)

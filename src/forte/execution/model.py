@@ -180,6 +180,7 @@ def build_sim_model(
     base_kv: tuple[float, float, float] = BASE_KV,
     armature: Any = ARM_ARMATURE,
     scene: Scene | None = None,
+    decorate: Any = None,
 ) -> SimModel:
     """Build the MuJoCo model of ``robot`` carrying a welded payload of ``payload_mass`` kg.
 
@@ -198,6 +199,8 @@ def build_sim_model(
         armature: Reflected rotor inertia of the arm joints (kg m^2; one value or one per joint).
         scene: Static bodies and contacts on (the floor too, even for an empty scene); None:
             no contact at all.
+        decorate: Called with the ``MjSpec`` before it is compiled (a contact task's object,
+            :mod:`forte.execution.contact_objects`).
 
     Raises:
         SimulationError: when the URDF or the scene cannot be turned into a MuJoCo model.
@@ -207,7 +210,9 @@ def build_sim_model(
     spec = build_sim_spec(robot, payload_mass, payload_com=payload_com, payload_radius=payload_radius,
                           payload_inertia=payload_inertia, meshes=meshes, timestep=timestep, base_mass=base_mass,
                           base_inertia=base_inertia, base_kv=base_kv, armature=rotor, scene=scene)
-    return _index_model(robot, _compile(spec), payload_mass, rotor, scene)
+    if decorate is not None:
+        decorate(spec)
+    return _index_model(robot, _compile(spec), payload_mass, rotor, scene, objects=decorate is not None)
 
 
 def build_sim_spec(
@@ -347,14 +352,14 @@ def _add_actuators(spec: mujoco.MjSpec, robot: MobileManipulator, base_kv: tuple
 
 
 def _index_model(robot: MobileManipulator, model: mujoco.MjModel, payload_mass: float,
-                 rotor: FloatArray, scene: Scene | None) -> SimModel:
+                 rotor: FloatArray, scene: Scene | None, objects: bool = False) -> SimModel:
     """Look up the joint, actuator, site and body ids of a compiled model."""
     names = (*BASE_JOINTS, *(robot.arm_joints or ()))
     jids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n if i < N_BASE else ARM_PREFIX + n)
             for i, n in enumerate(names)]
     if min(jids) < 0:
         raise SimulationError(f"simulation model: joints {names} not all found")
-    if model.nv != len(names):
+    if model.nv != len(names) and not (objects and model.nv > len(names)):  # objects: their own DoF
         raise SimulationError(f"simulation model: expected {len(names)} DoF, got {model.nv}")
     acts = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"tau_{n}") for n in names[N_BASE:]]
     bacts = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"v_{n}") for n in names[:N_BASE]]

@@ -45,6 +45,7 @@ from forte.exceptions import InvalidInputError
 from forte.execution.arm_spec import ARM_PREFIX, geometry_loadable
 from forte.execution.bodies import carried_body
 from forte.execution.contact import touches
+from forte.execution.contact_objects import ContactRig, rig_for
 from forte.execution.control import ArmCommand, ArmImpedance, BaseAdmittance, ControlGains, Reference
 from forte.execution.gains import default_gains, describe_gains, gains_from_mapping, sampled_loop_radius_at
 from forte.execution.judge import Judge, SimResult, Thresholds
@@ -112,6 +113,7 @@ def run_simulation(
     stop_on_failure: bool = False,
     sinks: Sequence[FrameSink] = (),
     after_step: Callable[[int, FloatArray, FloatArray], None] | None = None,
+    rig: ContactRig | None = None,
 ) -> SimResult:
     """Run the controllers on ``sim`` along ``reference`` (sampled at every control step).
 
@@ -121,7 +123,9 @@ def run_simulation(
     recorder, live viewer) captures the state every ``sink.every`` steps. ``gains`` default to
     :func:`forte.execution.gains.default_gains` at the start configuration. ``after_step(k, q,
     dq)`` runs after every step (state before it); it may change the reference's future rows
-    (closed-loop re-planning, :mod:`forte.execution.closed_loop`).
+    (closed-loop re-planning, :mod:`forte.execution.closed_loop`). ``rig``: a contact task's
+    object (:mod:`forte.execution.contact_objects`), its forces applied before and measured after
+    every step; an object that ends off the plan fails the run (reason ``object``).
     """
     gains = gains or default_gains(sim.robot, reference.q[0, N_BASE:], sim.armature)
     th = thresholds or Thresholds()
@@ -130,6 +134,8 @@ def run_simulation(
     judge = Judge(th, dt, sim.robot.n_arm, sim.payload_mass > 0)
     log = RunLog(reference.t.size, record_every, sim.robot.nq, control.arm.tau_max)
     sim.set_state(reference.q[0])
+    if rig is not None:
+        rig.bind(sim)
     contacts = sim.scene is not None
     start = time.perf_counter()
     steps_run = 0
@@ -147,12 +153,20 @@ def run_simulation(
         steps_run += 1
         if stop_on_failure and judge.reason is not None:
             break
+        if rig is not None:
+            rig.apply(k * dt)
         mujoco.mj_step(sim.model, sim.data)
+        if rig is not None:
+            rig.measure(k * dt)
         if contacts and sim.data.ncon:  # the contacts of the state at step k
             judge.touch(k * dt, touches(sim.model, sim.data, ARM_PREFIX))
         if after_step is not None:
             after_step(k, q, dq)
     wall = time.perf_counter() - start
+    if rig is not None:
+        facts, failure = rig.outcome()
+        if failure is not None:
+            judge.fail(steps_run * dt, "object", failure)
     summary = {
         "duration": float(steps_run * dt),
         "timestep": dt,
@@ -164,6 +178,8 @@ def run_simulation(
         "contact_checked": contacts,
         "contacts": judge.contact_list(),
     }
+    if rig is not None:
+        summary["contact_task"] = facts
     return SimResult(judge.reason is None, judge.reason, judge.time,
                      judge.detail or "all criteria met", log.columns(reference.t), summary)
 
@@ -264,8 +280,10 @@ def simulate_plan(
                                          robot.tool_force_mass if plan.payload.mass is not None else 0.0)
     # contact with the scene and the floor, unless the URDF's geometry cannot be loaded and there is no scene
     scene = plan.scene if plan.scene or geometry_loadable(robot) else None
+    # a contact task's object (forte.execution.contact_objects): built in, its contact modelled
+    rig = rig_for(plan.contact, robot, plan.q, plan.force)
     sim = build_sim_model(robot, carried, payload_com=com, payload_inertia=inertia, meshes=offscreen or viewer,
-                          timestep=timestep, scene=scene)
+                          timestep=timestep, scene=scene, decorate=None if rig is None else rig.decorate)
     gains = _resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
     # the moment is the payload's alone: none without it
     moment_share = 0.0 if mass is not None and true_mass == 0.0 and force_feedforward is None else force_share
@@ -284,9 +302,10 @@ def simulate_plan(
         loop = make_mpc_loop(Path(plan_dir), plan, sim, reference, mpc)
     result = run_simulation(
         sim, reference, gains=gains, thresholds=thresholds,
-        reaction_force=plan.payload.mass is None and plan.force is not None and bool(np.any(plan.force.f)),
+        reaction_force=(plan.payload.mass is None and plan.contact is None and plan.force is not None
+                        and bool(np.any(plan.force.f))),
         record_every=record_every, stop_on_failure=stop_on_failure,
-        sinks=[s for s in (recorder, live) if s is not None], after_step=loop,
+        sinks=[s for s in (recorder, live) if s is not None], after_step=loop, rig=rig,
     )
     result.summary.update(_run_facts(plan, Path(plan_dir), sim, gains))
     result.summary["force_feedforward_share"] = force_share if gains.force_feedforward else 0.0

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from forte.exceptions import InvalidInputError, TaskFileError
+from forte.force.contact import Contact, contact_from_dict, contact_to_dict
 from forte.force.payload import Payload
 from forte.force.taskforce import TaskForce, payload_force
 from forte.io.outputs import (
@@ -195,11 +196,14 @@ def plan_document(plan: Plan) -> dict[str, Any]:
         doc["scene"] = plan.scene.describe()
         if plan.verdict is not None and plan.verdict.clearance is not None:
             doc["clearance"] = plan.verdict.clearance  # the closest approach over the judged samples
+    if plan.contact is not None:  # a contact task (forte.force.contact): forte simulate builds the object
+        doc["contact"] = contact_to_dict(plan.contact)
     if plan.force is not None:
         given = task is not None and task.force_profile is not None
-        # the task's force_model (paper | authors); None for a given profile or a plan made by hand
+        # the task's force_model (paper | authors) or contact kind; None for a given profile or a plan made by hand
+        model = plan.contact.kind if plan.contact is not None else getattr(task, "force_model", None)
         doc["force"] = {"t": plan.force.t, "f": plan.force.f, "r": plan.force.r, "given_profile": given,
-                        "model": None if task is None or given else task.force_model}
+                        "model": None if task is None or given else model}
         if plan.force.has_moment:  # the wrench requirement: moment (N m), r_m = lever r, scale L (m)
             doc["force"] |= {"m": plan.force.m, "lever_m": plan.force.lever, "moment_scale": plan.force.moment_scale}
     if task is not None:
@@ -253,7 +257,17 @@ def read_plan_dir(plan_dir: str | Path) -> Plan:
     return Plan(method=str(meta.get("method", "unknown")), robot=robot, t=t, q=q, force=force, payload=payload,
                 solved=True, status=str(meta.get("solver_status", meta.get("status", "unknown"))),
                 verdict=_read_verdict(plan_path, meta.get("verdict"), meta.get("clearance")),
-                scene=_read_scene(plan_path, meta.get("scene")))
+                scene=_read_scene(plan_path, meta.get("scene")), contact=_read_contact(plan_path, meta.get("contact")))
+
+
+def _read_contact(plan_path: Path, doc: Any) -> Contact | None:
+    if doc is None:
+        return None
+    try:
+        return contact_from_dict(doc)
+    except (InvalidInputError, TypeError, ValueError) as exc:
+        raise TaskFileError(f"{plan_path}: field {str(exc).partition(': ')[0] or 'contact'}: "
+                            f"{str(exc).partition(': ')[2] or exc}") from None
 
 
 def _read_scene(plan_path: Path, entries: Any) -> Scene:

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from forte.exceptions import InvalidInputError, TaskFileError
+from forte.force.contact import Contact
 from forte.force.payload import Payload
 from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE, MobileManipulator
@@ -70,6 +71,8 @@ class Plan:
     verdict: Verdict | None = None
     #: The static bodies around the robot the plan was made in (empty: free space).
     scene: Scene = field(default_factory=Scene)
+    #: The task's contact (:mod:`forte.force.contact`), recorded in plan.json for ``forte simulate``.
+    contact: Contact | None = None
 
     @property
     def feasible(self) -> bool:
@@ -108,8 +111,9 @@ def resolve_payload(task: Task, estimator_options: dict[str, Any] | None = None)
     """The task with its payload mass known: estimated when only a description/image is given."""
     if not task.payload.needs_estimate:
         return task
-    if task.force_profile is not None and not (task.payload.description or task.payload.image):
-        return task  # the profile alone: no payload to estimate
+    if (task.force_profile is not None or task.contact is not None) and not (task.payload.description
+                                                                            or task.payload.image):
+        return task  # the profile or the contact model alone: no payload to estimate
     if not (task.payload.description or task.payload.image):
         raise TaskFileError(f"{task.source}: payload: give a mass, a description or an image")
     from forte.force.estimate import estimate_payload
@@ -347,7 +351,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
     metrics = evaluate(task.robot, q, task.t, force, task.weights.capability_params, task.scene)
     return Plan(method=spec.name, robot=task.robot, t=task.t, q=q, force=force, payload=task.payload,
                 metrics=metrics, solved=solved, status=status, solver=info, task=task, verdict=verdict,
-                scene=task.scene)
+                scene=task.scene, contact=task.contact)
 
 
 def compare(task: Task, methods: tuple[str, ...] | None = None,

@@ -18,6 +18,7 @@ import pinocchio as pin
 import yaml
 
 from forte.exceptions import ForteError, TaskFileError
+from forte.force.contact import Carry, Contact, contact_force
 from forte.force.payload import Payload
 from forte.force.taskforce import (
     AUTHORS_FORCE_RAMP_S,
@@ -35,6 +36,7 @@ from forte.model.description import N_BASE
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import quintic_path
+from forte.planning.contact_section import check_contact_path, contact_conflicts, contact_section
 from forte.planning.paths import (
     ForceAt,
     TargetsAt,
@@ -120,6 +122,8 @@ class Task:
     #: Cost terms the task adds to every optimized method, with their weight and settings
     #: (``terms:``, :mod:`forte.planning.terms_section`).
     terms: dict[str, dict[str, float]] = field(default_factory=dict)
+    #: A contact-rich task (``contact:``, :mod:`forte.force.contact`): its model gives the force.
+    contact: Contact | None = None
 
     @property
     def n(self) -> int:
@@ -169,6 +173,8 @@ class Task:
         has one: ``forte simulate`` carries that payload too. A payload with an offset centre of
         mass or an inertia adds its moment (:func:`~forte.force.wrench.with_payload_moment`).
         """
+        if self.contact is not None:
+            return self._contact_force(mass)
         profile = self.force_profile
         m = mass if mass is not None else self.payload.mass
         if profile is not None and m is None:
@@ -190,6 +196,15 @@ class Task:
         elif self.radius_rule == "mass-range" and mass is None and self.payload.mass_range is not None:
             force = mass_range_radius(force, total, m, self.payload.mass_range, self.radius)
         return with_payload_moment(force, self.payload, self.targets[:, :3, :3], share)
+
+    def _contact_force(self, mass: float | None) -> TaskForce:
+        """The contact model's force along the path (:func:`~forte.force.contact.contact_force`);
+        ``mass`` replaces a carried object's mass (the verdict's payload bound)."""
+        contact = self.contact
+        if mass is not None and isinstance(contact, Carry):
+            contact = replace(contact, mass=mass)
+        tool = self.robot.tool_force_mass if isinstance(contact, Carry) else 0.0
+        return contact_force(contact, self.t, self.targets, self.radius, tool, self.robot.gravity)
 
     def _where(self, key: str) -> str:
         return f"{self.source}: {key}" if self.source else key
@@ -277,7 +292,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     reader.unknown({"name", "robot", "mode", "initial_configuration", "path", "pose", "payload", "force",
                     "uncertainty_radius", "uncertainty_rule", "force_model", "weights", "torque_limits", "solver",
                     "teaching_configuration", "limits", "controller", "require_capacity", "scene", "scene_file",
-                    "clearance", "terms"})
+                    "clearance", "terms", "contact"})
     base = path.parent if path else Path.cwd()
     robot = robot_section(reader, base)
     mode = reader.choice("mode", MODES, "trajectory")
@@ -316,9 +331,14 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
         t = np.zeros(1)
         targets = _hold_pose(reader, robot, T0, teaching)
         targets_at = None
-    payload = payload_section(reader, base, mass)
+    contact = contact_section(reader)
+    if isinstance(contact, Carry) and mass is not None:  # --mass: the carried object's
+        contact = replace(contact, mass=mass)
+    contact_conflicts(reader, contact)
+    check_contact_path(reader, contact, targets, mode)
+    payload = payload_section(reader, base, mass) if contact is None else _contact_payload(contact, mass)
     force_at = _force_profile(reader, t, radius)
-    if force_at is None and payload is None:
+    if force_at is None and payload is None and contact is None:
         raise reader.error("payload", "give a payload (mass, or description/image) or a force profile")
     if force_at is not None and reader.has("force_model"):
         raise reader.error("force_model", "sets a payload's force; this task gives its force profile directly")
@@ -351,7 +371,17 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                 teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
                 targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots,
                 radius_rule=radius_rule, force_model=force_model, scene=scene_section(reader, base),
-                clearance=clearance_value(reader), terms=terms_section(reader))
+                clearance=clearance_value(reader), terms=terms_section(reader), contact=contact)
+
+
+def _contact_payload(contact: Contact, mass: float | None) -> Payload | None:
+    """What the hand carries in a contact task: a carried object (simulated at its centre of
+    mass), else nothing; ``--mass`` applies to a carried object only."""
+    if not isinstance(contact, Carry):
+        if mass is not None:
+            raise TaskFileError(f"--mass: a {contact.kind} task carries no payload; its masses are in contact:")
+        return None
+    return Payload(mass=contact.mass if mass is None else mass, source="contact", com=contact.com)
 
 
 def _hold_pose(reader: Reader, robot: MobileManipulator, T0: FloatArray, teaching: FloatArray | None) -> FloatArray:
