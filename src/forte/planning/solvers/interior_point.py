@@ -184,9 +184,10 @@ class InteriorPoint:
         return Z, Qf[:, :, :6], Rf[:, :6, :]
 
     def _window_hessians(self, it: Iterate, ev: Evaluation, data: TaskData, sigma: FloatArray) -> FloatArray:
-        """Stage Hessians plus the pose rows' curvature and the barrier of the kinematic rows."""
+        """Stage Hessians plus ``D``'s window part, the pose rows' curvature and the barrier of the
+        kinematic rows."""
         pb, nq = self.pb, self.pb.nq
-        Hw = ev.extras["hess"].copy()
+        Hw = ev.extras["hess"] + it.scale * pb.Dw  # and the quadratic terms' near-diagonal part
         Hw[pb.posed, 2 * nq:, 2 * nq:] += pb.pose_hessians(it.y, data, it.lam)
         kin = sigma[pb.bound_vars.size:]
         if kin.size:
@@ -220,7 +221,7 @@ class InteriorPoint:
         U = g_rows = None
         if self.system.banded:
             Zm = sparse.csr_matrix((Z.reshape(-1), self.z_indices, self.z_indptr), shape=(pb.ny, self.nr))
-            M = self.system.assemble(Hred, bounds, it.scale * (Zm.T @ (pb.Dy @ Zm)))
+            M = self.system.assemble(Hred, bounds, it.scale * (Zm.T @ (pb.Wy @ Zm)))
             M[0, self.padded] += 1.0
             if pb.g.size:
                 U, g_rows = np.einsum("bna,bnl->bal", Z, self._rt).reshape(self.nr, -1), it.scale * pb.g
@@ -231,7 +232,7 @@ class InteriorPoint:
         def hv(v: FloatArray) -> FloatArray:
             vw = np.append(v, 0.0)[self.wy]
             out = np.bincount(self.wy.ravel(), np.matmul(Hw, vw[:, :, None]).ravel(), minlength=pb.ny + 1)
-            return out[: pb.ny] + it.scale * pb.quadratic_product(v) + bdiag * v
+            return out[: pb.ny] + it.scale * pb.quadratic_product(v, windowed=True) + bdiag * v
 
         pY = -np.linalg.solve(R.transpose(0, 2, 1), ev.c[..., None])[..., 0]  # P x 6
         ypy = np.zeros((pb.blocks, nq))
@@ -247,13 +248,25 @@ class InteriorPoint:
         return dy, lam_new, delta, (sigma, sig_l, sig_u, sl, su, lo, up, Y, R)
 
     def _reduced_quadratic(self, Z: FloatArray) -> FloatArray:
-        """``Z^T Q Z`` of the constant quadratic terms, from ``Q``'s dense blocks (dense form)."""
-        pb, nq, r, blocks = self.pb, self.pb.nq, self.r, self.pb.blocks
-        if not hasattr(self, "_q4"):
-            self._q4 = pb.Qy.toarray().reshape(blocks, nq, blocks * nq)
-        t1 = np.matmul(Z.transpose(0, 2, 1), self._q4).reshape(blocks * r, blocks, nq)  # (i a), j, m
-        t2 = np.matmul(t1.transpose(1, 0, 2), Z)  # j, (i a), c
-        return t2.transpose(1, 0, 2).reshape(self.nr, self.nr)
+        """``Z^T (W + R^T diag(g) R) Z``: the constant quadratic terms the window Hessians do not
+        carry (dense form): ``W`` on the few dofs it couples (J5's dense blocks), ``R Z`` per block."""
+        pb, r, blocks = self.pb, self.r, self.pb.blocks
+        if not hasattr(self, "_w4"):
+            wc = sparse.coo_matrix(pb.Wy)
+            self._wdofs = np.unique(np.concatenate([wc.row, wc.col]) % pb.nq)  # the dofs W couples
+            sel = (np.arange(blocks)[:, None] * pb.nq + self._wdofs[None, :]).ravel()
+            d = self._wdofs.size
+            self._w4 = pb.Wy[sel][:, sel].toarray().reshape(blocks, d, blocks * d)
+            self._r3 = pb.Ry.toarray().reshape(-1, blocks, pb.nq).transpose(1, 0, 2)  # blocks x L x nq
+        out = np.zeros((self.nr, self.nr))
+        if self._wdofs.size:
+            Zs = Z[:, self._wdofs, :]  # blocks x d x r
+            t1 = np.matmul(Zs.transpose(0, 2, 1), self._w4).reshape(blocks * r, blocks, -1)  # (i a), j, m
+            out += np.matmul(t1.transpose(1, 0, 2), Zs).transpose(1, 0, 2).reshape(self.nr, self.nr)
+        if pb.g.size:
+            rz = np.matmul(self._r3, Z).transpose(1, 0, 2).reshape(pb.g.size, self.nr)  # R Z, L x nr
+            out += rz.T @ (pb.g[:, None] * rz)
+        return out
 
     # -- moving along a step --------------------------------------------------------------
     def _fraction_to_boundary(self, it: Iterate, ds: FloatArray, dzl: FloatArray, dzu: FloatArray,

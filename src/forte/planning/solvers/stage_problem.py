@@ -84,6 +84,25 @@ class StageProblem:
         self.Qy = self.Dy + (self.Ry.T @ sparse.diags(self.g) @ self.Ry if self.g.size else 0)
         self._kinematic_matrix()
         self.window_block = self.block_of[self._widx[:, :: self.nq] // self.nq]  # n x 3, -1: fixed
+        self.Dw, self.Wy = self._windowed(self.D)
+
+    def _windowed(self, D: sparse.csr_matrix) -> tuple[FloatArray, sparse.csr_matrix]:
+        """``D`` split into what couples waypoints at most two apart (the smoothness and velocity
+        terms, the near-diagonal part of J5) and the rest. The first goes into the stage windows
+        (n x 3nq x 3nq: entry ``(a, b)`` of waypoints ``i, j`` to the window of ``k = max(i, j)``,
+        slots ``i - k + 2`` and ``j - k + 2``, so that the windows' scatter, as the stage Hessians',
+        is that part of ``D``); the rest (J5's dense blocks on the base's dofs) is returned in the
+        free variables, ``T^T D_wide T``."""
+        nq, w = self.nq, 3 * self.nq
+        dc = sparse.coo_matrix(D)
+        i, j = dc.row // nq, dc.col // nq
+        near = np.abs(i - j) <= 2
+        k = np.maximum(i, j)[near]
+        out = np.zeros((self.n, w, w))
+        np.add.at(out, (k, (i[near] - k + 2) * nq + dc.row[near] % nq, (j[near] - k + 2) * nq + dc.col[near] % nq),
+                  dc.data[near])
+        wide = sparse.csr_matrix((dc.data[~near], (dc.row[~near], dc.col[~near])), shape=D.shape)
+        return out, sparse.csr_matrix(self.T.T @ wide @ self.T)
 
     # -- structure ------------------------------------------------------------------------
     def _free_stages(self) -> None:
@@ -229,9 +248,11 @@ class StageProblem:
         """``Q x = D x + R^T (g * R x)``."""
         return self.D @ x + (self.R.T @ (self.g * (self.R @ x)) if self.g.size else 0.0)
 
-    def quadratic_product(self, v: FloatArray) -> FloatArray:
-        """``Q_y v`` in the free variables (the dense rows applied, not formed)."""
-        return self.Dy @ v + (self.Ry.T @ (self.g * (self.Ry @ v)) if self.g.size else 0.0)
+    def quadratic_product(self, v: FloatArray, windowed: bool = False) -> FloatArray:
+        """``Q_y v`` in the free variables (the dense rows applied, not formed); ``windowed``: with
+        only the part of ``D`` the window Hessians do not carry (:attr:`Dw`)."""
+        dense = self.Ry.T @ (self.g * (self.Ry @ v)) if self.g.size else 0.0
+        return (self.Wy if windowed else self.Dy) @ v + dense
 
     def stage_hessians(self, y: FloatArray, data: TaskData) -> FloatArray:
         """Hessians of the weighted stage costs in their windows (n x 3nq x 3nq)."""
