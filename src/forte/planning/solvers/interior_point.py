@@ -44,6 +44,7 @@ import numpy as np
 from scipy import sparse
 
 from forte.planning.solvers.line_search import FilterLineSearch, Trial
+from forte.planning.solvers.native_step import NativeStep
 from forte.planning.solvers.reduced_system import DENSE_VARIABLES, ReducedSystem
 from forte.planning.solvers.stage_problem import StageProblem, TaskData
 from forte.validation import FloatArray
@@ -97,8 +98,9 @@ class InteriorPoint:
     """The solver for one :class:`StageProblem` (see the module docstring)."""
 
     def __init__(self, problem: StageProblem, tol: float = 1e-6, constraint_tol: float = 1e-6,
-                 max_iter: int = 200) -> None:
+                 max_iter: int = 200, use_native: bool = True) -> None:
         self.pb, self.tol, self.constraint_tol, self.max_iter = problem, tol, constraint_tol, max_iter
+        self.use_native = use_native  # the compiled step (native_step) where it can be built
         self.mu_min = tol / 10
         self.line_search = FilterLineSearch(problem)
         self._trial: Trial | None = None  # the line search's accepted point (its evaluation is reused)
@@ -134,6 +136,9 @@ class InteriorPoint:
         self.system = ReducedSystem(nr, self.widx, self.didx, (max(2, reach) + 1) * r - 1, banded)
         if banded and pb.g.size:  # the dense rows, per block: U = Z^T R^T
             self._rt = pb.Ry.T.toarray().reshape(pb.blocks, nq, -1)
+        library = pb.opt.kernels.library  # compiled kernels: a compiler and a cache folder
+        self.native = None if banded or library is None or not self.use_native else \
+            NativeStep.load(library.parent, pb, r, wb, self.wy)
 
     # -- evaluation -----------------------------------------------------------------------
     def evaluate(self, it: Iterate, data: TaskData) -> Evaluation:
@@ -208,9 +213,12 @@ class InteriorPoint:
         sigma = sig_l + sig_u
         barrier = np.where(up, mu / su, 0.0) - np.where(lo, mu / sl, 0.0)
         g = ev.grad + pb.At @ (barrier + sigma * ev.rA)
-        Hw = self._window_hessians(it, ev, data, sigma)
         bdiag = np.zeros(pb.ny)
         bdiag[pb.bound_vars] = sigma[: pb.bound_vars.size]
+        if self.native is not None:  # the same arithmetic in compiled code (native_step)
+            dy, lam_new, delta, Y, R = self._native_step(it, ev, data, g, sigma, bdiag)
+            return dy, lam_new, delta, (sigma, sig_l, sig_u, sl, su, lo, up, Y, R)
+        Hw = self._window_hessians(it, ev, data, sigma)
         Z, Y, R = self.bases(ev.J)
         Zw = np.zeros((pb.n, 3 * nq, 3 * r))
         Zext = np.concatenate([Z, np.zeros((1, nq, r))])
@@ -246,6 +254,19 @@ class InteriorPoint:
         resid = (g + hv(dy) + delta * dy).reshape(pb.blocks, nq)[pb.posed_block]
         lam_new = -np.linalg.solve(R, np.einsum("pij,pi->pj", Y, resid)[..., None])[..., 0]
         return dy, lam_new, delta, (sigma, sig_l, sig_u, sl, su, lo, up, Y, R)
+
+    def _native_step(self, it: Iterate, ev: Evaluation, data: TaskData, g: FloatArray, sigma: FloatArray,
+                     bdiag: FloatArray) -> tuple[FloatArray, FloatArray, float, FloatArray, FloatArray]:
+        """:meth:`step`'s ``(dy, lam_new, delta, Y, R)`` by :class:`NativeStep` and LAPACK."""
+        pb, native = self.pb, self.native
+        M, rhs = native.prepare(ev.extras["hess"], pb.pose_hessians(it.y, data, it.lam), ev.J, ev.c, g, bdiag,
+                                sigma[pb.bound_vars.size:], pb.kin_coef, pb.kin_flat, it.scale)
+        M[self.padded, self.padded] += 1.0
+        begin = time.perf_counter()
+        pZ, delta = self.system.solve(M, rhs)
+        self.seconds["factorization"] += time.perf_counter() - begin
+        dy, lam_new = native.finish(pZ, delta)
+        return dy, lam_new, delta, native.Y.copy(), native.R.copy()
 
     def _reduced_quadratic(self, Z: FloatArray) -> FloatArray:
         """``Z^T (W + R^T diag(g) R) Z``: the constant quadratic terms the window Hessians do not

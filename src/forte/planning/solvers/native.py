@@ -135,39 +135,48 @@ class StageKernels:
         return self.hess.native
 
 
-_SHIMS: dict[str, Any] = {}
+_LIBRARIES: dict[str, ctypes.CDLL | None] = {}
+
+
+def load_c_library(folder: Path, stem: str, source: str) -> ctypes.CDLL | None:
+    """``source`` compiled once into ``folder/STEM_HASH.so`` (with the size and sha256 record the
+    kernels have) and loaded; None without a compiler or a writable cache."""
+    key = hashlib.sha256(source.encode()).hexdigest()[:16]
+    lib = folder / f"{stem}_{key}.so"
+    if str(lib) not in _LIBRARIES:
+        loaded = None
+        try:
+            if verify_library(lib) is not None:
+                _compile_c(lib, source)
+            if verify_library(lib) is None:
+                loaded = ctypes.CDLL(str(lib))
+        except (OSError, subprocess.CalledProcessError):
+            loaded = None
+        _LIBRARIES[str(lib)] = loaded
+    return _LIBRARIES[str(lib)]
 
 
 def load_shim(folder: Path) -> Any:
     """The compiled horizon loop (compiled once into ``folder``), or None without a compiler."""
-    key = hashlib.sha256(_SHIM.encode()).hexdigest()[:16]
-    lib = folder / f"stage_map_{key}.so"
-    if str(lib) in _SHIMS:
-        return _SHIMS[str(lib)]
-    fn = None
-    try:
-        if verify_library(lib) is not None:
-            _compile_shim(lib)
-        if verify_library(lib) is None:
-            fn = ctypes.CDLL(str(lib)).forte_map
-            fn.restype = ctypes.c_int
-            fn.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p,
-                           ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int]
-    except (OSError, subprocess.CalledProcessError):
-        fn = None
-    _SHIMS[str(lib)] = fn
+    lib = load_c_library(folder, "stage_map", _SHIM)
+    if lib is None:
+        return None
+    fn = lib.forte_map
+    fn.restype = ctypes.c_int
+    fn.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p,
+                   ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int]
     return fn
 
 
-def _compile_shim(lib: Path) -> None:
+def _compile_c(lib: Path, source: str) -> None:
     compiler = shutil.which("gcc") or shutil.which("cc")
     if compiler is None:
         raise OSError("no C compiler")
     lib.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
-        src, out = Path(tmp) / "stage_map.c", Path(tmp) / "stage_map.so"
-        src.write_text(_SHIM, encoding="utf-8")
-        subprocess.run([compiler, "-O2", "-shared", "-fPIC", str(src), "-o", str(out)], check=True,
+        src, out = Path(tmp) / f"{lib.stem}.c", Path(tmp) / f"{lib.stem}.so"
+        src.write_text(source, encoding="utf-8")
+        subprocess.run([compiler, "-O2", "-shared", "-fPIC", str(src), "-o", str(out), "-lm"], check=True,
                        capture_output=True)
         rec = Path(tmp) / "record.json"
         record = {"size": out.stat().st_size, "sha256": _digest(out)}
