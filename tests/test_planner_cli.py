@@ -46,7 +46,7 @@ def test_plan_writes_every_output(tmp_path):
     task = load_task(EXAMPLES / "lift-path.yaml", waypoints=14)
     q = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)[:, 1:]
     from forte.planning.planner import evaluate
-    m = evaluate(task.robot, q, task.t, task.force(), task.weights.capability_params)
+    m = evaluate(task.robot, q, task.t, task.force(), task.settings.capability_params)
     np.testing.assert_allclose(np.loadtxt(out / "metrics.csv", delimiter=",", skiprows=1)[:, header.index("d")],
                                m["d"], rtol=1e-9)
 

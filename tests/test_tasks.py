@@ -69,7 +69,7 @@ def test_continuous_example_follows_the_papers_formula():
 def test_hold_example_uses_the_teaching_pose():
     task = load_task(EXAMPLES / "hold.yaml")
     assert task.mode == "hold" and task.n == 1 and task.weights.preset == "forte-hold"
-    assert task.weights.alpha == 0.7
+    assert task.settings.alpha == 0.7
     np.testing.assert_allclose(task.targets[0], task.robot.ee_pose(task.teaching), atol=1e-12)
 
 
@@ -149,9 +149,9 @@ def test_robot_section_loads_another_arm(tmp_path):
     [
         (lambda d: d.update(solver={"tol": 0}), "solver: tol: expected a finite number > 0"),
         (lambda d: d.update(solver={"max_iter": 0}), "solver: max_iter: expected an integer >= 1"),
-        (lambda d: d.update(weights={"joint_margin": 0}), "weights: joint_margin: expected a finite number > 0"),
+        (lambda d: d.update(weights={"joint_margin": 0}), "weights.joint_margin: expected a finite number > 0, got 0"),
         (lambda d: d.update(weights={"capability_params": {"alpha": 2}}),
-         "weights.capability_params: alpha: expected 0 < alpha <= 1"),
+         "weights.capability_params.alpha: expected 0 < alpha <= 1, got 2"),
         (lambda d: d.update(limits={"base_velocity": [-1, 1, 1]}), "limits: base_velocity: expected limits > 0"),
         (lambda d: d.update(limits={"arm_velocity": [1, 2]}), "limits: expected 7 arm velocity"),
         (lambda d: d["path"].update(relative="no"), "path.relative: expected true or false"),
@@ -240,8 +240,8 @@ def test_capability_params_override_keeps_the_preset_s_other_fields(tmp_path):
         data.setdefault("weights", {})["capability_params"] = {"knee": 0}
         path = tmp_path / name
         path.write_text(yaml.safe_dump(data))
-        params = load_task(path).weights.capability_params
-        preset = load_task(EXAMPLES / name).weights.capability_params
+        params = load_task(path).settings.capability_params
+        preset = load_task(EXAMPLES / name).settings.capability_params
         assert params.knee == 0 and preset.knee == 3
         assert params.alpha == preset.alpha == alpha
         assert (params.kappa, params.max_exponent) == (preset.kappa, preset.max_exponent)

@@ -15,7 +15,7 @@ import numpy as np
 from forte.planning.costs import COST_TERMS, TermSetting
 from forte.planning.schema import Reader, dataclass_from
 from forte.planning.terms_section import read_setting, settings_of, terms_section
-from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights, WeightSet
+from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights, TermSettings, WeightSet
 
 #: The ``weights:`` key of the capability metric's parameters (the ``capability`` term's settings).
 CAPABILITY_PARAMS = "capability_params"
@@ -98,3 +98,22 @@ def weight_preset(reader: Reader, mode: str) -> WeightSet:
         if name not in WEIGHT_SETS:
             raise reader.sub("weights").error("preset", f"expected one of {', '.join(WEIGHT_SETS)}, got {name!r}")
     return WEIGHT_SETS[name]
+
+
+def weights_record(weights: CostWeights, settings: TermSettings) -> dict[str, Any]:
+    """plan.json's ``weights`` block: the weights, every setting that has an older ``weights:`` name
+    under that name, and the metric's parameters as ``capability_params`` (the shape readers of
+    plan.json have relied on; a task file's ``weights:`` section reads it back as is)."""
+    record: dict[str, Any] = dataclasses.asdict(weights)
+    for key, (term, declared) in legacy_settings().items():
+        value = COST_TERMS[term].setting_values(settings)[declared.name]
+        record[key] = list(value) if isinstance(value, tuple) else value
+    record[CAPABILITY_PARAMS] = dict(COST_TERMS["capability"].setting_values(settings))
+    return record
+
+
+def settings_record(settings: TermSettings) -> dict[str, dict[str, Any]]:
+    """plan.json's ``term_settings`` block: every registered term's settings in use (given or
+    default), by term (tuples as lists)."""
+    return {name: {k: list(v) if isinstance(v, tuple) else v for k, v in cls.setting_values(settings).items()}
+            for name, cls in COST_TERMS.items() if cls.settings_of is None and cls.settings}
