@@ -49,7 +49,7 @@ class Solve(NamedTuple):
 
 def solve(task: Task, dct_form: str) -> Solve:
     """The planner's solve (``forte.planning.planner._optimize``) with J5 in ``dct_form``, timed."""
-    task = replace(task, weights=replace(task.weights, dct_form=dct_form))
+    task = replace(task, settings=task.settings.with_values("base_spectral", form=dct_form))
     method = get_method("forte")
     force, nominal = task.force(), task.nominal()
     guess, options = start_guess(task, nominal), task.solver
@@ -57,13 +57,14 @@ def solve(task: Task, dct_form: str) -> Solve:
     if warm is not None:
         guess = warm[0]
         options = replace(options, extra={"mu_strategy": "monotone", "mu_init": 1e-4} | options.extra)
-    opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, options=options, limits=task.limits)
+    opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, options=options, limits=task.limits,
+                              settings=task.settings)
     cpu = time.process_time()
     sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, guess, nominal)
     cpu = time.process_time() - cpu
     if not sol.success:
         print(f"  (N = {task.n}, {dct_form}: {sol.status})")
-    j5 = base_spectral_cost(sol.q[:, :3], method.resolve_weights(task.weights))
+    j5 = base_spectral_cost(sol.q[:, :3], opt.settings)
     return Solve(opt.quadratic_forms["base_spectral"], sol.iterations, sol.solve_time, cpu, sol.q, j5)
 
 

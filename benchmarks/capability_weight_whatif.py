@@ -28,23 +28,22 @@ from forte.settings import WEIGHT_SETS
 TASK = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 URDF_LIMITS = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
 
-#: (row label, CostWeights changes, robot changes) of each variant; each changes the first row.
+#: (row label, term settings changes, robot changes) of each variant; each changes the first row.
 VARIANTS: tuple[tuple[str, dict[str, Any], dict[str, Any]], ...] = (
     ("as shipped (`authors-trajectory`: 3 x 8 manipulability, base smoothness metric linear)", {}, {}),
-    ("the authors' manipulability off (3 x 7 arm Jacobian)", {"manipulability_yaw": False}, {}),
+    ("the authors' manipulability off (3 x 7 arm Jacobian)", {"manipulability": {"with_yaw": False}}, {}),
     ("tool mass 0 (`robot: {tool_force_mass: 0}`)", {}, {"tool_force_mass": 0.0}),
     ("URDF torque limits 87/87/87/87/12/12/12 Nm", {}, {"torque_limits": URDF_LIMITS}),
-    ("URDF torque limits and the manipulability off (3 x 7)", {"manipulability_yaw": False},
+    ("URDF torque limits and the manipulability off (3 x 7)", {"manipulability": {"with_yaw": False}},
      {"torque_limits": URDF_LIMITS}),
     ("for reference, the set before issue 27 (3 x 7, base smoothness W_s squared)",
-     {"manipulability_yaw": False, "base_smoothness_linear": False}, {}),
+     {"manipulability": {"with_yaw": False}, "base_smoothness": {"linear": False}}, {}),
 )
 
 
-def variant_task(weights: dict[str, Any], robot: dict[str, Any]) -> forte.Task:
-    task = forte.load_task(TASK, mass=2.7)
-    task = replace(task, weights=replace(WEIGHT_SETS["authors-trajectory"], **weights),
-                   solver=replace(task.solver, refine_rounds=0))
+def variant_task(settings: dict[str, Any], robot: dict[str, Any]) -> forte.Task:
+    task = forte.load_task(TASK, mass=2.7).with_weights(WEIGHT_SETS["authors-trajectory"])
+    task = replace(task, settings=task.settings.merged(settings), solver=replace(task.solver, refine_rounds=0))
     return replace(task, robot=default_robot(**robot)) if robot else task
 
 

@@ -54,7 +54,7 @@ def without_scene_judged_with(task, method: str):
     blind = plan(replace(task, scene=Scene()), method)
     seen = replace(blind.task, scene=task.scene)  # the resolved task (payload), with the bodies back
     verdict = judge_plan(seen, blind.q, blind.force, blind.solver if get_method(method).optimized else None)
-    metrics = evaluate(seen.robot, blind.q, seen.t, blind.force, seen.weights.capability_params, seen.scene)
+    metrics = evaluate(seen.robot, blind.q, seen.t, blind.force, seen.settings.capability_params, seen.scene)
     return replace(blind, task=seen, scene=task.scene, verdict=verdict, metrics=metrics)
 
 

@@ -26,7 +26,7 @@ def compare(n: int = 25, max_iter: int = 300) -> None:
     task = load_task(LIFT, waypoints=n)
     force = task.force()
     opt = TrajectoryOptimizer(task.robot, n, "forte", task.weights, options=SolverOptions(codegen=False),
-                              limits=task.limits)
+                              limits=task.limits, settings=task.settings)
     p = opt.parameters(task.t, task.targets, force.f, force.r)
     oracle = opt.solver.oracle()
     # The NLP's own bounds decide everything, whatever the layout (pinned start, end-at-rest rows,

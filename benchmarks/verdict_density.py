@@ -30,7 +30,7 @@ CASES = (("lift.yaml", 2.7, ("forte", "quintic", "manipulability")), ("lift.yaml
 
 def worst_values(task, q, force, per_interval: int) -> dict[str, float]:
     samples = sample_motion(task.robot, task.t, q, per_interval)
-    ctx = context(task.robot, samples, force, task.weights.alpha, _task_targets(task), task.limits, {}, False)
+    ctx = context(task.robot, samples, force, task.settings.alpha, _task_targets(task), task.limits, {}, False)
     out = {}
     for req in REQUIREMENTS:
         for i, m in enumerate(req.measures(ctx)):

@@ -16,7 +16,7 @@ from forte.model.twin import CasadiTwin
 from forte.planning.costs import COST_TERMS, Stage
 from forte.planning.methods import METHODS
 from forte.planning.motion_terms import BASE_BOX
-from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights
+from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, TermSettings
 
 
 @pytest.fixture(scope="module")
@@ -25,11 +25,11 @@ def authors():
 
 
 def stage_value(robot, name, q, q1=None, q2=None, dt=0.25, f=(0.0, 0.0, 40.0), r=10.0, nominal=None,
-                weights=CostWeights(), rays=None):
+                settings=None, rays=None):
     """Evaluate one registered stage term numerically at (q_{k-2}, q_{k-1}, q_k)."""
     twin = CasadiTwin(robot)
     nq = robot.nq
-    term = COST_TERMS[name].from_weights(weights)
+    term = COST_TERMS[name].from_settings(settings)
     params = {p: ca.SX.sym(p, size) for p, size in term.parameters}
     s = Stage(twin, ca.SX.sym("a", nq), ca.SX.sym("b", nq), ca.SX.sym("c", nq), ca.SX.sym("d1"), ca.SX.sym("d0"),
               ca.SX.sym("f", 3), ca.SX.sym("r"), params, nominal=ca.SX.sym("n", nq))
@@ -69,56 +69,61 @@ def test_authors_hand_is_054_kg_without_double_counting(authors):
 
 
 def test_weight_sets_are_the_authors():
-    w = WEIGHT_SETS["authors-trajectory"]
+    w, ws = WEIGHT_SETS["authors-trajectory"]
     assert (w.capability, w.manipulability, w.joint_limits, w.smoothness, w.velocity, w.nominal,
             w.base_smoothness, w.base_velocity, w.base_spectral, w.collision) == (1, 1, 8, 8, 10, 0.05, 8, 0.5, 8, 1)
-    assert w.alpha == 0.9 and w.joint_margin_fraction == 0.05 and w.collision_radius == 0.08
-    np.testing.assert_allclose(w.joint_dof_weights, np.array([0, 2, 1, 10, 0, 1, 2, 1, 0, 0]) / 10)
-    h = WEIGHT_SETS["authors-hold"]
-    assert (h.capability, h.manipulability, h.joint_limits, h.alpha) == (2, 1, 1, 0.7)
-    np.testing.assert_allclose(h.joint_dof_weights, np.array([0, 1, 1, 9, 0, 1, 1, 1, 0, 0]) / 9)
-    d = WEIGHT_SETS["paper-demo"]
+    limits = COST_TERMS["joint_limits"].setting_values(ws)
+    assert ws.alpha == 0.9 and limits["margin_fraction"] == 0.05
+    assert COST_TERMS["collision"].setting_values(ws)["radius"] == 0.08
+    np.testing.assert_allclose(limits["dof_weights"], np.array([0, 2, 1, 10, 0, 1, 2, 1, 0, 0]) / 10)
+    h, hs = WEIGHT_SETS["authors-hold"]
+    assert (h.capability, h.manipulability, h.joint_limits, hs.alpha) == (2, 1, 1, 0.7)
+    np.testing.assert_allclose(COST_TERMS["joint_limits"].setting_values(hs)["dof_weights"],
+                               np.array([0, 1, 1, 9, 0, 1, 1, 1, 0, 0]) / 9)
+    d = WEIGHT_SETS["paper-demo"].weights
     assert (d.capability, d.manipulability, d.joint_limits, d.smoothness, d.base_spectral) == (5, 2, 3, 10, 1)
     # the authors' code: J2 on the 3 x 8 Jacobian, the base smoothness metric used linearly
-    code = {"manipulability_yaw": True, "base_smoothness_linear": True}
+    code = {"manipulability": {"with_yaw": True}, "base_smoothness": {"linear": True}}
     for name in ("authors-trajectory", "authors-hold", "authors-hold-as-run"):
-        assert all(getattr(WEIGHT_SETS[name], k) is v for k, v in code.items()), name
+        settings = WEIGHT_SETS[name].settings
+        assert all(COST_TERMS[t].setting_values(settings)[k] is v for t, c in code.items() for k, v in c.items()), name
     # forte's default sets depart from the authors' in the capability weight (trajectories) and,
     # where the paper's text and the authors' code differ, keep the text
-    ours = WEIGHT_SETS["forte-trajectory"]
-    assert replace(ours, preset="authors-trajectory", capability=1.0, **code) == w and ours.capability == 5
-    assert not (ours.manipulability_yaw or ours.base_smoothness_linear)
-    assert replace(WEIGHT_SETS["forte-hold"], preset="authors-hold", **code) == h
+    ours, ours_settings = WEIGHT_SETS["forte-trajectory"]
+    assert replace(ours, preset="authors-trajectory", capability=1.0) == w and ours.capability == 5
+    assert ours_settings.merged(code) == ws and ours_settings == TermSettings()
+    hold, hold_settings = WEIGHT_SETS["forte-hold"]
+    assert replace(hold, preset="authors-hold") == h and hold_settings.merged(code) == hs
     assert DEFAULT_WEIGHT_SET == {"trajectory": "forte-trajectory", "hold": "forte-hold"}
 
 
 def test_baselines_keep_their_weights_on_forte_s_default_set():
     for name in ("rfp-radius", "rfp-cone", "manipulability", "static-polytope"):
         method = METHODS[name]
-        ours = method.resolve_weights(WEIGHT_SETS["forte-trajectory"])
-        theirs = method.resolve_weights(WEIGHT_SETS["authors-trajectory"])
-        assert replace(ours, preset=theirs.preset, capability=theirs.capability, manipulability_yaw=True,
-                       base_smoothness_linear=True) == theirs
+        ours, ours_settings = method.resolve(*WEIGHT_SETS["forte-trajectory"])
+        theirs, their_settings = method.resolve(*WEIGHT_SETS["authors-trajectory"])
+        assert replace(ours, preset=theirs.preset, capability=theirs.capability) == theirs
+        assert ours_settings.merged(WEIGHT_SETS["authors-trajectory"].settings) == their_settings
         if name != "manipulability":  # its capability weight multiplies no term
             assert ours.capability == theirs.capability
 
 
 def test_baselines_are_defined_as_the_authors_run_them():
-    traj = WEIGHT_SETS["authors-trajectory"]
-    radius = METHODS["rfp-radius"].resolve_weights(traj)
+    traj = WEIGHT_SETS["authors-trajectory"].weights
+    radius = METHODS["rfp-radius"].resolve(traj)[0]
     assert "manipulability" not in METHODS["rfp-radius"].terms and "base_spectral" in METHODS["rfp-radius"].terms
     assert (radius.capability, radius.base_velocity, radius.base_spectral) == (60, 0.54, 8)
-    cone = METHODS["rfp-cone"].resolve_weights(traj)
+    cone = METHODS["rfp-cone"].resolve(traj)[0]
     assert not {"manipulability", "base_spectral"} & set(METHODS["rfp-cone"].terms)
     assert (cone.capability, cone.joint_limits, cone.velocity, cone.collision) == (60, 2, 7, 0.1)
     manip = METHODS["manipulability"]
     assert manip.terms == ("manipulability", "joint_limits")
-    np.testing.assert_allclose(manip.resolve_weights(traj).joint_dof_weights,
+    np.testing.assert_allclose(manip.resolve(traj)[1]["joint_limits"]["dof_weights"],
                                np.array([0, 2, 1, 10, 5, 1, 2, 1, 0, 0]) / 10)
-    assert METHODS["static-polytope"].resolve_weights(traj).capability == 2
+    assert METHODS["static-polytope"].resolve(traj)[0].capability == 2
     # holding: one weight set for every method
     hold = WEIGHT_SETS["authors-hold"]
-    assert METHODS["rfp-radius"].resolve_weights(hold) == hold
+    assert METHODS["rfp-radius"].resolve(*hold) == tuple(hold)
 
 
 def test_hold_as_run_is_the_trajectory_set_with_the_single_point_s_terms_only():
@@ -126,15 +131,16 @@ def test_hold_as_run_is_the_trajectory_set_with_the_single_point_s_terms_only():
     regularization weight 0, as the authors' node runs a single point on a trajectory-mode optimizer."""
     from forte.planning.methods import REGULARIZATION
 
-    traj, as_run = WEIGHT_SETS["authors-trajectory"], WEIGHT_SETS["authors-hold-as-run"]
+    traj, as_run = WEIGHT_SETS["authors-trajectory"].weights, WEIGHT_SETS["authors-hold-as-run"].weights
     assert replace(as_run, preset=traj.preset, **{f: getattr(traj, f) for f in REGULARIZATION}) == traj
-    assert all(getattr(as_run, f) == 0 for f in REGULARIZATION) and as_run.alpha == 0.9
+    assert all(getattr(as_run, f) == 0 for f in REGULARIZATION)
+    assert WEIGHT_SETS["authors-hold-as-run"].settings == WEIGHT_SETS["authors-trajectory"].settings
     for name in ("forte", "manipulability", "rfp-radius", "rfp-cone", "static-polytope"):
-        tuned, on_traj = METHODS[name].resolve_weights(as_run), METHODS[name].resolve_weights(traj)
+        tuned, on_traj = METHODS[name].resolve(as_run)[0], METHODS[name].resolve(traj)[0]
         assert all(getattr(tuned, f) == 0 for f in REGULARIZATION), name
         assert replace(tuned, preset=traj.preset, **{f: getattr(on_traj, f) for f in REGULARIZATION}) == on_traj, name
-    assert METHODS["rfp-radius"].resolve_weights(as_run).capability == 60
-    assert (METHODS["rfp-cone"].resolve_weights(as_run).capability, METHODS["rfp-cone"].resolve_weights(as_run)
+    assert METHODS["rfp-radius"].resolve(as_run)[0].capability == 60
+    assert (METHODS["rfp-cone"].resolve(as_run)[0].capability, METHODS["rfp-cone"].resolve(as_run)[0]
             .joint_limits) == (60, 2)
 
 
@@ -161,13 +167,13 @@ def test_rfp_cone_uses_49_rays_of_0_1_rad(authors):
     assert rays.shape == (49, 3)
     angles = np.degrees(np.arccos(rays @ [0, 0, 1]))
     np.testing.assert_allclose(sorted(set(np.round(angles, 6))), np.degrees([0, 0.025, 0.05, 0.075, 0.1]), atol=1e-6)
-    term = COST_TERMS["rfp_cone"].from_weights(CostWeights())
+    term = COST_TERMS["rfp_cone"].from_settings()
     assert (term.half_angle, term.rings, term.azimuths) == (0.1, 4, 12)
     q = authors.home()
     J = authors.arm_jacobian(q)
     tau = authors.rnea(q[3:], np.zeros(7), np.zeros(7))
     # the margins carry alpha (0.9 on the authors' trajectory set), as in the authors' rays
-    alpha = CostWeights().capability_params.alpha
+    alpha = TermSettings().alpha
     A = np.vstack([J.T, -J.T])
     b = alpha * np.r_[authors.torque_limits - tau, authors.torque_limits + tau]
     rho = []
@@ -225,18 +231,19 @@ def test_base_smoothness_squares_w_s_by_default_and_uses_the_metric_linearly_as_
     q[:, 3:] = q[0, 3:]  # the arm at rest: the reference's J4 is its base part
     dq = np.diff(q[:, :3], axis=0)
     x = q.ravel()
-    for weights, m in ((CostWeights(), [1, 1, 0.25]), (CostWeights(base_smoothness_linear=True), [1, 1, 0.5])):
-        Q = COST_TERMS["base_smoothness"].from_weights(weights).matrix(7, 6)
+    linear = TermSettings({"base_smoothness": {"linear": True}})
+    for settings, m in ((TermSettings(), [1, 1, 0.25]), (linear, [1, 1, 0.5])):
+        Q = COST_TERMS["base_smoothness"].from_settings(settings).matrix(7, 6)
         expected = 0.5 * np.sum(np.array(m) * dq**2)
         assert 0.5 * x @ Q @ x == pytest.approx(expected, rel=1e-12)
-        assert smoothness_cost(q, weights) == pytest.approx(expected, rel=1e-12)
+        assert smoothness_cost(q, settings) == pytest.approx(expected, rel=1e-12)
 
 
 def test_manipulability_yaw_column_is_the_base_yaw_derivative(authors):
     q = authors.home() + np.r_[0.2, -0.1, 0.4, np.zeros(7)]
     Jw = authors.whole_body_jacobian(q)[:3, 2:]  # yaw column + arm columns (Pinocchio-based)
     mu = np.sqrt(np.linalg.det(Jw @ Jw.T + 1e-6 * np.eye(3)))
-    value = stage_value(authors, "manipulability", q, weights=CostWeights(manipulability_yaw=True))
+    value = stage_value(authors, "manipulability", q, settings={"manipulability": {"with_yaw": True}})
     assert 1 / value == pytest.approx(mu, rel=1e-9)
     Ja = authors.arm_jacobian(q)
     assert 1 / stage_value(authors, "manipulability", q) == pytest.approx(
@@ -244,9 +251,9 @@ def test_manipulability_yaw_column_is_the_base_yaw_derivative(authors):
 
 
 def test_box_collision_term_against_a_hand_computation(authors):
-    box = CostWeights(collision_model="box")
-    term = COST_TERMS["collision"].from_weights(box)
-    assert stage_value(authors, "collision", authors.home(), weights=box) == 0.0  # home is clear
+    box = TermSettings({"collision": {"model": "box"}})
+    term = COST_TERMS["collision"].from_settings(box)
+    assert stage_value(authors, "collision", authors.home(), settings=box) == 0.0  # home is clear
     # turn the arm backwards and down over the base: sphere centres enter the base box
     q = authors.home().copy()
     q[3:] = [2.8, 1.76, 0.0, -0.2, 0.0, 1.5, 0.8]
@@ -258,7 +265,7 @@ def test_box_collision_term_against_a_hand_computation(authors):
     d_box = np.sqrt(np.sum(out**2, axis=1) + 1e-10)
     expected = np.sum(np.maximum(0, 1 - d_box / 0.08) ** 2 + np.maximum(0, 1 - centres[:, 2] / 0.08) ** 2)
     assert expected > 0.3
-    assert stage_value(authors, "collision", q, weights=box) == pytest.approx(expected, rel=1e-9)
+    assert stage_value(authors, "collision", q, settings=box) == pytest.approx(expected, rel=1e-9)
 
 
 @pytest.mark.parametrize("preset", ["forte-trajectory", "authors-trajectory", "forte-hold", "authors-hold",
@@ -266,11 +273,11 @@ def test_box_collision_term_against_a_hand_computation(authors):
 def test_every_term_takes_its_weight_from_the_weight_set(preset: str) -> None:
     # Regression: velocity, nominal, base velocity, base smoothness and collision used to weigh 1
     # whatever the set said (10, 0.05, 0.5, 8 and 1 in the authors' trajectory set, 0 in holding).
-    weights = WEIGHT_SETS[preset]
+    weights, settings = WEIGHT_SETS[preset]
     method = METHODS["forte"]
     for name in method.terms:
-        term = COST_TERMS[name].from_weights(weights)
+        term = COST_TERMS[name].from_settings(settings)
         assert method.term_weight(term, weights) == getattr(weights, term.weight_field or name), name
     if preset.endswith("-hold"):
         zero = {"velocity", "nominal", "base_velocity", "base_smoothness", "collision", "smoothness", "base_spectral"}
-        assert all(method.term_weight(COST_TERMS[n].from_weights(weights), weights) == 0 for n in zero)
+        assert all(method.term_weight(COST_TERMS[n].from_settings(settings), weights) == 0 for n in zero)

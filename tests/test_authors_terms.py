@@ -239,7 +239,7 @@ def cone_rays(axis: np.ndarray, half_angle: float, rings: int, azimuths: int) ->
 # -- forte's exact capability metrics on the same states ---------------------------------------
 def forte_exact(plan, term: str) -> float:
     """forte's exact (hard-minimum) value of a capability-type term (not the optimized surrogate)."""
-    w = plan.task.weights
+    w = plan.task.settings
     rfp = trajectory_rfp(plan.robot, plan.q, plan.t, alpha=w.alpha)
     f, r = plan.force.f, plan.force.r
     if term == "capability":
@@ -259,7 +259,7 @@ def forte_exact(plan, term: str) -> float:
 def lift():
     """The 2.7 L lift on 9 waypoints with the authors' trajectory set."""
     task = forte.load_task("examples/tasks/lift.yaml", waypoints=9)
-    return replace(task, weights=WEIGHT_SETS["authors-trajectory"])
+    return task.with_weights(WEIGHT_SETS["authors-trajectory"])
 
 
 @pytest.fixture(scope="module")
@@ -307,7 +307,7 @@ def test_hold_terms_equal_the_authors_formulas(hold, preset, method):
     """The authors' single point: gravity-only residual; their holding set (alpha 0.7, the exponent
     cap off), or the trajectory set with the single point's terms only (alpha 0.9, cap on)."""
     as_run = preset == "authors-hold-as-run"
-    plan = forte.plan(replace(hold, weights=WEIGHT_SETS[preset]), method)
+    plan = forte.plan(hold.with_weights(WEIGHT_SETS[preset]), method)
     authors = Authors(plan.robot, plan, hold.nominal(), alpha=0.9 if as_run else 0.7, cap=as_run)
     dof = DOF["manipulability" if as_run and method == "manipulability" else "trajectory" if as_run else "hold"]
     assert check_plan(plan, authors, dof, hold_weights(method, as_run)) < RTOL

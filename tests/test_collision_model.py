@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import json
-from dataclasses import asdict
 from pathlib import Path
 
 import casadi as ca
@@ -18,8 +17,9 @@ from forte.model.collision import AUTHORS_SPHERES
 from forte.model.twin import CasadiTwin
 from forte.planning.costs import Stage, make_terms
 from forte.planning.motion_terms import BoxCollision, Collision
-from forte.planning.tasks import load_task
-from forte.settings import CostWeights
+from forte.planning.tasks import load_task, task_from_dict
+from forte.planning.weights_section import settings_record, weights_record
+from forte.settings import TermSettings
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 
@@ -31,9 +31,9 @@ BODY = [((0.0, 0.0, 0.35), 0.52), ((0.2, 0.0, 0.8), 0.15)]
 SAFE = 0.08
 
 
-def stage_function(robot, weights=CostWeights(), name="collision"):
+def stage_function(robot, settings=None, name="collision"):
     """The registered stage term ``name`` as a numeric function of (q_{k-1}, q_k, dt_k)."""
-    (term,) = make_terms((name,), weights)
+    (term,) = make_terms((name,), settings)
     nq = robot.nq
     s = Stage(CasadiTwin(robot), ca.SX.sym("a", nq), ca.SX.sym("b", nq), ca.SX.sym("c", nq), ca.SX.sym("d1"),
               ca.SX.sym("d0"), ca.SX.sym("f", 3), ca.SX.sym("r"), {}, nominal=ca.SX.sym("n", nq))
@@ -75,8 +75,9 @@ def expected_cost(q):
 def test_authors_spheres_are_the_transcribed_configuration():
     assert [(s.frame, s.centre, s.radius) for s in AUTHORS_SPHERES.basket] == [("ee", c, r) for c, r in BASKET]
     assert [(s.frame, s.centre, s.radius) for s in AUTHORS_SPHERES.body] == [("base", c, r) for c, r in BODY]
-    term = make_terms(("collision",), CostWeights())[0]
-    assert isinstance(term, Collision) and term.safe_distance == SAFE and CostWeights().collision_model == "authors"
+    term = make_terms(("collision",))[0]
+    assert isinstance(term, Collision) and term.safe_distance == SAFE
+    assert Collision.setting_values(TermSettings())["model"] == "authors"
 
 
 def test_collision_matches_numpy_at_random_configurations(robot):
@@ -117,13 +118,13 @@ def test_collision_is_zero_when_clear(robot):
 
 
 def test_box_model_is_the_named_option(robot):
-    term, f = stage_function(robot, CostWeights(collision_model="box", collision_radius=0.1))
+    term, f = stage_function(robot, TermSettings({"collision": {"model": "box", "radius": 0.1}}))
     assert isinstance(term, BoxCollision) and term.radius == 0.1 and term.name == "collision"
     q = robot.home().copy()
     q[3:] = [2.8, 1.76, 0.0, -0.2, 0.0, 1.5, 0.8]  # arm turned back and down over the base
     assert f(q)[0][0] > 0
-    with pytest.raises(InvalidInputError, match="^collision_model: expected one of authors, box, got 'mesh'$"):
-        CostWeights(collision_model="mesh")
+    with pytest.raises(InvalidInputError, match="^model: expected one of authors, box, got 'mesh'$"):
+        make_terms(("collision",), TermSettings({"collision": {"model": "mesh"}}))
 
 
 def _lift(tmp_path, weights):
@@ -136,19 +137,24 @@ def _lift(tmp_path, weights):
 
 def test_collision_model_round_trips_through_a_task_file(tmp_path):
     task = load_task(_lift(tmp_path, {"collision_model": "box", "collision_safe_distance": 0.05}))
-    assert task.weights.collision_model == "box" and task.weights.collision_safe_distance == 0.05
-    assert isinstance(make_terms(("collision",), task.weights)[0], BoxCollision)
-    # the weights as plan.json records them load back to the same weights
-    recorded = json.loads(json.dumps(asdict(task.weights)))
+    assert dict(task.settings["collision"]) == {"model": "box", "safe_distance": 0.05}
+    assert isinstance(make_terms(("collision",), task.settings)[0], BoxCollision)
+    # the weights and settings as plan.json records them load back to the same ones
+    recorded = json.loads(json.dumps(weights_record(task.weights, task.settings)))
     again = load_task(_lift(tmp_path, recorded))
-    assert again.weights == task.weights
-    assert load_task(_lift(tmp_path, {"preset": "authors-trajectory"})).weights.collision_model == "authors"
+    assert again.weights == task.weights and settings_record(again.settings) == settings_record(task.settings)
+    default = load_task(_lift(tmp_path, {"preset": "authors-trajectory"})).settings
+    assert Collision.setting_values(default)["model"] == "authors"
+    # the same setting in the terms' own section
+    data = yaml.safe_load(_lift(tmp_path, {}).read_text()) | {"terms": {"collision": {"model": "box"}}}
+    assert isinstance(make_terms(("collision",), task_from_dict(data, tmp_path / "t.yaml").settings)[0], BoxCollision)
 
 
 @pytest.mark.parametrize(("weights", "message"), [
-    ({"collision_model": "spheres"}, "weights: collision_model: expected one of authors, box, got 'spheres'"),
-    ({"collision_model": 3}, "weights.collision_model: expected a string, got 3"),
-    ({"collision_safe_distance": -0.1}, "weights.collision_safe_distance: expected a number >= 0"),
+    ({"collision_model": "spheres"}, "weights.collision_model: expected one of authors, box, got 'spheres'"),
+    ({"collision_model": 3}, "weights.collision_model: expected one of authors, box, got 3"),
+    ({"collision_safe_distance": -0.1}, "weights.collision_safe_distance: expected a finite number >= 0, got -0.1"),
+    ({"collision_modl": "box"}, "weights.collision_modl: unknown field; expected one of "),
 ])
 def test_bad_collision_settings_give_one_line_naming_the_field(tmp_path, weights, message):
     path = _lift(tmp_path, weights)

@@ -360,9 +360,9 @@ def test_the_sweep_starts_from_the_authors_weight_of_each_set():
     from forte.experiments.baseline_weights import sweep_weights, with_capability_weight
     from forte.settings import WEIGHT_SETS
     for preset, base in (("forte-trajectory", 60.0), ("authors-trajectory", 60.0), ("authors-hold", 2.0)):
-        weights = WEIGHT_SETS[preset]
+        weights = WEIGHT_SETS[preset].weights
         assert sweep_weights("rfp-cone", weights, (1.0, 10.0)) == (base, 10 * base)
-        tuned = with_capability_weight("rfp-cone", 123.0, preset).resolve_weights(weights)
+        tuned = with_capability_weight("rfp-cone", 123.0, preset).resolve(weights)[0]
         assert tuned.capability == 123.0
         # the method's other tuning on that set is kept (the cone's joint-limit weight 2 on trajectories)
         assert tuned.joint_limits == (2.0 if preset != "authors-hold" else weights.joint_limits)

@@ -18,7 +18,7 @@ from forte.exceptions import SolverError
 from forte.planning.capability_terms import ConeVolume
 from forte.planning.kernels import KERNEL_NAMES, build_kernels, load_kernels
 from forte.planning.methods import METHODS
-from forte.settings import CostWeights, SolverOptions
+from forte.settings import SolverOptions
 
 needs_cc = pytest.mark.skipif(not (shutil.which("gcc") or shutil.which("cc")), reason="needs a C compiler")
 
@@ -60,7 +60,7 @@ def test_mapped_ray_sum_equals_the_rays_written_out(robot):
 def test_cone_kernels_equal_the_unrolled_rays(robot, monkeypatch):
     """Every stage kernel of rfp-cone (cost, gradient, Hessian in the window z) is unchanged to
     1e-12 by the mapped form: same plans."""
-    method, w = METHODS["rfp-cone"], CostWeights()
+    method, w = METHODS["rfp-cone"], None
     mapped = build_kernels(robot, method, w)
 
     # the same stage expression with the rays' sum written out instead of the mapped call
@@ -86,7 +86,7 @@ def test_cone_kernels_equal_the_unrolled_rays(robot, monkeypatch):
 def test_compiled_kernels_equal_the_virtual_machine(robot, tmp_path):
     """The library linked from one C file per kernel (compiled concurrently, -O1/-Og) computes
     what the SX functions compute, reverse modes included."""
-    w = CostWeights()
+    w = None
     lib = load_kernels(robot, "rfp-radius", w, SolverOptions(cache_dir=str(tmp_path)))
     assert lib.origin == "compiled"
     sx = build_kernels(robot, "rfp-radius", w)
@@ -108,7 +108,7 @@ def test_compiled_kernels_equal_the_virtual_machine(robot, tmp_path):
 @needs_cc
 def test_a_compiler_failure_is_a_solver_error(robot, tmp_path):
     with pytest.raises(SolverError, match="compiling the NLP kernels failed"):
-        kernels._compile(build_kernels(robot, "manipulability", CostWeights()), tmp_path / "k.so",
+        kernels._compile(build_kernels(robot, "manipulability"), tmp_path / "k.so",
                          shutil.which("false") or "false")
     assert not list(tmp_path.glob("*.so"))
 

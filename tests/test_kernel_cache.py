@@ -13,7 +13,7 @@ import pytest
 import forte.planning.kernels as kernels
 from forte.planning.kernels import load_kernels, verify_library
 from forte.planning.tasks import load_task
-from forte.settings import CostWeights, SolverOptions
+from forte.settings import SolverOptions
 
 pytestmark = pytest.mark.skipif(not (shutil.which("gcc") or shutil.which("cc")), reason="needs a C compiler")
 REPO = Path(__file__).resolve().parents[1]
@@ -24,7 +24,7 @@ HOLD = REPO / "examples" / "tasks" / "hold.yaml"
 def good(robot, tmp_path_factory):
     """A cache folder holding one freshly compiled library and its record."""
     root = tmp_path_factory.mktemp("cache")
-    k = load_kernels(robot, "manipulability", CostWeights(), SolverOptions(cache_dir=str(root)))
+    k = load_kernels(robot, "manipulability", None, SolverOptions(cache_dir=str(root)))
     assert k.origin == "compiled"
     (lib,) = root.glob("*.so")
     assert verify_library(lib) is None
@@ -62,7 +62,7 @@ def test_a_bad_entry_is_never_loaded_and_is_rebuilt(robot, good, tmp_path, monke
         _copy(good, target.parent)
 
     monkeypatch.setattr(kernels, "_compile", fake_compile)
-    k = load_kernels(robot, "manipulability", CostWeights(), SolverOptions(cache_dir=str(tmp_path / "c")))
+    k = load_kernels(robot, "manipulability", None, SolverOptions(cache_dir=str(tmp_path / "c")))
     assert k.origin == "compiled" and verify_library(lib) is None
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("forte: notice: kernel cache entry") and "rebuilding" in err
@@ -71,7 +71,7 @@ def test_a_bad_entry_is_never_loaded_and_is_rebuilt(robot, good, tmp_path, monke
 def test_cache_dir_that_is_a_file_falls_back_to_the_virtual_machine(robot, tmp_path, capsys):
     afile = tmp_path / "afile"
     afile.write_text("keep")
-    k = load_kernels(robot, "manipulability", CostWeights(), SolverOptions(cache_dir=str(afile)))
+    k = load_kernels(robot, "manipulability", None, SolverOptions(cache_dir=str(afile)))
     assert k.origin == "virtual-machine" and afile.read_text() == "keep"
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "virtual machine" in err
@@ -86,7 +86,7 @@ def test_read_only_cache_dir_falls_back_to_the_virtual_machine(robot, tmp_path, 
     else:
         ro.chmod(0o555)
     try:
-        k = load_kernels(robot, "manipulability", CostWeights(), SolverOptions(cache_dir=str(ro / "sub")))
+        k = load_kernels(robot, "manipulability", None, SolverOptions(cache_dir=str(ro / "sub")))
     finally:
         ro.chmod(0o755)
     assert k.origin == "virtual-machine"
@@ -96,7 +96,7 @@ def test_read_only_cache_dir_falls_back_to_the_virtual_machine(robot, tmp_path, 
 
 def test_a_verified_entry_loads_without_notice(robot, good, tmp_path, capsys):
     _copy(good, tmp_path / "c")
-    k = load_kernels(robot, "manipulability", CostWeights(), SolverOptions(cache_dir=str(tmp_path / "c")))
+    k = load_kernels(robot, "manipulability", None, SolverOptions(cache_dir=str(tmp_path / "c")))
     assert k.origin == "cached" and capsys.readouterr().err == ""
 
 
@@ -107,7 +107,7 @@ def test_truncated_cache_is_no_sigbus_end_to_end(tmp_path):
     # the ``authors-hold`` set, not the default weights of the ``good`` fixture's library)
     task = load_task(HOLD)
     cache = tmp_path / "cache"
-    assert load_kernels(task.robot, "manipulability", task.weights, SolverOptions(cache_dir=str(cache))).origin \
+    assert load_kernels(task.robot, "manipulability", task.settings, SolverOptions(cache_dir=str(cache))).origin \
         == "compiled"
     (lib,) = cache.glob("*.so")
     lib.write_bytes(lib.read_bytes()[:4096])

@@ -11,7 +11,7 @@ from forte.exceptions import InvalidInputError
 from forte.force.taskforce import payload_force
 from forte.model.trajectory import quintic_path
 from forte.planning.ik import follow_path
-from forte.planning.motion_terms import dct_penalty_matrix
+from forte.planning.motion_terms import BaseSpectral, dct_penalty_matrix
 from forte.planning.optimizer import SolverOptions, TrajectoryOptimizer
 from forte.planning.reference import base_spectral_cost, smoothness_cost
 from forte.planning.spectral import dct_matrix, high_frequencies
@@ -94,11 +94,11 @@ def test_solution_meets_pose_bounds_and_initial_configuration(robot):
     assert np.abs(v[-1]).max() < 1e-6 and np.abs(a[-1]).max() < 1e-6
     assert np.all(sol.q[:, 3:] >= robot.lower - 1e-8) and np.all(sol.q[:, 3:] <= robot.upper + 1e-8)
     terms = opt.cost_terms(sol.q, t, targets, force.f, force.r)
-    assert terms["smoothness"] == pytest.approx(smoothness_cost(sol.q, CostWeights(smoothness_base=(0, 0, 0))),
+    assert terms["smoothness"] == pytest.approx(smoothness_cost(sol.q, {"base_smoothness": {"base": (0.0, 0.0, 0.0)}}),
                                                 rel=1e-9)
-    assert terms["smoothness"] + terms["base_smoothness"] == pytest.approx(smoothness_cost(sol.q, CostWeights()),
+    assert terms["smoothness"] + terms["base_smoothness"] == pytest.approx(smoothness_cost(sol.q, opt.settings),
                                                                            rel=1e-9)
-    assert terms["base_spectral"] == pytest.approx(base_spectral_cost(sol.q[:, :3], CostWeights()), rel=1e-9,
+    assert terms["base_spectral"] == pytest.approx(base_spectral_cost(sol.q[:, :3], opt.settings), rel=1e-9,
                                                    abs=1e-15)
     # the optimizer improves on its own initial guess
     guess_terms = opt.cost_terms(guess, t, targets, force.f, force.r)
@@ -129,20 +129,21 @@ def test_dct_matches_scipy_and_penalizes_only_high_frequencies():
     x = np.random.default_rng(1).normal(size=20)
     np.testing.assert_allclose(dct_matrix(20) @ x, dct(x, norm="ortho"), atol=1e-12)
     assert high_frequencies(20, 0.35).tolist() == list(range(7, 20))
-    w = CostWeights(dct_power=1.0, dct_cutoff=0.35, dct_ramp=False)
+    w = {"base_spectral": {"power": 1.0, "cutoff": 0.35, "ramp": False}}
     coeffs = dct(x, norm="ortho")
-    H = high_frequencies(20, w.dct_cutoff)
+    H = high_frequencies(20, 0.35)
     expected = np.sum((H / 19.0) * coeffs[H] ** 2)
     assert x @ dct_penalty_matrix(20, w) @ x == pytest.approx(expected)
     # a constant or a low-frequency base motion costs nothing, a fast one its full energy
-    demo = CostWeights(dct_power=0.0, dct_cutoff=0.35, dct_ramp=False)
+    demo = {"base_spectral": {"power": 0.0, "cutoff": 0.35, "ramp": False}}
     slow = 1.0 + np.cos(np.pi * (2 * np.arange(20) + 1) * 2 / 40)
     assert slow @ dct_penalty_matrix(20, demo) @ slow == pytest.approx(0.0, abs=1e-12)
     fast = np.cos(np.pi * (2 * np.arange(20) + 1) * 15 / 40)
     assert fast @ dct_penalty_matrix(20, demo) @ fast == pytest.approx(fast @ fast)
     # the authors' ramp: bins with l/(N-1) > c, gamma_l = ((l/(N-1) - c)/(1 - c))^2 (0 at the cutoff)
-    ramp = CostWeights()
-    assert (ramp.dct_cutoff, ramp.dct_power, ramp.dct_ramp) == (0.1, 2.0, True)
+    ramp = None
+    term = BaseSpectral.from_settings(ramp)
+    assert (term.cutoff, term.power, term.ramp) == (0.1, 2.0, True)
     ell = np.arange(20)
     high = ell / 19 > 0.1
     gamma = np.where(high, ((ell / 19 - 0.1) / 0.9) ** 2, 0.0)
@@ -151,7 +152,8 @@ def test_dct_matches_scipy_and_penalizes_only_high_frequencies():
     base = np.column_stack([x, 2 * x, x])
     w0 = demo
     H = high_frequencies(20, 0.35)
-    direct = 0.5 * sum(eta * np.sum(dct(base[:, i], norm="ortho")[H] ** 2) for i, eta in enumerate(w0.dct_axis))
+    axis = BaseSpectral.from_settings(w0).axis
+    direct = 0.5 * sum(eta * np.sum(dct(base[:, i], norm="ortho")[H] ** 2) for i, eta in enumerate(axis))
     assert base_spectral_cost(base, w0) == pytest.approx(direct)
 
 

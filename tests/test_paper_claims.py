@@ -46,7 +46,7 @@ def test_authors_exact_weights_fall_short_under_the_heavy_load():
     # same plan keeps capacity - (|f| + r) more than 5 N short (8.2 N with the authors' 3 x 8
     # manipulability; 10.9 N with the 3 x 7 one the set used before issue 27).
     task = load_task(LIFT, mass=2.8, waypoints=N)
-    exact = plan(replace(task, weights=WEIGHT_SETS["authors-trajectory"]), "forte")
+    exact = plan(task.with_weights(WEIGHT_SETS["authors-trajectory"]), "forte")
     assert exact.solved and not exact.feasible
     assert np.min(exact.metrics["directional_capacity"] - exact.force.magnitude - exact.force.r) < -5
 
@@ -103,6 +103,5 @@ def test_forte_keeps_the_ball_inside_the_polytope_when_holding_2p7_litres():
     task = load_task(LIFT.parent / "hold.yaml")  # 2.7 kg
     res = plan(task, "forte")
     assert res.success and float(res.metrics["d"][0]) >= 0 and drawn_margin(res) >= 0
-    centred = replace(task.weights.capability_params, knee=0.0)
-    res0 = plan(replace(task, weights=replace(task.weights, capability_params=centred)), "forte")
+    res0 = plan(replace(task, settings=task.settings.with_values("capability", knee=0.0)), "forte")
     assert res0.success and float(res0.metrics["d"][0]) < float(res.metrics["d"][0])

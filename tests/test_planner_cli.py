@@ -42,11 +42,23 @@ def test_plan_writes_every_output(tmp_path):
     assert doc["solver"]["iterations"] > 0 and doc["solver"]["constraint_violation"] < 1e-6
     assert doc["weights"]["preset"] == "forte-trajectory" and doc["weights"]["capability"] == 5.0
     assert "casadi" in doc["versions"]
+    # every term's settings, by term, as the terms declare them (the weights block keeps the older names)
+    assert doc["term_settings"]["manipulability"]["lambda"] == doc["weights"]["manipulability_lambda"] == 1e-6
+    assert doc["term_settings"]["base_spectral"]["cutoff"] == doc["weights"]["dct_cutoff"] == 0.1
+    assert doc["solver"]["term_settings"]["joint_limits"]["margin_fraction"] == {"value": 0.05, "unit": "1",
+                                                                                "default": 0.05}
+    # a plan.json written before the terms declared their settings reads the same
+    old = {k: v for k, v in doc.items() if k != "term_settings"}
+    old["solver"] = {k: v for k, v in doc["solver"].items() if k != "term_settings"}
+    (out / "plan.json").write_text(json.dumps(old))
+    from forte.io.plandir import read_plan_dir
+    np.testing.assert_array_equal(read_plan_dir(out).q, np.loadtxt(out / "trajectory.csv", delimiter=",",
+                                                                    skiprows=1)[:, 1:])
     # the metrics in the CSV are the exact ones, recomputed from the trajectory
     task = load_task(EXAMPLES / "lift-path.yaml", waypoints=14)
     q = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)[:, 1:]
     from forte.planning.planner import evaluate
-    m = evaluate(task.robot, q, task.t, task.force(), task.weights.capability_params)
+    m = evaluate(task.robot, q, task.t, task.force(), task.settings.capability_params)
     np.testing.assert_allclose(np.loadtxt(out / "metrics.csv", delimiter=",", skiprows=1)[:, header.index("d")],
                                m["d"], rtol=1e-9)
 

@@ -17,7 +17,7 @@ from forte.planning.kernels import kernel_key
 from forte.planning.methods import METHODS, Method, MethodStyle, method_names, register_method, unregister_method
 from forte.planning.planner import methods_for, plan
 from forte.planning.tasks import load_task
-from forte.settings import CostWeights
+from forte.settings import TermSettings
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 
@@ -66,18 +66,18 @@ def test_new_term_and_method_plan_through_the_registries(toy_method, tmp_path):
 
 
 def test_what_a_term_bakes_in_is_part_of_the_kernel_key(toy_method, robot):
-    import dataclasses
 
-    base = kernel_key(robot, "toy", CostWeights())
+    base = kernel_key(robot, "toy")
     moved = Method("toy2", "", terms=("base_distance",))
     register_method(moved)
     try:
-        assert kernel_key(robot, "toy2", CostWeights()) != base
+        assert kernel_key(robot, "toy2") != base
         # changing a baked parameter of a built-in term changes the key; a runtime weight does not
-        params = dataclasses.replace(CostWeights().capability_params, beta=20.0)
-        assert kernel_key(robot, "forte", CostWeights(capability_params=params)) != kernel_key(
-            robot, "forte", CostWeights())
-        assert kernel_key(robot, "forte", CostWeights(capability=50.0)) == kernel_key(robot, "forte", CostWeights())
+        assert kernel_key(robot, "forte", TermSettings({"capability": {"beta": 20.0}})) != kernel_key(robot, "forte")
+        # a term's baked settings are in the key, an NLP-parameter setting (tipover's margin) is not
+        assert kernel_key(robot, "forte", TermSettings({"joint_limits": {"margin_fraction": 0.1}})) != kernel_key(
+            robot, "forte")
+        assert kernel_key(robot, "forte", TermSettings({"tipover": {"margin": 0.05}})) == kernel_key(robot, "forte")
     finally:
         unregister_method("toy2")
 

@@ -53,8 +53,9 @@ def test_an_arm_of_another_size_gets_its_own_defaults_and_a_wrong_list_names_the
     assert task.robot.n_arm == 6
     from forte.planning.capability_terms import JointLimits
 
-    w = JointLimits.from_weights(task.weights).weights_for(task.robot.n_arm)
-    np.testing.assert_array_equal(w, np.r_[np.asarray(task.weights.joint_dof_weights)[:3], np.ones(6)])
+    w = JointLimits.from_settings(task.settings).weights_for(task.robot.n_arm)
+    dof = JointLimits.setting_values(task.settings)["dof_weights"]
+    np.testing.assert_array_equal(w, np.r_[np.asarray(dof)[:3], np.ones(6)])
     assert task.robot.describe()["hand_link"] is None  # no Panda hand named for a UR5
     with pytest.raises(TaskFileError, match=r"weights.joint_dof_weights: expected 9 values \(x, y, yaw and the 6 arm "):
         task_from_dict(_reach("ur5", weights={"joint_dof_weights": [0, 0, 0, 1, 1, 1]}), tmp_path / "task.yaml")
@@ -92,7 +93,7 @@ def test_per_joint_fields_by_joint_name(tmp_path):
     data = _reach("ur5", weights={"joint_dof_weights": {"shoulder_lift_joint": 2.0, "base_y": 0.5}},
                   limits={"arm_velocity": {"wrist_3_joint": 1.0}})
     task = task_from_dict(data, tmp_path / "task.yaml")
-    np.testing.assert_array_equal(task.weights.joint_dof_weights, [0, 0.5, 0, 1, 2, 1, 1, 1, 1])
+    np.testing.assert_array_equal(task.settings["joint_limits"]["dof_weights"], [0, 0.5, 0, 1, 2, 1, 1, 1, 1])
     np.testing.assert_array_equal(task.limits.arm_velocity, [*task.robot.model.velocityLimit[:5], 1.0])
     assert data["weights"]["joint_dof_weights"] == {"shoulder_lift_joint": 2.0, "base_y": 0.5}
     with pytest.raises(TaskFileError, match="weights.joint_dof_weights: no joint named 'panda_joint2'"):

@@ -13,6 +13,7 @@ from scipy.fft import dct, idct
 
 from forte.exceptions import InvalidInputError
 from forte.planning.methods import Method, method_names, register_method, unregister_method
+from forte.planning.motion_terms import BaseSpectral, Smoothness
 from forte.planning.optimizer import TrajectoryOptimizer
 from forte.planning.planner import plan
 from forte.planning.reference import base_spectral_cost
@@ -24,7 +25,15 @@ from forte.planning.spectral import (
     spectral_form,
 )
 from forte.planning.tasks import load_task
-from forte.settings import CostWeights, SolverOptions
+from forte.settings import CostWeights, SolverOptions, TermSettings
+
+#: J5 with gamma = 1 over the high frequencies (its exact form is sparse: the lifted rows).
+FLAT = TermSettings({"base_spectral": {"power": 0.0}})
+
+
+def spectral(task, **changes):
+    """``task`` with the ``base_spectral`` term's settings ``changes``."""
+    return replace(task, settings=task.settings.with_values("base_spectral", **changes))
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 #: (cutoff, power, ramp): the authors' set, the paper-demo set, a constant ramp, a weighted paper set.
@@ -98,10 +107,10 @@ def test_auto_keeps_the_formula_up_to_64_waypoints_and_goes_banded_beyond():
     assert spectral_form(400, 0.35, 1.0, False).kind == "dense"  # odd power: no banded form
     with pytest.raises(InvalidInputError, match="even power"):
         spectral_form(100, 0.35, 1.0, False, "banded")
-    with pytest.raises(InvalidInputError, match="dct_form"):
-        CostWeights(dct_form="sparse")
-    with pytest.raises(InvalidInputError, match="dct_reference_waypoints"):
-        CostWeights(dct_reference_waypoints=1)
+    with pytest.raises(InvalidInputError, match="^form: expected one of auto, exact, dense, banded, got 'sparse'$"):
+        BaseSpectral.from_settings({"base_spectral": {"form": "sparse"}})
+    with pytest.raises(InvalidInputError, match="^reference_waypoints: expected an integer >= 2, got 1$"):
+        BaseSpectral.from_settings({"base_spectral": {"reference_waypoints": 1}})
 
 
 def test_the_banded_alternative_is_resolution_independent():
@@ -126,15 +135,17 @@ def spectral_method():
     unregister_method("test-j5")
 
 
-@pytest.mark.parametrize(("weights", "kind"), [
-    (CostWeights(), "dense"), (CostWeights(dct_power=0.0), "lifted"),
-    (CostWeights(dct_form="banded", dct_reference_waypoints=6), "banded")])
-def test_the_optimizer_minimizes_the_formula(robot, spectral_method, weights, kind):
+@pytest.mark.parametrize(("settings", "kind"), [
+    ({}, "dense"), ({"power": 0.0}, "lifted"), ({"form": "banded", "reference_waypoints": 6}, "banded")])
+def test_the_optimizer_minimizes_the_formula(robot, spectral_method, settings, kind):
     """Objective and reduced gradient of the lifted NLP on ``z = A q`` equal the formula (scipy's DCT);
     the assembled Jacobian and Hessian equal CasADi's AD of the lifted NLP; reports show the exact J5."""
     n, nq = 9, robot.nq
-    opt = TrajectoryOptimizer(robot, n, spectral_method, weights, options=SolverOptions(codegen=False))
+    weights, settings = CostWeights(), TermSettings({"base_spectral": settings})
+    opt = TrajectoryOptimizer(robot, n, spectral_method, weights, options=SolverOptions(codegen=False),
+                              settings=settings)
     assert opt.quadratic_forms["base_spectral"] == kind
+    j5_term, arm = BaseSpectral.from_settings(settings), Smoothness.from_settings(settings).arm
     m = opt._lift.shape[0]
     assert (m > 0) == (kind != "dense")
     rng = np.random.default_rng(3)
@@ -146,17 +157,17 @@ def test_the_optimizer_minimizes_the_formula(robot, spectral_method, weights, ki
     value, grad = opt.solver.get_function("nlp_grad_f")(x, p)
     grad = np.array(grad).ravel()
     reduced = grad[: n * nq] + opt._lift.T @ grad[n * nq:]  # d/dq f(q, A q)
-    smooth = 0.5 * np.sum((np.diff(q, axis=0)[:, 3:] * weights.smoothness_arm) ** 2)
-    gamma = (alternative_gamma(n, weights.dct_cutoff, weights.dct_power, True, 6) if kind == "banded"
-             else paper_gamma(n, weights.dct_cutoff, weights.dct_power, weights.dct_ramp))
+    smooth = 0.5 * np.sum((np.diff(q, axis=0)[:, 3:] * arm) ** 2)
+    gamma = (alternative_gamma(n, j5_term.cutoff, j5_term.power, True, 6) if kind == "banded"
+             else paper_gamma(n, j5_term.cutoff, j5_term.power, j5_term.ramp))
     w5 = weights.base_spectral
     parts = [direct(q[:, i], gamma) for i in range(3)]
-    j5 = sum(eta * v for eta, (v, _) in zip(weights.dct_axis, parts, strict=True))
+    j5 = sum(eta * v for eta, (v, _) in zip(j5_term.axis, parts, strict=True))
     assert float(value) == pytest.approx(weights.smoothness * smooth + w5 * j5, rel=1e-9)
     expected = np.zeros((n, nq))
-    expected[1:, 3:] += weights.smoothness * weights.smoothness_arm**2 * np.diff(q, axis=0)[:, 3:]
-    expected[:-1, 3:] -= weights.smoothness * weights.smoothness_arm**2 * np.diff(q, axis=0)[:, 3:]
-    for i, (eta, (_, g)) in enumerate(zip(weights.dct_axis, parts, strict=True)):
+    expected[1:, 3:] += weights.smoothness * arm**2 * np.diff(q, axis=0)[:, 3:]
+    expected[:-1, 3:] -= weights.smoothness * arm**2 * np.diff(q, axis=0)[:, 3:]
+    for i, (eta, (_, g)) in enumerate(zip(j5_term.axis, parts, strict=True)):
         expected[:, i] += w5 * eta * g
     np.testing.assert_allclose(reduced, expected.ravel(), atol=1e-9 * (1 + np.abs(expected).max()))
     # derivatives of the whole lifted NLP (pose rows, kinematic rows, lifting rows) against AD
@@ -173,13 +184,13 @@ def test_the_optimizer_minimizes_the_formula(robot, spectral_method, weights, ki
     np.testing.assert_allclose(np.triu(hess) + np.triu(hess, 1).T, hess_a, atol=1e-10 * (1 + np.abs(hess_a).max()))
     # what reports show is J5 itself, whatever form the solver used
     terms = opt.cost_terms(q, t, T, f, r)
-    assert terms["base_spectral"] == pytest.approx(base_spectral_cost(q[:, :3], weights), rel=1e-9)
+    assert terms["base_spectral"] == pytest.approx(base_spectral_cost(q[:, :3], settings), rel=1e-9)
 
 
 def test_multipliers_shift_around_the_lifted_block(robot, spectral_method):
     n, nq = 9, robot.nq
-    opt = TrajectoryOptimizer(robot, n, spectral_method, CostWeights(dct_power=0.0),
-                              options=SolverOptions(codegen=False))
+    opt = TrajectoryOptimizer(robot, n, spectral_method, CostWeights(),
+                              options=SolverOptions(codegen=False), settings=FLAT)
     m = opt._lift.shape[0]
     ng = opt.solver.size_out("g")[0]
     lam_x = np.concatenate([np.repeat(np.arange(n, dtype=float), nq), np.full(m, -1.0)])
@@ -195,8 +206,8 @@ def test_bounds_cover_the_lifted_variables_and_rows(robot, spectral_method):
     """``bounds`` and ``full_x`` fit the lifted NLP (what a caller of the raw solver, such as
     the SQP benchmark, hands it): z free, lifting rows 0, and ``full_x(q)`` satisfies them."""
     n, nq = 9, robot.nq
-    opt = TrajectoryOptimizer(robot, n, spectral_method, CostWeights(dct_power=0.0),
-                              options=SolverOptions(codegen=False))
+    opt = TrajectoryOptimizer(robot, n, spectral_method, CostWeights(),
+                              options=SolverOptions(codegen=False), settings=FLAT)
     m = opt._lift.shape[0]
     assert m > 0
     q0 = robot.home()
@@ -221,7 +232,7 @@ def test_a_replanner_with_lifted_variables_shifts_its_horizon():
     from forte.planning.replan import Replanner
 
     task = load_task(LIFT, waypoints=15)
-    task = replace(task, weights=replace(task.weights, dct_form="banded", dct_reference_waypoints=8))
+    task = replace(task, settings=task.settings.with_values("base_spectral", form="banded", reference_waypoints=8))
     planner = Replanner(task)
     assert planner.optimizer._lift.shape[0] > 0
     result = planner.shift(2)
@@ -234,13 +245,12 @@ def test_lift_plans_do_not_move_where_the_form_is_exact(method):
     """lift.yaml (N = 41): the default equals the dense formula, and the lifted exact form of a
     constant gamma (power 0) plans what its dense matrix plans, to the solver's tolerance."""
     task = load_task(LIFT)
-    dense = plan(replace(task, weights=replace(task.weights, dct_form="dense")), method)
+    dense = plan(spectral(task, form="dense"), method)
     default = plan(task, method)
     assert dense.solved and default.solved
     np.testing.assert_allclose(default.q, dense.q, atol=1e-9)
-    flat = replace(task.weights, dct_power=0.0)
-    lifted = plan(replace(task, weights=flat), method)
-    flat_dense = plan(replace(task, weights=replace(flat, dct_form="dense")), method)
+    lifted = plan(spectral(task, power=0.0), method)
+    flat_dense = plan(spectral(task, power=0.0, form="dense"), method)
     assert lifted.solved and flat_dense.solved
     if "base_spectral" in lifted.solver["quadratic_forms"]:
         assert lifted.solver["quadratic_forms"]["base_spectral"] == "lifted"
@@ -254,7 +264,7 @@ def test_the_banded_alternative_plans_the_authors_lift_like_the_formula():
     and J5's exact value within 5 % (measured: 6.8e-5, 0.4 %; benchmarks/bench_scaling.py)."""
     task = load_task(LIFT, waypoints=100)
     banded = plan(task, "forte")
-    dense = plan(replace(task, weights=replace(task.weights, dct_form="dense")), "forte")
+    dense = plan(spectral(task, form="dense"), "forte")
     assert banded.solver["quadratic_forms"]["base_spectral"] == "banded" and banded.solved and dense.solved
     assert np.abs(banded.q - dense.q).max() < 1e-3
     j5 = banded.solver["cost_terms"]["base_spectral"], dense.solver["cost_terms"]["base_spectral"]

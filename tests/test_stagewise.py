@@ -245,7 +245,7 @@ def test_kernels_without_a_compiler_give_the_same_numbers():
     task = load_task(TASKS / "lift.yaml", waypoints=12)
     opt, _ = _optimizers(task)
     native = StageKernels(opt.kernels)
-    vm = dict(build_kernels(task.robot, "forte", task.weights))
+    vm = dict(build_kernels(task.robot, "forte", task.settings))
     virtual = StageKernels(type(opt.kernels)(*(vm[k] for k in ("stage_cost", "stage_grad", "stage_hess",
                                                                 "stage_terms", "pose", "pose_jac", "pose_hess")),
                                             "virtual-machine"))

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from forte.exceptions import ForteError, TaskFileError
-from forte.planning.tasks import load_task
+from forte.planning.tasks import load_task, task_from_dict
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 
@@ -69,7 +69,7 @@ def test_continuous_example_follows_the_papers_formula():
 def test_hold_example_uses_the_teaching_pose():
     task = load_task(EXAMPLES / "hold.yaml")
     assert task.mode == "hold" and task.n == 1 and task.weights.preset == "forte-hold"
-    assert task.weights.alpha == 0.7
+    assert task.settings.alpha == 0.7
     np.testing.assert_allclose(task.targets[0], task.robot.ee_pose(task.teaching), atol=1e-12)
 
 
@@ -149,9 +149,9 @@ def test_robot_section_loads_another_arm(tmp_path):
     [
         (lambda d: d.update(solver={"tol": 0}), "solver: tol: expected a finite number > 0"),
         (lambda d: d.update(solver={"max_iter": 0}), "solver: max_iter: expected an integer >= 1"),
-        (lambda d: d.update(weights={"joint_margin": 0}), "weights: joint_margin: expected a finite number > 0"),
+        (lambda d: d.update(weights={"joint_margin": 0}), "weights.joint_margin: expected a finite number > 0, got 0"),
         (lambda d: d.update(weights={"capability_params": {"alpha": 2}}),
-         "weights.capability_params: alpha: expected 0 < alpha <= 1"),
+         "weights.capability_params.alpha: expected 0 < alpha <= 1, got 2"),
         (lambda d: d.update(limits={"base_velocity": [-1, 1, 1]}), "limits: base_velocity: expected limits > 0"),
         (lambda d: d.update(limits={"arm_velocity": [1, 2]}), "limits: expected 7 arm velocity"),
         (lambda d: d["path"].update(relative="no"), "path.relative: expected true or false"),
@@ -240,8 +240,44 @@ def test_capability_params_override_keeps_the_preset_s_other_fields(tmp_path):
         data.setdefault("weights", {})["capability_params"] = {"knee": 0}
         path = tmp_path / name
         path.write_text(yaml.safe_dump(data))
-        params = load_task(path).weights.capability_params
-        preset = load_task(EXAMPLES / name).weights.capability_params
+        params = load_task(path).settings.capability_params
+        preset = load_task(EXAMPLES / name).settings.capability_params
         assert params.knee == 0 and preset.knee == 3
         assert params.alpha == preset.alpha == alpha
         assert (params.kappa, params.max_exponent) == (preset.kappa, preset.max_exponent)
+
+
+def test_term_settings_in_the_terms_section_equal_their_older_weights_names(tmp_path):
+    """``terms: {manipulability: {lambda: ...}}`` and ``weights: {manipulability_lambda: ...}`` give the
+    same settings (the term's own declaration says both); ``terms:`` wins over ``weights:``."""
+    from forte.planning.costs import make_terms
+
+    def load(**sections):
+        data = yaml.safe_load((EXAMPLES / "lift.yaml").read_text()) | sections
+        return task_from_dict(data, tmp_path / "t.yaml")
+
+    old = load(weights={"manipulability_lambda": 1e-4, "dct_cutoff": 0.2, "joint_margin_fraction": None})
+    new = load(terms={"manipulability": {"lambda": 1e-4}, "base_spectral": {"cutoff": 0.2},
+                      "joint_limits": {"margin_fraction": None}})
+    assert old.settings == new.settings and old.weights == new.weights
+    terms = make_terms(("manipulability", "base_spectral", "joint_limits"), new.settings)
+    assert (terms[0].lam, terms[1].cutoff, terms[2].margin_fraction) == (1e-4, 0.2, None)
+    both = load(weights={"dct_cutoff": 0.2}, terms={"base_spectral": {"cutoff": 0.3}})
+    assert both.settings["base_spectral"]["cutoff"] == 0.3
+
+
+@pytest.mark.parametrize(("section", "message"), [
+    ({"terms": {"manipulability": {"lamda": 1e-4}}},
+     "terms.manipulability.lamda: unknown field; expected one of eps, lambda, weight, with_yaw"),
+    ({"terms": {"base_spectral": {"form": "sparse"}}},
+     "terms.base_spectral.form: expected one of auto, exact, dense, banded, got 'sparse'"),
+    ({"terms": {"joint_limits": {"margin": -1}}}, "terms.joint_limits.margin: expected a finite number > 0, got -1.0"),
+    ({"weights": {"dct_cutof": 0.2}}, "weights.dct_cutof: unknown field; expected one of "),
+])
+def test_a_bad_term_setting_is_one_line_naming_the_field(tmp_path, section, message):
+    path = tmp_path / "task.yaml"
+    path.write_text(yaml.safe_dump(yaml.safe_load((EXAMPLES / "lift.yaml").read_text()) | section))
+    with pytest.raises(TaskFileError) as err:
+        load_task(path)
+    text = str(err.value)
+    assert message in text and str(path) in text and "\n" not in text

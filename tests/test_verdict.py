@@ -138,10 +138,10 @@ def test_waypoint_samples_carry_the_plans_own_derivatives():
     task = forte.load_task(LIFT, mass=0.35, waypoints=9)
     q = task.nominal()
     s = sample_motion(task.robot, task.t, q, 8)
-    metrics = forte.evaluate(task.robot, q, task.t, task.force(), task.weights.capability_params)
+    metrics = forte.evaluate(task.robot, q, task.t, task.force(), task.settings.capability_params)
     from forte.capability.metrics import capability_margin
 
-    d = capability_margin(s.A[s.waypoint], task.weights.alpha * s.b[s.waypoint], task.force().f, task.force().r)
+    d = capability_margin(s.A[s.waypoint], task.settings.alpha * s.b[s.waypoint], task.force().f, task.force().r)
     np.testing.assert_allclose(d, metrics["d"], atol=1e-9)
     assert len(s.t) == task.n + 8 * (task.n - 1) + 1 and np.all(np.diff(s.t) >= 0)
 

@@ -97,14 +97,14 @@ def test_zero_offset_task_keeps_today_s_numbers(robot):
     zero = task.with_payload(replace(task.payload, com=(0.0, 0.0, 0.0)))
     assert not zero.force().has_moment and zero.force().m is None
     q, force = task.nominal(), task.force()
-    today = evaluate(task.robot, q, task.t, force, task.weights.capability_params)
+    today = evaluate(task.robot, q, task.t, force, task.settings.capability_params)
     assert "mx" not in today
     as_wrench = replace(force, m=np.zeros_like(force.f))  # a wrench requirement with m = 0, r_m = 0, L = 0
-    six = wrench_metrics(task.robot, q, task.t, as_wrench, task.weights.alpha)
+    six = wrench_metrics(task.robot, q, task.t, as_wrench, task.settings.alpha)
     for name in ("d", "directional_capacity", "capacity_margin", "max_torque_ratio_with_force"):
         np.testing.assert_allclose(six[name], today[name], rtol=0, atol=1e-9, err_msg=name)
-    rfp = trajectory_rfp(task.robot, q, task.t, alpha=task.weights.alpha)
-    np.testing.assert_allclose(trajectory_wrench_margin(task.robot, q, task.t, as_wrench, task.weights.alpha),
+    rfp = trajectory_rfp(task.robot, q, task.t, alpha=task.settings.alpha)
+    np.testing.assert_allclose(trajectory_wrench_margin(task.robot, q, task.t, as_wrench, task.settings.alpha),
                                capability_margin(rfp.A, rfp.b, force.f, force.r), rtol=0, atol=1e-9)
 
 
@@ -219,8 +219,8 @@ def test_an_inertia_alone_needs_a_moment_measured_in_newtons(robot):
                                                        np.diag([0.05, 0.04, 0.03])), atol=1e-12)
     assert 0 < np.abs(force.m).max() < 0.05  # the lift turns the hand slowly
     q = task.nominal()
-    with_inertia = evaluate(task.robot, q, task.t, force, task.weights.capability_params)
-    plain = evaluate(task.robot, q, task.t, task.force(), task.weights.capability_params)
+    with_inertia = evaluate(task.robot, q, task.t, force, task.settings.capability_params)
+    plain = evaluate(task.robot, q, task.t, task.force(), task.settings.capability_params)
     assert np.array_equal(np.isfinite(with_inertia["d"]), np.isfinite(plain["d"]))
     np.testing.assert_allclose(with_inertia["d"], plain["d"], atol=0.1)
 
@@ -324,7 +324,7 @@ def test_an_offset_payload_plan_keeps_the_wrench_margin_the_force_only_plan_lose
     assert wrench_plan.feasible and wrench_plan.solver["cost_terms"].get(WRENCH_TERM) is not None
     assert np.min(wrench_plan.metrics["d"]) >= 0
     assert force_plan.feasible and "mx" not in force_plan.metrics  # feasible for the force alone
-    judged = evaluate(task.robot, force_plan.q, task.t, task.force(), task.weights.capability_params)
+    judged = evaluate(task.robot, force_plan.q, task.t, task.force(), task.settings.capability_params)
     assert np.min(judged["d"]) < -1.0
     from forte.planning.verdict import judge_plan
 

@@ -5,7 +5,10 @@ the reports can all import these dataclasses without importing one another:
 
 - :class:`CapabilityParameters`: the force-capability metric (``alpha``, ``kappa``, the smooth
   surrogate's ``beta``); ``alpha`` lives here and nowhere else;
-- :class:`CostWeights`: the weights ``w_1..w_5`` and the parameters of the cost terms;
+- :class:`CostWeights`: the weights ``w_i`` of the cost terms (weights only);
+- :class:`TermSettings`: the cost terms' parameters, term -> {setting: value} (each term declares
+  its settings, defaults and units itself, :mod:`forte.planning.costs`); a named
+  :class:`WeightSet` (:data:`WEIGHT_SETS`) is weights plus settings;
 - :class:`SolverOptions`: IPOPT and code-generation options;
 - :class:`KinematicLimits`: joint velocity and acceleration limits of the planned motion.
 
@@ -15,8 +18,10 @@ description (:class:`forte.model.robot.MobileManipulator`), not here.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
-from typing import Any
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, fields, replace
+from types import MappingProxyType
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -71,25 +76,22 @@ class CapabilityParameters:
         _require(_finite(self.knee) and self.knee >= 0, "knee", "a finite number >= 0", self.knee)
 
 
-#: Values of ``CostWeights.collision_model`` (see :class:`forte.planning.motion_terms.Collision`).
+#: Values of the ``collision`` term's ``model`` (see :class:`forte.planning.motion_terms.Collision`).
 COLLISION_MODELS = ("authors", "box")
 
-#: Values of ``CostWeights.dct_form`` (see :func:`forte.planning.spectral.spectral_form`).
+#: Values of the ``base_spectral`` term's ``form`` (see :func:`forte.planning.spectral.spectral_form`).
 DCT_FORMS = ("auto", "exact", "dense", "banded")
 
 
 @dataclass(frozen=True)
 class CostWeights:
-    """Weights of the cost terms and their parameters.
+    """The weights ``w_i`` of the cost terms (one number >= 0 per weight; nothing else).
 
-    The defaults are the authors' trajectory set, except where the paper's text and the
-    authors' code define a term differently: there the default is the text and the code's
-    variant a named option (``manipulability_yaw``, ``base_smoothness_linear``), which every
-    ``authors-*`` set of :data:`WEIGHT_SETS` switches on.
-
-    Named sets live in :data:`WEIGHT_SETS`; a task file picks one with ``weights: {preset: NAME}``
-    (default: ``forte-trajectory`` for trajectories, ``forte-hold`` for holding) and may
-    override single fields next to it.
+    A term's parameters are its own (:class:`TermSettings`, declared by the term: name, default,
+    unit, check; :mod:`forte.planning.costs`). A term takes its weight from the field named by its
+    ``weight_field`` (default: its name); a term with no field here (e.g. ``tipover``) uses its
+    ``default_weight`` unless the method or the task's ``terms:`` gives one. The defaults are the
+    authors' trajectory set; named sets (weights and settings) live in :data:`WEIGHT_SETS`.
 
     Attributes:
         preset: name of the set these weights come from (methods tune per set, see
@@ -98,47 +100,7 @@ class CostWeights:
         smoothness: arm smoothness weight (J4 over the arm joints).
         base_smoothness: base smoothness weight (J4 over x, y, yaw).
         base_spectral: ``w_5``.
-        velocity: arm velocity term ``1/2 ||q_a,k - q_a,k-1||^2 / dt_k^2``.
-        nominal: arm nominal term ``1/2 ||q_a,k - q_a,nom,k||^2``.
-        base_velocity: base velocity term ``1/2 sum_i m_i (q_b,k - q_b,k-1)_i^2 / dt_k^2`` with
-            ``m = smoothness_base`` used linearly and the yaw difference wrapped (the authors').
-        collision: collision term; its geometry is ``collision_model``.
-        manipulability_lambda: ``lambda`` of the regularized manipulability.
-        manipulability_eps: ``eps_m`` in ``1 / max(mu, eps_m)``.
-        joint_margin: ``delta_i`` (rad), the safety margin of J3 (one value for every joint),
-            used when ``joint_margin_fraction`` is ``None``.
-        joint_margin_fraction: ``delta_i = fraction * (q_max,i - q_min,i)`` (the authors: 0.05).
-        joint_dof_weights: per-DoF weights of J3 over (x, y, yaw, q1..q7); the base entries
-            pull the base toward the nominal trajectory; ``None``: 1 for each arm joint, 0 base.
-        joint_eps: ``eps_h``.
-        manipulability_yaw: ``mu`` from the 3 x (1 + n) Jacobian with the base-yaw column (the
-            authors' code) instead of the 3 x n arm Jacobian (the paper's text, default).
-        base_smoothness_linear: base smoothness ``1/2 sum_i m_i (q_b,k - q_b,k-1)_i^2`` with
-            ``m = smoothness_base`` used linearly (the authors' code: yaw weight 0.5) instead of
-            the paper's ``1/2 ||W_s (q_b,k - q_b,k-1)||^2`` with ``W_s = diag(smoothness_base)``
-            (default: yaw weight 0.5^2 = 0.25).
-        collision_model: ``authors`` (default): the authors' spheres on the end effector against
-            spheres on the base (:data:`forte.model.collision.AUTHORS_SPHERES`), each pair
-            penalized by ``max(0, collision_safe_distance - clearance)^2``; ``box``: forte's
-            earlier estimate, spheres of ``collision_radius`` on the arm joints against a box
-            around the base and the floor.
-        collision_safe_distance: clearance (m) below which the ``authors`` model penalizes a pair.
-        collision_radius: radius (m) of the arm spheres of the ``box`` model.
-        smoothness_base, smoothness_arm: diagonal of ``W_s`` for (x, y, yaw) and the arm joints.
-        dct_cutoff: frequencies ``l >= ceil(cutoff N)`` form the high-frequency set ``H``.
-        dct_axis: ``eta_xi`` for x, y, yaw.
-        dct_power: ``gamma_l = (l / (N - 1)) ** power`` (0: every high frequency weighs 1), or
-            with ``dct_ramp`` ``gamma_l = ((l/(N-1) - c)/(1 - c)) ** power`` over ``l/(N-1) > c``.
-        dct_ramp: the authors' ramped ``gamma`` and high set (see ``dct_power``).
-        dct_form: how the optimizer solves J5 (:func:`forte.planning.spectral.spectral_form`):
-            ``exact`` (sparse where ``gamma`` is constant over ``H``, else one dense N x N block
-            per axis), ``dense`` (always the dense block), ``banded`` (the resolution-independent
-            alternative weighting: banded in time, linear cost per iteration), ``auto`` (default:
-            ``exact`` up to 64 waypoints or where it is sparse, ``banded`` beyond). Reports always
-            show J5 itself.
-        dct_reference_waypoints: the horizon whose cutoff and scale the ``banded`` weighting
-            keeps at every N (the authors' lift: 41).
-        capability_params: the metric's parameters, ``alpha`` among them.
+        velocity, nominal, base_velocity, collision: the authors' regularization weights.
     """
 
     preset: str = "authors-trajectory"
@@ -152,72 +114,78 @@ class CostWeights:
     nominal: float = 0.05
     base_velocity: float = 0.5
     collision: float = 1.0
-    manipulability_lambda: float = 1e-6
-    manipulability_eps: float = 1e-8
-    manipulability_yaw: bool = False
-    base_smoothness_linear: bool = False
-    joint_margin: float = 0.1
-    joint_margin_fraction: float | None = 0.05
-    joint_dof_weights: tuple[float, ...] | None = (0.0, 0.2, 0.1, 1.0, 0.0, 0.1, 0.2, 0.1, 0.0, 0.0)
-    joint_eps: float = 1e-3
-    smoothness_base: tuple[float, float, float] = (1.0, 1.0, 0.5)
-    smoothness_arm: float = 1.0
-    dct_cutoff: float = 0.1
-    dct_axis: tuple[float, float, float] = (1.0, 1.0, 0.5)
-    dct_power: float = 2.0
-    dct_ramp: bool = True
-    dct_form: str = "auto"
-    dct_reference_waypoints: int = 41
-    collision_model: str = "authors"
-    collision_safe_distance: float = 0.08
-    collision_radius: float = 0.08
-    capability_params: CapabilityParameters = field(default_factory=CapabilityParameters)
 
     def __post_init__(self) -> None:
-        for name in ("capability", "manipulability", "joint_limits", "smoothness", "base_smoothness",
-                     "base_spectral", "velocity", "nominal", "base_velocity", "collision", "dct_power"):
-            value = getattr(self, name)
-            if not (_finite(value) and value >= 0):
-                raise InvalidInputError(f"{name}: expected a finite number >= 0, got {value}")
-        if self.joint_margin_fraction is not None and not (
-                _finite(self.joint_margin_fraction) and 0 < self.joint_margin_fraction < 0.5):
-            raise InvalidInputError(
-                f"joint_margin_fraction: expected 0 < fraction < 0.5, got {self.joint_margin_fraction}")
-        if self.joint_dof_weights is not None:
-            dof = np.asarray(self.joint_dof_weights, dtype=float)
-            if dof.ndim != 1 or not np.all(np.isfinite(dof) & (dof >= 0)):
-                raise InvalidInputError(
-                    f"joint_dof_weights: expected finite numbers >= 0, got {self.joint_dof_weights}")
-        for name in ("manipulability_lambda", "manipulability_eps", "joint_margin", "joint_eps", "smoothness_arm",
-                     "collision_radius"):
-            value = getattr(self, name)
-            if not (_finite(value) and value > 0):
-                raise InvalidInputError(f"{name}: expected a finite number > 0, got {value}")
-        if not (_finite(self.dct_cutoff) and 0.0 < self.dct_cutoff < 1.0):
-            raise InvalidInputError(f"dct_cutoff: expected 0 < cutoff < 1, got {self.dct_cutoff}")
-        _require(self.collision_model in COLLISION_MODELS, "collision_model", f"one of {', '.join(COLLISION_MODELS)}",
-                 self.collision_model)
-        _require(_finite(self.collision_safe_distance) and self.collision_safe_distance >= 0,
-                 "collision_safe_distance", "a finite number >= 0", self.collision_safe_distance)
-        _require(self.dct_form in DCT_FORMS, "dct_form", f"one of {', '.join(DCT_FORMS)}", self.dct_form)
-        _require(isinstance(self.dct_reference_waypoints, int) and not isinstance(self.dct_reference_waypoints, bool)
-                 and self.dct_reference_waypoints >= 2, "dct_reference_waypoints", "an integer >= 2",
-                 self.dct_reference_waypoints)
-        for name in ("smoothness_base", "dct_axis"):
-            values = np.asarray(getattr(self, name), dtype=float)
-            if values.shape != (3,) or not np.all(np.isfinite(values) & (values >= 0)):
-                raise InvalidInputError(f"{name}: expected 3 finite numbers >= 0, got {getattr(self, name)}")
+        for f in fields(self)[1:]:
+            value = getattr(self, f.name)
+            _require(_finite(value) and value >= 0, f.name, "a finite number >= 0", value)
+
+
+class TermSettings(Mapping[str, Mapping[str, Any]]):
+    """The parameters of a plan's cost terms: term name -> {setting: value}, only the values that
+    differ from the term's declared default (:meth:`forte.planning.costs.CostTerm.declared`
+    fills the rest and checks each value). Immutable; :meth:`with_values` gives a changed copy.
+
+    >>> TermSettings({"joint_limits": {"margin": 0.2}}).with_values("capability", alpha=0.7)["capability"]
+    {'alpha': 0.7}
+    """
+
+    def __init__(self, values: Mapping[str, Mapping[str, Any]] | None = None) -> None:
+        self._values = {str(k): dict(v) for k, v in (values or {}).items() if v}
+
+    def __getitem__(self, term: str) -> Mapping[str, Any]:
+        return MappingProxyType(self._values[term])
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._values)
+
+    def __len__(self) -> int:
+        return len(self._values)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, TermSettings) and self._values == other._values
+
+    def __hash__(self) -> int:
+        return hash(repr(sorted(self._values.items())))
+
+    def __repr__(self) -> str:
+        return f"TermSettings({self._values!r})"
+
+    def with_values(self, term: str, **changes: Any) -> TermSettings:
+        """A copy with ``term``'s settings ``changes`` set."""
+        return TermSettings(self._values | {term: self._values.get(term, {}) | changes})
+
+    def merged(self, other: Mapping[str, Mapping[str, Any]]) -> TermSettings:
+        """A copy with every setting of ``other`` set (``other`` wins)."""
+        out = self
+        for term, values in other.items():
+            out = out.with_values(term, **values)
+        return out
+
+    def as_dict(self) -> dict[str, dict[str, Any]]:
+        return {k: dict(v) for k, v in self._values.items()}
+
+    @property
+    def capability_params(self) -> CapabilityParameters:
+        """The metric's parameters: the ``capability`` term's settings (``alpha`` among them)."""
+        return CapabilityParameters(**self._values.get("capability", {}))
 
     @property
     def alpha(self) -> float:
-        """The metric's ``alpha`` (owned by :attr:`capability_params`)."""
+        """The metric's ``alpha`` (the ``capability`` term's setting)."""
         return self.capability_params.alpha
 
 
-#: The fields of :class:`CostWeights` that are term weights (a term named like one, or naming one
-#: in ``weight_field``, takes its weight from it).
-WEIGHT_FIELDS: tuple[str, ...] = ("capability", "manipulability", "joint_limits", "smoothness", "base_smoothness",
-                                  "base_spectral", "velocity", "nominal", "base_velocity", "collision")
+class WeightSet(NamedTuple):
+    """A named set: the weights and the terms' settings (``weights: {preset: NAME}``)."""
+
+    weights: CostWeights
+    settings: TermSettings
+
+    @property
+    def preset(self) -> str:
+        return self.weights.preset
+
 
 #: The authors' single-point holding DoF weights [0,1,1,9,0,1,1,1,0,0] normalized by their max.
 _HOLD_DOF = tuple(v / 9.0 for v in (0, 1, 1, 9, 0, 1, 1, 1, 0, 0))
@@ -225,14 +193,14 @@ _HOLD_DOF = tuple(v / 9.0 for v in (0, 1, 1, 9, 0, 1, 1, 1, 0, 0))
 #: Where the authors' code defines a term differently from the paper's text, the code's variant
 #: (every ``authors-*`` set; forte's own ``forte-*`` sets keep the text): ``mu`` from the 3 x 8
 #: Jacobian with the base-yaw column, the base smoothness metric (1, 1, 0.5) used linearly.
-_AUTHORS_CODE: dict[str, Any] = {"manipulability_yaw": True, "base_smoothness_linear": True}
+_AUTHORS_CODE = TermSettings({"manipulability": {"with_yaw": True}, "base_smoothness": {"linear": True}})
 
 #: The authors' single-point holding set (one set for every method; no regularization, no J5).
-_HOLD = CostWeights(
-    preset="authors-hold", capability=2.0, manipulability=1.0, joint_limits=1.0, smoothness=0.0,
-    base_smoothness=0.0, base_spectral=0.0, velocity=0.0, nominal=0.0, base_velocity=0.0, collision=0.0,
-    joint_dof_weights=_HOLD_DOF, capability_params=CapabilityParameters(alpha=0.7, max_exponent=700.0),
-    **_AUTHORS_CODE)
+_HOLD = CostWeights(preset="authors-hold", capability=2.0, manipulability=1.0, joint_limits=1.0, smoothness=0.0,
+                    base_smoothness=0.0, base_spectral=0.0, velocity=0.0, nominal=0.0, base_velocity=0.0,
+                    collision=0.0)
+_HOLD_SETTINGS = TermSettings({"joint_limits": {"dof_weights": _HOLD_DOF},
+                               "capability": {"alpha": 0.7, "max_exponent": 700.0}})
 
 #: Named weight sets (``weights: {preset: NAME}`` in a task file):
 #:
@@ -270,19 +238,19 @@ _HOLD = CostWeights(
 #: - ``paper-demo``: forte's earlier default, the authors' 70 N circle demo: w = 5/2/3/10/1,
 #:   arm margin 0.1 rad on every arm joint, cutoff 0.35 with gamma = 1, alpha 0.8, J4 over
 #:   the whole body with W_s = (1, 1, 0.5, 1...), no velocity/nominal/collision terms.
-WEIGHT_SETS: dict[str, CostWeights] = {
-    "forte-trajectory": CostWeights(preset="forte-trajectory", capability=5.0),
-    "authors-trajectory": CostWeights(**_AUTHORS_CODE),
-    "forte-hold": replace(_HOLD, preset="forte-hold", manipulability_yaw=False, base_smoothness_linear=False),
-    "authors-hold": _HOLD,
-    "authors-hold-as-run": CostWeights(
+WEIGHT_SETS: dict[str, WeightSet] = {
+    "forte-trajectory": WeightSet(CostWeights(preset="forte-trajectory", capability=5.0), TermSettings()),
+    "authors-trajectory": WeightSet(CostWeights(), _AUTHORS_CODE),
+    "forte-hold": WeightSet(replace(_HOLD, preset="forte-hold"), _HOLD_SETTINGS),
+    "authors-hold": WeightSet(_HOLD, _HOLD_SETTINGS.merged(_AUTHORS_CODE)),
+    "authors-hold-as-run": WeightSet(CostWeights(
         preset="authors-hold-as-run", smoothness=0.0, base_smoothness=0.0, base_spectral=0.0, velocity=0.0,
-        nominal=0.0, base_velocity=0.0, collision=0.0, **_AUTHORS_CODE),
-    "paper-demo": CostWeights(
+        nominal=0.0, base_velocity=0.0, collision=0.0), _AUTHORS_CODE),
+    "paper-demo": WeightSet(CostWeights(
         preset="paper-demo", capability=5.0, manipulability=2.0, joint_limits=3.0, smoothness=10.0,
-        base_smoothness=10.0, base_spectral=1.0, velocity=0.0, nominal=0.0, base_velocity=0.0, collision=0.0,
-        manipulability_eps=1e-4, joint_margin_fraction=None, joint_dof_weights=None, dct_cutoff=0.35,
-        dct_power=0.0, dct_ramp=False, capability_params=CapabilityParameters(alpha=0.8)),
+        base_smoothness=10.0, base_spectral=1.0, velocity=0.0, nominal=0.0, base_velocity=0.0, collision=0.0),
+        TermSettings({"manipulability": {"eps": 1e-4}, "joint_limits": {"margin_fraction": None, "dof_weights": None},
+                      "base_spectral": {"cutoff": 0.35, "power": 0.0, "ramp": False}, "capability": {"alpha": 0.8}})),
 }
 
 #: The weight set a task of each mode uses unless it names one.
@@ -292,8 +260,8 @@ DEFAULT_WEIGHT_SET: dict[str, str] = {"trajectory": "forte-trajectory", "hold": 
 AUTHORS_TRAJECTORY_SETS: tuple[str, ...] = ("forte-trajectory", "authors-trajectory")
 
 
-def weight_set(name: str) -> CostWeights:
-    """The named weight set of :data:`WEIGHT_SETS`."""
+def weight_set(name: str) -> WeightSet:
+    """The named set of :data:`WEIGHT_SETS` (weights and term settings)."""
     if name not in WEIGHT_SETS:
         raise InvalidInputError(f"weights preset: expected one of {', '.join(WEIGHT_SETS)}, got {name!r}")
     return WEIGHT_SETS[name]

@@ -179,7 +179,7 @@ class MpcLoop(PayloadLoop):
                                     f"got {self.options.rate_hz}")
         task = self.replanner.task
         self.plan_d = evaluate(task.robot, self.plan_q, task.t, self.replanner.force,
-                               task.weights.capability_params)["d"]
+                               task.settings.capability_params)["d"]
         self.horizon = 0  # the planner's first waypoint on the task's grid
         self.published = (0, float(task.payload.mass or 0.0))  # first waypoint and mass of the plan in force
         self.mass = self.published[1]  # the newest estimate
@@ -318,7 +318,7 @@ class MpcLoop(PayloadLoop):
         r = np.concatenate([np.repeat(plan.force.r[:1], start), plan.force.r[:m]])
         task = self.replanner.task
         d = evaluate(task.robot, self.plan_q, self.plan_t, TaskForce(self.plan_t, f, r),
-                     task.weights.capability_params)["d"]
+                     task.settings.capability_params)["d"]
         return np.concatenate([self.plan_d[:start], d[start:]])
 
     def _remaining_min_d(self, t: float) -> float:

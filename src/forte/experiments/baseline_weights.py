@@ -65,7 +65,7 @@ def with_capability_weight(method: str, weight: float, preset: str) -> Method:
 
 def sweep_weights(method: str, weights: CostWeights, factors: tuple[float, ...]) -> tuple[float, ...]:
     """The capability weight ``method`` runs with on ``weights`` (the authors' value) times each factor."""
-    base = METHODS[method].resolve_weights(weights).capability
+    base = METHODS[method].resolve(weights)[0].capability
     return tuple(base * f for f in factors)
 
 

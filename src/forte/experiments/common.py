@@ -108,7 +108,7 @@ def plan_payloads(name: str, methods: tuple[str, ...], waypoints: int | None, lo
     for label, mass in PAYLOADS.items():
         task = with_limit_set(load_task(task_path(name), mass=mass, waypoints=waypoints), torque_limits)
         if weights is not None:
-            task = replace(task, weights=weight_set(weights))
+            task = task.with_weights(weight_set(weights))
         log(f"{name} {label} ({mass} kg): {task.n} waypoint(s)")
         cases.append(Case(label, mass, plan_methods(task, methods, log, label)))
     return cases
@@ -268,11 +268,11 @@ def write_summary(directory: Path, title: str, intro: list[str], cases: list[Cas
     """
     first = next((r for c in cases for r in c.results.values()), None)
     if first is not None:
-        weights, robot = first.task.weights, first.task.robot
+        weights, alpha, robot = first.task.weights, first.task.settings.alpha, first.task.robot
         limits, name = robot.torque_limits, torque_limit_name(robot)
         settings = {**settings, "weight_set": weights.preset, "torque_limit_set": name,
                     "torque_limits": limits.tolist()}
-        intro = [*intro, f"Weight set: `{weights.preset}` (alpha {weights.alpha:g}); each baseline applies its "
+        intro = [*intro, f"Weight set: `{weights.preset}` (alpha {alpha:g}); each baseline applies its "
                  "own changes to it (`forte.planning.methods`).",
                  f"Torque limits: `{name}`, {'/'.join(f'{v:g}' for v in limits)} Nm ({LIMIT_TEXT.get(name, 'given')})"
                  ", in planning and in every MuJoCo run."]

@@ -156,7 +156,7 @@ def run_contact(out: str | Path, waypoints: int | None = None, log: Log = quiet,
         radius = load_task(task_path(tasks[0])).radius
         doc = {"generator": GENERATOR, "format_version": FORMAT_VERSION, "experiment": "contact",
                "tasks": list(tasks), "radius_n": radius, "rows": results,
-               "alpha": load_task(task_path(tasks[0])).weights.alpha,
+               "alpha": load_task(task_path(tasks[0])).settings.alpha,
                "agreement": {"agree": sum(r["agrees"] for r in results), "plans": len(results)},
                "agreement_unscaled": {"agree": sum(r["agrees_unscaled"] for r in results), "plans": len(results)},
                "versions": package_versions()}

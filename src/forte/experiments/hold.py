@@ -119,7 +119,7 @@ def _section_data(res: Plan) -> dict[str, Any]:
     A, b = rfp.A[0], rfp.b[0]
     f, r = res.force.f[0], float(res.force.r[0])
     cap = float(directional_capacity(A, b, f))
-    return {"A": A, "b": b, "f": f, "r": r, "cap": cap, "alpha": res.task.weights.capability_params.alpha,
+    return {"A": A, "b": b, "f": f, "r": r, "cap": cap, "alpha": res.task.settings.capability_params.alpha,
             "point": cap * f / np.linalg.norm(f)}
 
 

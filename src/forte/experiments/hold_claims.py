@@ -57,7 +57,7 @@ def drawn_margin(res: Plan) -> float:
 def _ball_claim(heavy: Case, method: str, m: dict[str, Any]) -> Claim:
     res = heavy.results[method]
     drawn = drawn_margin(res)
-    alpha = res.task.weights.capability_params.alpha
+    alpha = res.task.settings.capability_params.alpha
     return Claim("5.4", f"2.7 L: {method} keeps the uncertainty ball inside the RFP with a margin, so it can hold "
                  "the payload", f"d to the drawn RFP (alpha = 1, as the paper's figure) (N); the metric's d "
                  f"(alpha = {alpha:g}); simulation (every run)",

@@ -9,7 +9,6 @@ plan to succeed without payload.
 from __future__ import annotations
 
 import json
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -250,7 +249,7 @@ def _time(value: float | None) -> str:
 def authors_weight_check(heavy: Case, log: Log) -> dict[str, Any]:
     """forte at 2.7 L with the authors' exact trajectory weights (capability 1), planning only."""
     task = next(iter(heavy.results.values())).task
-    exact = plan(replace(task, weights=WEIGHT_SETS["authors-trajectory"]), "forte")
+    exact = plan(task.with_weights(WEIGHT_SETS["authors-trajectory"]), "forte")
     log(f"lift {heavy.label}: forte with the weight set authors-trajectory")
     m = metrics(exact)
     return {"weight_set": "authors-trajectory", "status": m["status"], "min_d": m["min_d"],

@@ -70,7 +70,7 @@ def judged_on(true: Task, planned: Plan) -> Plan:
     force = true.force()
     verdict = judge_plan(true, planned.q, force, _solver(planned))
     return replace(planned, force=force, payload=true.payload, task=true, verdict=verdict,
-                   metrics=evaluate(true.robot, planned.q, true.t, force, true.weights.capability_params))
+                   metrics=evaluate(true.robot, planned.q, true.t, force, true.settings.capability_params))
 
 
 def plan_row(true: Task, row: str) -> Plan:
@@ -89,8 +89,7 @@ def _simulate(plan_dir: Path, mass: float) -> dict[str, Any]:
 def unscaled_verdict(true: Task, res: Plan) -> Any:
     """The verdict with ``alpha = 1``: the uncertainty set inside the polytope of the full torque
     range (the run at ``m + r/g`` has that range, not the verdict's ``alpha`` reserve)."""
-    params = replace(true.weights.capability_params, alpha=1.0)
-    full = replace(true, weights=replace(true.weights, capability_params=params))
+    full = replace(true, settings=true.settings.with_values("capability", alpha=1.0))
     return judge_plan(full, res.q, res.force, _solver(res))
 
 
@@ -243,7 +242,7 @@ def run_wrench(out: str | Path, waypoints: int | None = None, log: Log = quiet, 
             results = run_offsets(Path(plans), task, tuple(offsets), tuple(rows), log)
         doc = {"generator": GENERATOR, "format_version": FORMAT_VERSION, "experiment": "wrench",
                "task": "offset-payload", "waypoints": task.n, "mass_kg": task.payload.mass,
-               "ball_mass_kg": ball_mass, "radius_n": task.radius, "alpha": task.weights.alpha,
+               "ball_mass_kg": ball_mass, "radius_n": task.radius, "alpha": task.settings.alpha,
                "offsets_m": list(offsets), "rows": results, "base_support": task.robot.base_support.to_dict(),
                "agreement": agreement(results), "agreement_unscaled": agreement(results, "agrees_unscaled"),
                "versions": package_versions()}

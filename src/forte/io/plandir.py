@@ -48,6 +48,7 @@ from forte.model.scene import Scene, scene_from_json
 from forte.model.trajectory import trajectory_header
 from forte.planning.planner import Plan
 from forte.planning.verdict import Verdict, judge
+from forte.planning.weights_section import settings_record, weights_record
 from forte.settings import CapabilityParameters
 from forte.validation import (
     MAX_DURATION_S,
@@ -189,7 +190,8 @@ def plan_document(plan: Plan) -> dict[str, Any]:
     if plan.verdict is not None:
         doc["verdict"] = plan.verdict.to_json()
     if task is not None:
-        doc |= {"weights": asdict(task.weights), "solver_options": asdict(task.solver),
+        doc |= {"weights": weights_record(task.weights, task.settings), "term_settings": settings_record(task.settings),
+                "solver_options": asdict(task.solver),
                 "kinematic_limits": asdict(task.limits)}
     doc |= {"robot": plan.robot.describe(), "payload": plan.payload.to_dict()}
     if plan.scene:

@@ -15,9 +15,44 @@ import numpy as np
 from forte.capability.metrics import inverse_capacity_expr, manipulability_expr, smooth_penalty_expr
 from forte.capability.polytope import cone_directions
 from forte.model.robot import N_BASE
-from forte.planning.costs import CostTerm, Stage, _smooth_min, _softplus, register_term
-from forte.settings import CapabilityParameters, CostWeights
+from forte.planning.costs import (
+    CostTerm,
+    Stage,
+    TermSetting,
+    _smooth_min,
+    _softplus,
+    nonnegative,
+    nonnegative_vector,
+    positive,
+    register_term,
+    setting,
+)
+from forte.settings import CapabilityParameters
 from forte.validation import FloatArray
+
+_GT0 = "a finite number > 0"
+#: The capability metric's parameters (:class:`~forte.settings.CapabilityParameters`) as the
+#: ``capability`` term's settings; every capability-type term (J1, its wrench variant, the
+#: baselines') uses them (``settings_of = "capability"``); the legacy key is
+#: ``weights: {capability_params: {NAME: value}}``.
+CAPABILITY_SETTINGS: tuple[TermSetting, ...] = (
+    TermSetting("alpha", None, 0.9, "1", "scale of the residual torque interval", None, "float",
+                "0 < alpha <= 1", lambda v: 0 < v <= 1),
+    TermSetting("kappa", None, 3.0, "1", "growth rate of the penalty", None, "float", _GT0, positive),
+    TermSetting("eps", None, 1e-6, "N", "lower bound of the normalization rho", None, "float", _GT0, positive),
+    TermSetting("max_exponent", None, 40.0, "1", "cap on kappa (-d) / rho", None, "float", _GT0, positive),
+    TermSetting("beta", None, 50.0, "1", "sharpness of the smooth surrogate (per unit of d / rho)", None, "float",
+                _GT0, positive),
+    TermSetting("eps_normal", None, 1e-6, "m", "regularization of zero normals in the surrogate", None, "float",
+                _GT0, positive),
+    TermSetting("knee", None, 3.0, "1", "the surrogate's knee, in units of 1 / beta inside the polytope", None,
+                "float", "a finite number >= 0", nonnegative),
+)
+
+
+def capability_params(settings: Any) -> CapabilityParameters:
+    """The metric's parameters from ``settings`` (term -> {setting: value}): ``capability``'s."""
+    return CapabilityParameters(**Capability.setting_values(settings))
 
 
 @register_term
@@ -26,11 +61,12 @@ class Capability(CostTerm):
     """J1 (paper, Section 4.2): ``c_k`` of the force ball against the dynamic RFP (smooth surrogate)."""
 
     name: ClassVar[str] = "capability"
+    settings: ClassVar[tuple[TermSetting, ...]] = CAPABILITY_SETTINGS
     params: CapabilityParameters = field(default_factory=CapabilityParameters)
 
     @classmethod
-    def from_weights(cls, weights: CostWeights) -> Capability:
-        return cls(weights.capability_params)
+    def from_settings(cls, settings: Any = None) -> CostTerm:
+        return cls(capability_params(settings))
 
     def stage(self, s: Stage) -> ca.SX:
         return smooth_penalty_expr(s.J, s.tau, ca.DM(s.robot.torque_limits), s.f, s.r, self.params)
@@ -51,11 +87,12 @@ class InscribedRadius(CostTerm):
 
     name: ClassVar[str] = "rfp_radius"
     weight_field: ClassVar[str | None] = "capability"
+    settings_of: ClassVar[str | None] = "capability"
     params: CapabilityParameters = field(default_factory=CapabilityParameters)
 
     @classmethod
-    def from_weights(cls, weights: CostWeights) -> InscribedRadius:
-        return cls(weights.capability_params)
+    def from_settings(cls, settings: Any = None) -> CostTerm:
+        return cls(capability_params(settings))
 
     def residual(self, s: Stage) -> ca.SX:
         """The nominal torque the margins are taken from (dynamic: the paper's ``tau_nom``)."""
@@ -111,14 +148,15 @@ class ConeVolume(CostTerm):
 
     name: ClassVar[str] = "rfp_cone"
     weight_field: ClassVar[str | None] = "capability"
+    settings_of: ClassVar[str | None] = "capability"
     params: CapabilityParameters = field(default_factory=CapabilityParameters)
     half_angle: float = 0.1
     rings: int = 4
     azimuths: int = 12
 
     @classmethod
-    def from_weights(cls, weights: CostWeights) -> ConeVolume:
-        return cls(weights.capability_params)
+    def from_settings(cls, settings: Any = None) -> CostTerm:
+        return cls(capability_params(settings))
 
     @property
     def rays(self) -> int:
@@ -179,13 +217,13 @@ class Manipulability(CostTerm):
     """
 
     name: ClassVar[str] = "manipulability"
-    lam: float = 1e-6
-    eps: float = 1e-8
-    with_yaw: bool = False
-
-    @classmethod
-    def from_weights(cls, weights: CostWeights) -> Manipulability:
-        return cls(weights.manipulability_lambda, weights.manipulability_eps, weights.manipulability_yaw)
+    lam: float = setting(1e-6, "m^2", "lambda of the regularized manipulability", expected=_GT0, valid=positive,
+                         legacy="manipulability_lambda", name="lambda")
+    eps: float = setting(1e-8, "m^3", "eps_m in 1 / max(mu, eps_m)", expected=_GT0, valid=positive,
+                         legacy="manipulability_eps")
+    with_yaw: bool = setting(False, "", "mu from the 3 x (1 + n) Jacobian with the base-yaw column (the authors' "
+                             "code) instead of the 3 x n arm Jacobian (the paper's text)", kind="bool",
+                             expected="true or false", valid=None, legacy="manipulability_yaw")
 
     def stage(self, s: Stage) -> ca.SX:
         J = s.J
@@ -193,6 +231,10 @@ class Manipulability(CostTerm):
             _, p = s.twin.ee_pose(s.q0)
             J = ca.horzcat(ca.vertcat(-(p[1] - s.q0[1]), p[0] - s.q0[0], 0), J)
         return 1 / ca.fmax(manipulability_expr(J, self.lam), self.eps)
+
+
+#: The authors' trajectory DoF weights of J3 over (x, y, yaw, q1..q7).
+AUTHORS_DOF = (0.0, 0.2, 0.1, 1.0, 0.0, 0.1, 0.2, 0.1, 0.0, 0.0)
 
 
 @register_term
@@ -208,15 +250,18 @@ class JointLimits(CostTerm):
     """
 
     name: ClassVar[str] = "joint_limits"
-    margin: float = 0.1
-    eps: float = 1e-3
-    margin_fraction: float | None = None
-    dof_weights: tuple[float, ...] | None = None
-
-    @classmethod
-    def from_weights(cls, weights: CostWeights) -> JointLimits:
-        dof = None if weights.joint_dof_weights is None else tuple(float(w) for w in weights.joint_dof_weights)
-        return cls(weights.joint_margin, weights.joint_eps, weights.joint_margin_fraction, dof)
+    margin: float = setting(0.1, "rad", "delta_i for every joint, used when margin_fraction is null",
+                            expected=_GT0, valid=positive, legacy="joint_margin")
+    eps: float = setting(1e-3, "rad", "eps_h, the least half-width h_i", expected=_GT0, valid=positive,
+                         legacy="joint_eps")
+    margin_fraction: float | None = setting(
+        0.05, "1", "delta_i = fraction * (q_max,i - q_min,i) (the authors: 0.05); null: margin",
+        kind="float | None", expected="0 < fraction < 0.5", valid=lambda v: 0 < v < 0.5,
+        legacy="joint_margin_fraction")
+    dof_weights: tuple[float, ...] | None = setting(
+        AUTHORS_DOF, "1", "per-DoF weights over (x, y, yaw, arm joints); null: 1 per arm joint, 0 base",
+        kind="vector | None", expected="finite numbers >= 0", valid=nonnegative_vector(None),
+        legacy="joint_dof_weights")
 
     def weights_for(self, n_arm: int) -> FloatArray:
         """Per-DoF weights (base 3, then arm). A list made for an arm of another size (the weight

@@ -12,7 +12,8 @@ The objective is ``J = sum_i w_i J_i``. A term is one of two kinds:
   optimizer solves with :meth:`CostTerm.lifted`, ``x^T D x / 2 + sum_j g_j (A x)_j^2 / 2`` with
   ``D`` sparse and ``A`` a few dense rows lifted as variables, so the KKT matrix stays sparse.
 
-Built-in terms (``name``: weight field of :class:`~forte.settings.CostWeights`):
+Built-in terms (``name``: weight field of :class:`~forte.settings.CostWeights`; each declares its
+parameters, :attr:`CostTerm.settings`, read from :class:`~forte.settings.TermSettings`):
 
 - ``capability`` (w1): ``c_k`` of J1, the smooth surrogate of :mod:`forte.capability.metrics`;
 - ``wrench_capability`` (w1): ``c_k`` of J1 on the residual wrench polytope
@@ -43,6 +44,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, ClassVar, NamedTuple
@@ -54,7 +56,7 @@ from scipy import sparse
 from forte.exceptions import InvalidInputError
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.twin import CasadiTwin, rot_z
-from forte.settings import WEIGHT_FIELDS, CostWeights
+from forte.settings import CostWeights
 from forte.validation import FloatArray
 
 
@@ -119,15 +121,71 @@ class Stage:
 
 
 class TermSetting(NamedTuple):
-    """A setting a term declares (issue 25, item 6: terms own their parameters): a task sets it in
-    ``terms: {TERM: {NAME: value}}`` and the term receives it as its per-waypoint NLP parameter
-    ``parameter`` (no kernel is rebuilt for another value)."""
+    """A parameter a term declares (issue 25, item 6: terms own their parameters).
+
+    A task sets it in ``terms: {TERM: {NAME: value}}`` (or, for the settings that had one before,
+    under its older name next to the weights: ``weights: {LEGACY: value}``); a named weight set
+    in its :class:`~forte.settings.TermSettings`. It reaches the term in one of two ways:
+
+    - ``parameter`` given: as that per-waypoint NLP parameter (no kernel is rebuilt for another
+      value, e.g. the tip-over margin);
+    - ``parameter`` ``None``: as the term's dataclass field ``field`` (default: ``name``), baked
+      into the compiled kernels, so part of their cache key (:meth:`CostTerm.baked`).
+
+    Attributes:
+        kind: how a task file gives it: ``float``, ``int``, ``bool``, ``str``, ``vector`` (any
+            length; or the length of ``default``), each optionally ``| None``.
+        expected, valid: the check (``valid(value)``) and the words of its error message.
+        legacy: the older ``weights:`` key (e.g. ``joint_margin``), read into this setting.
+    """
 
     name: str
-    parameter: str
-    default: float
+    parameter: str | None
+    default: Any
     unit: str
     doc: str
+    field: str | None = None
+    kind: str = "float"
+    expected: str = "a finite number >= 0"
+    valid: Callable[[Any], bool] | None = None
+    legacy: str | None = None
+
+    def check(self, value: Any) -> Any:
+        """``value`` (a vector as a tuple of floats) if it passes the check, else
+        :class:`~forte.exceptions.InvalidInputError` ``NAME: expected ..., got ...``."""
+        if isinstance(value, list | np.ndarray):
+            value = tuple(float(v) for v in value)
+        ok = (value is None and self.kind.endswith("| None")) or (
+            _of_kind(value, self.kind) and (self.valid is None or bool(self.valid(value))))
+        if not ok:
+            raise InvalidInputError(f"{self.name}: expected {self.expected}, got {value!r}")
+        return value
+
+
+def _of_kind(value: Any, kind: str) -> bool:
+    base = kind.removesuffix(" | None")
+    if base == "bool":
+        return isinstance(value, bool)
+    if base == "str":
+        return isinstance(value, str)
+    if base == "int":
+        return isinstance(value, int) and not isinstance(value, bool)
+    if base == "vector":
+        return isinstance(value, tuple) and all(isinstance(v, float) and np.isfinite(v) for v in value)
+    return isinstance(value, int | float) and not isinstance(value, bool) and bool(np.isfinite(value))
+
+
+def nonnegative(value: Any) -> bool:
+    return value >= 0
+
+
+def positive(value: Any) -> bool:
+    return value > 0
+
+
+def nonnegative_vector(size: int | None) -> Callable[[Any], bool]:
+    """The check of a vector of ``size`` (``None``: any) numbers >= 0."""
+    return lambda v: (size is None or len(v) == size) and all(x >= 0 for x in v)
 
 
 class CostTerm:
@@ -141,7 +199,9 @@ class CostTerm:
         default_weight: the weight when neither the method nor ``CostWeights`` gives one.
         parameters: per-waypoint NLP parameters the term needs, ``(name, size)`` pairs, filled
             by :meth:`parameter_values` or by the caller (:meth:`task_values`).
-        settings: the values a task may set (:class:`TermSetting`), each filling a parameter.
+        settings: the parameters a task may set (:class:`TermSetting`, baked or NLP parameters).
+        settings_of: the term whose settings this one uses (e.g. the baselines' capability
+            terms use ``capability``'s); ``None``: its own.
     """
 
     name: ClassVar[str] = ""
@@ -150,23 +210,38 @@ class CostTerm:
     default_weight: ClassVar[float] = 1.0
     parameters: ClassVar[tuple[tuple[str, int], ...]] = ()
     settings: ClassVar[tuple[TermSetting, ...]] = ()
+    settings_of: ClassVar[str | None] = None
 
     @classmethod
-    def task_values(cls, force: Any, settings: dict[str, float]) -> dict[str, FloatArray]:
-        """The values of the term's parameters for a task force and the task's ``settings``
-        (default: each declared setting, given or its default, at every waypoint)."""
+    def task_values(cls, force: Any, settings: Mapping[str, Any]) -> dict[str, FloatArray]:
+        """The values of the term's NLP parameters for a task force and the task's ``settings``
+        (default: each declared NLP setting, given or its default, at every waypoint)."""
         n = len(force.t)
-        return {s.parameter: np.full(n, float(settings.get(s.name, s.default))) for s in cls.settings}
+        return {s.parameter: np.full(n, float(settings.get(s.name, s.default)))
+                for s in cls.settings if s.parameter is not None}
 
     @classmethod
-    def from_weights(cls, weights: CostWeights) -> CostTerm:
-        """The term with its parameters taken from ``weights`` (default: no parameters)."""
-        return cls()
+    def setting_values(cls, settings: Mapping[str, Mapping[str, Any]] | None = None) -> dict[str, Any]:
+        """Every declared setting's value in ``settings`` (term -> {name: value}), default where not
+        given, each checked."""
+        given = (settings or {}).get(cls.settings_of or cls.name, {})
+        unknown = sorted(set(given) - {s.name for s in cls.settings})
+        if unknown and cls.settings_of is None:
+            raise InvalidInputError(f"{cls.name}: no setting '{unknown[0]}'; expected one of "
+                                    f"{', '.join(s.name for s in cls.settings) or 'none'}")
+        return {s.name: s.check(given[s.name]) if s.name in given else s.default for s in cls.settings}
+
+    @classmethod
+    def from_settings(cls, settings: Mapping[str, Mapping[str, Any]] | None = None) -> CostTerm:
+        """The term with its baked settings (its dataclass fields) from ``settings`` (default:
+        each declared default)."""
+        values = cls.setting_values(settings)
+        return cls(**{s.field or s.name: values[s.name] for s in cls.settings if s.parameter is None})
 
     def weight(self, weights: CostWeights) -> float:
         """``w_i`` from ``weights`` (methods may override it, see ``Method.weights``)."""
         field_name = self.weight_field or self.name
-        if field_name in WEIGHT_FIELDS:
+        if field_name in {f.name for f in dataclasses.fields(weights)} - {"preset"}:
             return float(getattr(weights, field_name))
         return float(self.default_weight)
 
@@ -225,6 +300,8 @@ def register_term(cls: type[CostTerm], *, replace: bool = False) -> type[CostTer
         raise InvalidInputError(f"cost term {cls.__name__}: expected a frozen dataclass (@dataclass(frozen=True))")
     if cls.name in COST_TERMS and COST_TERMS[cls.name] is not cls and not replace:
         raise InvalidInputError(f"cost term '{cls.name}' is already registered")
+    if "settings" not in vars(cls) and cls.settings_of is None:  # declared by its fields
+        cls.settings = _field_settings(cls) + tuple(s for s in cls.settings if s.parameter is not None)
     COST_TERMS[cls.name] = cls
     return cls
 
@@ -234,12 +311,35 @@ def unregister_term(name: str) -> None:
     COST_TERMS.pop(name, None)
 
 
-def make_terms(names: tuple[str, ...], weights: CostWeights) -> tuple[CostTerm, ...]:
-    """Instances of the named terms with their parameters from ``weights``."""
+def make_terms(names: tuple[str, ...], settings: Mapping[str, Mapping[str, Any]] | None = None
+               ) -> tuple[CostTerm, ...]:
+    """Instances of the named terms with their parameters from ``settings`` (term -> {setting:
+    value}, :class:`~forte.settings.TermSettings`; default: the terms' declared defaults)."""
     unknown = [n for n in names if n not in COST_TERMS]
     if unknown:
         raise InvalidInputError(f"cost term '{unknown[0]}': not registered; known: {', '.join(COST_TERMS)}")
-    return tuple(COST_TERMS[n].from_weights(weights) for n in names)
+    return tuple(COST_TERMS[n].from_settings(settings) for n in names)
+
+
+def setting(default: Any, unit: str, doc: str, kind: str = "float", expected: str = "a finite number >= 0",
+            valid: Callable[[Any], bool] | None = nonnegative, legacy: str | None = None, name: str | None = None
+            ) -> Any:
+    """A term's dataclass field that is a baked setting (its :class:`TermSetting` is built from
+    it by :func:`register_term`; ``name``: the task file's key when not the field's)."""
+    meta = {"setting": (name, unit, doc, kind, expected, valid, legacy)}
+    if isinstance(default, list | dict):  # pragma: no cover - settings are immutable values
+        raise TypeError("a setting's default must be immutable")
+    return field(default=default, metadata=meta)
+
+
+def _field_settings(cls: type) -> tuple[TermSetting, ...]:
+    """The :class:`TermSetting` of each field of ``cls`` made with :func:`setting`."""
+    out = []
+    for f in dataclasses.fields(cls):
+        if "setting" in f.metadata:
+            name, unit, doc, kind, expected, valid, legacy = f.metadata["setting"]
+            out.append(TermSetting(name or f.name, None, f.default, unit, doc, f.name, kind, expected, valid, legacy))
+    return tuple(out)
 
 
 # -- stage terms ---------------------------------------------------------------------------

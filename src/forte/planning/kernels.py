@@ -25,6 +25,7 @@ import subprocess
 import sys
 import tempfile
 import uuid
+from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,7 +39,7 @@ from forte.model.robot import MobileManipulator
 from forte.model.twin import CasadiTwin
 from forte.planning.costs import CostTerm, Stage
 from forte.planning.methods import Method, get_method
-from forte.settings import CostWeights, SolverOptions
+from forte.settings import SolverOptions
 from forte.system import cpu_count
 
 KERNEL_NAMES = ("stage_cost", "stage_grad", "stage_hess", "stage_terms", "pose", "pose_jac", "pose_hess")
@@ -71,18 +72,20 @@ def rotation_error_expr(R: Any, R_d: Any) -> Any:
     return ca.vertcat(E[2, 1], E[0, 2], E[1, 0]) / 2
 
 
-def stage_terms(method: Method, weights: CostWeights) -> tuple[CostTerm, ...]:
-    """The method's stage terms (compiled into the kernels), in summation order."""
-    return tuple(t for t in method.cost_terms(weights) if t.kind == "stage")
+def stage_terms(method: Method, settings: Mapping[str, Mapping[str, Any]] | None = None) -> tuple[CostTerm, ...]:
+    """The method's stage terms (compiled into the kernels) with their ``settings`` (term ->
+    {setting: value}, default: the terms' own), in summation order."""
+    return tuple(t for t in method.cost_terms(settings) if t.kind == "stage")
 
 
-def build_kernels(robot: MobileManipulator, method: str | Method, w: CostWeights) -> dict[str, ca.Function]:
+def build_kernels(robot: MobileManipulator, method: str | Method,
+                  settings: Mapping[str, Mapping[str, Any]] | None = None) -> dict[str, ca.Function]:
     """SX kernels of one method: a loop over its stage terms."""
     method = get_method(method)
     twin = CasadiTwin(robot)
     nq = robot.nq
     z = ca.SX.sym("z", 3 * nq)
-    terms = stage_terms(method, w)
+    terms = stage_terms(method, settings)
     params = {name: ca.SX.sym(name, size) for t in terms for name, size in t.parameters}
     s = Stage(twin, z[:nq], z[nq:2 * nq], z[2 * nq:], ca.SX.sym("dt_prev"), ca.SX.sym("dt"),
               ca.SX.sym("f", 3), ca.SX.sym("r"), params, nominal=ca.SX.sym("q_nom", nq))
@@ -108,10 +111,13 @@ def build_kernels(robot: MobileManipulator, method: str | Method, w: CostWeights
     }
 
 
-def kernel_key(robot: MobileManipulator, method: str | Method, w: CostWeights) -> str:
-    """Cache key: changes whenever anything compiled into the kernels changes."""
+def kernel_key(robot: MobileManipulator, method: str | Method,
+               settings: Mapping[str, Mapping[str, Any]] | None = None) -> str:
+    """Cache key: changes whenever anything compiled into the kernels changes: the robot, the
+    method, and each stage term's baked settings (its dataclass fields, :meth:`CostTerm.baked`,
+    as its declaration makes them from ``settings``), the terms' source."""
     method = get_method(method)
-    baked = tuple((t.name, t.baked(), _class_digest(type(t))) for t in stage_terms(method, w))
+    baked = tuple((t.name, t.baked(), _class_digest(type(t))) for t in stage_terms(method, settings))
     text = repr((__version__, robot.fingerprint, method.name, baked, ca.__version__, _source_digest()))
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
@@ -121,7 +127,8 @@ def kernel_key(robot: MobileManipulator, method: str | Method, w: CostWeights) -
 COMPILE_SECONDS = {"default": 6.0, "rfp-cone": 8.0}
 
 
-def load_kernels(robot: MobileManipulator, method: str | Method, w: CostWeights, options: SolverOptions) -> Kernels:
+def load_kernels(robot: MobileManipulator, method: str | Method, settings: Mapping[str, Mapping[str, Any]] | None,
+                 options: SolverOptions) -> Kernels:
     """Kernels from the on-disk cache, compiling them first when needed (and possible).
 
     A cached library is loaded only when its size and sha256 match the record written next to it
@@ -133,7 +140,7 @@ def load_kernels(robot: MobileManipulator, method: str | Method, w: CostWeights,
     method = get_method(method)
     compiler = shutil.which("gcc") or shutil.which("cc")
     if options.codegen and compiler:
-        lib = cache_root(options) / f"kernels_{method.name}_{kernel_key(robot, method, w)}.so"
+        lib = cache_root(options) / f"kernels_{method.name}_{kernel_key(robot, method, settings)}.so"
         fns = _load_verified(lib)
         origin = "cached"
         if fns is None:
@@ -141,7 +148,7 @@ def load_kernels(robot: MobileManipulator, method: str | Method, w: CostWeights,
                 expected = COMPILE_SECONDS.get(method.name, COMPILE_SECONDS["default"])
                 with progress.step(f"compiling the {method.name} kernels to C (once per robot and method)",
                                    expected):
-                    _compile(build_kernels(robot, method, w), lib, compiler)
+                    _compile(build_kernels(robot, method, settings), lib, compiler)
                 fns = _load_verified(lib, quiet=False)
                 origin = "compiled"
             except (OSError, SolverError) as exc:
@@ -150,7 +157,7 @@ def load_kernels(robot: MobileManipulator, method: str | Method, w: CostWeights,
                        "machine (slower, same results)")
         if fns is not None:
             return Kernels(*(fns[name] for name in KERNEL_NAMES), origin, lib)
-    return Kernels(*(build_kernels(robot, method, w)[name] for name in KERNEL_NAMES), "virtual-machine")
+    return Kernels(*(build_kernels(robot, method, settings)[name] for name in KERNEL_NAMES), "virtual-machine")
 
 
 def notice(text: str) -> None:

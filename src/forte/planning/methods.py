@@ -44,7 +44,7 @@ from forte.planning.costs import COST_TERMS, CostTerm, make_terms
 from forte.planning.ik import initial_guess
 from forte.planning.plugins import load_plugins
 from forte.planning.tasks import MODES
-from forte.settings import AUTHORS_TRAJECTORY_SETS, CostWeights
+from forte.settings import AUTHORS_TRAJECTORY_SETS, CostWeights, TermSettings
 from forte.validation import FloatArray
 
 PRODUCTIONS: tuple[str, ...] = ("optimized", "interpolated", "given")
@@ -78,9 +78,9 @@ class Method:
         status: solver status reported for methods that are not optimized.
         source: where the definition comes from.
         in_paper: compared in the paper's experiments (``forte experiment`` runs these).
-        tuning: per weight set (:data:`forte.settings.WEIGHT_SETS` name), the
-            :class:`~forte.settings.CostWeights` fields this method changes (its weights and term
-            parameters in that set, e.g. the authors' baseline weights).
+        tuning: per weight set (:data:`forte.settings.WEIGHT_SETS` name), what this method
+            changes in that set: weights by :class:`~forte.settings.CostWeights` field (e.g. the
+            authors' baseline weights) and term settings as ``"TERM.SETTING"``.
     """
 
     name: str
@@ -108,7 +108,7 @@ class Method:
         if not set(self.modes) <= set(MODES) or not self.modes:
             raise InvalidInputError(f"method {self.name}: modes: expected a subset of {MODES}")
         if self.production == "optimized":
-            make_terms(self.terms, CostWeights())  # every term must be registered
+            make_terms(self.terms)  # every term must be registered
         elif self.produce is None:
             raise InvalidInputError(f"method {self.name}: a method that is not optimized needs produce")
         object.__setattr__(self, "weights", MappingProxyType(dict(self.weights)))
@@ -122,10 +122,17 @@ class Method:
     def optimized(self) -> bool:
         return self.production == "optimized"
 
-    def resolve_weights(self, weights: CostWeights) -> CostWeights:
-        """``weights`` with this method's :attr:`tuning` for their set applied."""
+    def resolve(self, weights: CostWeights, settings: TermSettings | None = None
+                ) -> tuple[CostWeights, TermSettings]:
+        """``weights`` and ``settings`` with this method's :attr:`tuning` for their set applied."""
+        settings = settings if isinstance(settings, TermSettings) else TermSettings(settings)
         changes = self.tuning.get(weights.preset, {})
-        return replace(weights, **changes) if changes else weights
+        plain = {k: v for k, v in changes.items() if "." not in k}
+        for key, value in changes.items():
+            if "." in key:
+                term, name = key.split(".", 1)
+                settings = settings.with_values(term, **{name: value})
+        return (replace(weights, **plain) if plain else weights), settings
 
     def applies_to(self, task: Any) -> bool:
         """Whether the method can plan ``task`` (its mode; a given method needs what it gives)."""
@@ -136,9 +143,9 @@ class Method:
     def __hash__(self) -> int:
         return hash(self.name)
 
-    def cost_terms(self, weights: CostWeights) -> tuple[CostTerm, ...]:
-        """The method's terms with their parameters from ``weights``."""
-        return make_terms(self.terms, weights)
+    def cost_terms(self, settings: TermSettings | None = None) -> tuple[CostTerm, ...]:
+        """The method's terms with their parameters from ``settings`` (default: the terms' own)."""
+        return make_terms(self.terms, settings)
 
     def term_weight(self, term: CostTerm, weights: CostWeights) -> float:
         """``w_i`` of ``term``: the method's own weight if it sets one, else from ``weights``."""
@@ -213,7 +220,7 @@ for _method, _paper in (
             source="paper, Section 4.3; the authors' public code (their lift weights)"), True),
     (Method("manipulability", "manipulability and joint limits only (no J1, no regularization)",
             terms=("manipulability", "joint_limits"), style=MethodStyle("tab:green", "manipulability", "s"),
-            tuning=_on_trajectory_sets({"joint_dof_weights": _MANIP_DOF}),
+            tuning=_on_trajectory_sets({"joint_limits.dof_weights": _MANIP_DOF}),
             source="paper, Section 5; the authors' code"), True),
     (Method("rfp-radius", "J1 replaced by 1/max(|R|, 1e-6), R the alpha-scaled centred inscribed radius, clamped at 0",
             terms=("rfp_radius", "joint_limits", *REGULARIZATION),

@@ -7,7 +7,7 @@ for the interface.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import casadi as ca
 import numpy as np
@@ -15,9 +15,19 @@ from scipy import sparse
 
 from forte.model.collision import AUTHORS_SPHERES, CollisionSphere, SpherePairs
 from forte.model.robot import N_BASE
-from forte.planning.costs import CostTerm, LiftedQuadratic, Stage, register_term
+from forte.planning.costs import (
+    CostTerm,
+    LiftedQuadratic,
+    Stage,
+    TermSetting,
+    nonnegative,
+    nonnegative_vector,
+    positive,
+    register_term,
+    setting,
+)
 from forte.planning.spectral import SpectralForm, dct_penalty, spectral_form
-from forte.settings import CostWeights
+from forte.settings import COLLISION_MODELS, DCT_FORMS
 from forte.validation import FloatArray
 
 
@@ -33,11 +43,9 @@ class Smoothness(CostTerm):
     name: ClassVar[str] = "smoothness"
     kind: ClassVar[str] = "quadratic"
     base: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    arm: float = 1.0
+    arm: float = setting(1.0, "1", "the arm entries of W_s", expected="a finite number > 0", valid=positive,
+                         legacy="smoothness_arm")
 
-    @classmethod
-    def from_weights(cls, weights: CostWeights) -> Smoothness:
-        return cls((0.0, 0.0, 0.0), weights.smoothness_arm)
 
     def metric(self, n_arm: int) -> FloatArray:
         """The per-coordinate weights ``m_i`` of ``sum_k 1/2 sum_i m_i (q_k - q_k-1)_i^2``: ``W_s^2``."""
@@ -66,13 +74,13 @@ class BaseSmoothness(Smoothness):
     """
 
     name: ClassVar[str] = "base_smoothness"
-    base: tuple[float, float, float] = (1.0, 1.0, 0.5)
+    base: tuple[float, float, float] = setting(
+        (1.0, 1.0, 0.5), "1 (m^-1, m^-1, rad^-1 per unit weight)", "b, the base entries of W_s for (x, y, yaw); "
+        "also the base velocity term's metric", kind="vector", expected="3 finite numbers >= 0",
+        valid=nonnegative_vector(3), legacy="smoothness_base")
     arm: float = 0.0
-    linear: bool = False
-
-    @classmethod
-    def from_weights(cls, weights: CostWeights) -> BaseSmoothness:
-        return cls(tuple(weights.smoothness_base), 0.0, weights.base_smoothness_linear)
+    linear: bool = setting(False, "", "the metric b used linearly (the authors' code) instead of W_s = diag(b)",
+                           kind="bool", expected="true or false", valid=None, legacy="base_smoothness_linear")
 
     def metric(self, n_arm: int) -> FloatArray:
         return np.r_[self.base, np.zeros(n_arm)] if self.linear else super().metric(n_arm)
@@ -108,8 +116,9 @@ class BaseVelocity(CostTerm):
     metric: tuple[float, float, float] = (1.0, 1.0, 0.5)
 
     @classmethod
-    def from_weights(cls, weights: CostWeights) -> BaseVelocity:
-        return cls(tuple(weights.smoothness_base))
+    def from_settings(cls, settings: Any = None) -> CostTerm:
+        """The metric is the base smoothness term's ``base`` setting (the authors' one metric)."""
+        return cls(BaseSmoothness.setting_values(settings)["base"])
 
     def stage(self, s: Stage) -> ca.SX:
         d = s.q0[:N_BASE] - s.q1[:N_BASE]
@@ -155,11 +164,22 @@ class Collision(CostTerm):
     def __post_init__(self) -> None:
         SpherePairs(*self.spheres).check()
 
+    settings: ClassVar[tuple[TermSetting, ...]] = (
+        TermSetting("model", None, "authors", "", "authors: the authors' spheres on the end effector against "
+                    "spheres on the base; box: arm-joint spheres against a base box and the floor", None, "str",
+                    f"one of {', '.join(COLLISION_MODELS)}", lambda v: v in COLLISION_MODELS, "collision_model"),
+        TermSetting("safe_distance", None, 0.08, "m", "clearance below which the authors' model penalizes a pair",
+                    None, "float", "a finite number >= 0", nonnegative, "collision_safe_distance"),
+        TermSetting("radius", None, 0.08, "m", "radius of the box model's arm spheres", None, "float",
+                    "a finite number > 0", positive, "collision_radius"),
+    )
+
     @classmethod
-    def from_weights(cls, weights: CostWeights) -> CostTerm:
-        if weights.collision_model == "box":
-            return BoxCollision.from_weights(weights)
-        return cls(AUTHORS_SPHERES, weights.collision_safe_distance)
+    def from_settings(cls, settings: Any = None) -> CostTerm:
+        values = cls.setting_values(settings)
+        if values["model"] == "box":
+            return BoxCollision(values["radius"])
+        return cls(AUTHORS_SPHERES, values["safe_distance"])
 
     @staticmethod
     def centres(s: Stage, spheres: tuple[CollisionSphere, ...]) -> list[ca.SX]:
@@ -193,17 +213,13 @@ class BoxCollision(CostTerm):
     5, 7 and at the end effector; ``d_box`` is the distance from a centre to the base box
     :data:`BASE_BOX` (0 inside), ``z`` the height above the floor. Zero when every sphere clears
     both; each penetrating sphere adds up to 2 (dimensionless). ``sqrt`` is guarded by
-    ``1e-10`` m^2. Served under the name ``collision`` by :meth:`Collision.from_weights`.
+    ``1e-10`` m^2. Served under the name ``collision`` by :meth:`Collision.from_settings`.
     """
 
     name: ClassVar[str] = "collision"
     radius: float = 0.08
     box: tuple[tuple[float, float, float], tuple[float, float, float]] = BASE_BOX
     joints: tuple[int, ...] = COLLISION_JOINTS
-
-    @classmethod
-    def from_weights(cls, weights: CostWeights) -> BoxCollision:
-        return cls(weights.collision_radius)
 
     def centres(self, s: Stage) -> list[ca.SX]:
         """Sphere centres in the base frame."""
@@ -235,17 +251,21 @@ class BaseSpectral(CostTerm):
 
     name: ClassVar[str] = "base_spectral"
     kind: ClassVar[str] = "quadratic"
-    cutoff: float = 0.35
-    axis: tuple[float, float, float] = (1.0, 1.0, 0.5)
-    power: float = 0.0
-    ramp: bool = False
-    form: str = "auto"
-    reference: int = 41
-
-    @classmethod
-    def from_weights(cls, weights: CostWeights) -> BaseSpectral:
-        return cls(weights.dct_cutoff, tuple(weights.dct_axis), weights.dct_power, weights.dct_ramp,
-                   weights.dct_form, weights.dct_reference_waypoints)
+    cutoff: float = setting(0.1, "1", "frequencies l >= ceil(cutoff N) form the high-frequency set H",
+                            expected="0 < cutoff < 1", valid=lambda v: 0 < v < 1, legacy="dct_cutoff")
+    axis: tuple[float, float, float] = setting((1.0, 1.0, 0.5), "1", "eta_xi for x, y, yaw", kind="vector",
+                                               expected="3 finite numbers >= 0", valid=nonnegative_vector(3),
+                                               legacy="dct_axis")
+    power: float = setting(2.0, "1", "gamma_l = (l / (N - 1)) ** power (0: every high frequency weighs 1), or "
+                           "with ramp ((l/(N-1) - c)/(1 - c)) ** power over l/(N-1) > c", legacy="dct_power")
+    ramp: bool = setting(True, "", "the authors' ramped gamma and high set", kind="bool",
+                         expected="true or false", valid=None, legacy="dct_ramp")
+    form: str = setting("auto", "", "how the optimizer solves J5 (forte.planning.spectral.spectral_form)",
+                        kind="str", expected=f"one of {', '.join(DCT_FORMS)}", valid=lambda v: v in DCT_FORMS,
+                        legacy="dct_form")
+    reference: int = setting(41, "waypoints", "the horizon whose cutoff and scale the banded weighting keeps",
+                             kind="int", expected="an integer >= 2", valid=lambda v: v >= 2,
+                             legacy="dct_reference_waypoints", name="reference_waypoints")
 
     def _selector(self, n_arm: int) -> sparse.csr_matrix:
         E = np.zeros((n_arm + N_BASE, n_arm + N_BASE))
@@ -279,6 +299,8 @@ class BaseSpectral(CostTerm):
         return LiftedQuadratic(D, A, g)
 
 
-def dct_penalty_matrix(n: int, weights: CostWeights) -> FloatArray:
-    """:func:`~forte.planning.spectral.dct_penalty` with the parameters of ``weights`` (one base coordinate)."""
-    return dct_penalty(n, weights.dct_cutoff, weights.dct_power, weights.dct_ramp)
+def dct_penalty_matrix(n: int, settings: Any = None) -> FloatArray:
+    """:func:`~forte.planning.spectral.dct_penalty` with ``base_spectral``'s settings in ``settings``
+    (term -> {setting: value}; default: its defaults), one base coordinate."""
+    term = BaseSpectral.from_settings(settings)
+    return dct_penalty(n, term.cutoff, term.power, term.ramp)

@@ -47,7 +47,15 @@ from forte.planning.ipopt_progress import IpoptProgress, margin_of
 from forte.planning.kernels import load_kernels, notice
 from forte.planning.methods import Method, get_method, method_names
 from forte.planning.solvers.result import SolverResult, accepted_violation
-from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, CostWeights, KinematicLimits, SolverOptions
+from forte.settings import (
+    DEFAULT_WEIGHT_SET,
+    WEIGHT_SETS,
+    CostWeights,
+    KinematicLimits,
+    SolverOptions,
+    TermSettings,
+    WeightSet,
+)
 from forte.validation import FloatArray
 
 #: The weights a task file gets by default in trajectory mode.
@@ -61,8 +69,9 @@ class TrajectoryOptimizer:
         robot: The mobile manipulator.
         n: Number of waypoints (1 gives single-point holding).
         method: An optimized method of :data:`forte.planning.methods.METHODS` (name or object).
-        weights: Cost weights and term parameters (default: forte's trajectory set, as a task
-            file gets; the authors' exact set is ``WEIGHT_SETS['authors-trajectory']``).
+        weights: Cost weights, or a named set with its term settings (default: forte's
+            trajectory set, as a task file gets; the authors' exact set is
+            ``WEIGHT_SETS['authors-trajectory']``).
         fix_initial: Fix ``q_1 = q_init`` (trajectory mode). With ``False`` (holding), the
             first configuration is free and ``q_init`` only seeds the solver.
         options: Solver and build options.
@@ -72,13 +81,16 @@ class TrajectoryOptimizer:
         slots: Robot-versus-scene pairs that get clearance rows (:mod:`forte.planning.collision_slots`;
             ``None``: no scene, no rows). The rows are part of the problem's structure, so a
             problem with slots serves one assignment of pairs.
+        settings: The cost terms' parameters (:class:`~forte.settings.TermSettings`, term ->
+            {setting: value}); default: the set's when ``weights`` is a
+            :class:`~forte.settings.WeightSet`, else the terms' declared defaults.
     """
 
     def __init__(
         self, robot: MobileManipulator, n: int, method: str | Method = "forte",
-        weights: CostWeights = DEFAULT_TRAJECTORY_WEIGHTS, fix_initial: bool = True,
+        weights: CostWeights | WeightSet = DEFAULT_TRAJECTORY_WEIGHTS, fix_initial: bool = True,
         options: SolverOptions = SolverOptions(), limits: KinematicLimits = KinematicLimits(),
-        keep_multipliers: bool = False, slots: Slots | None = None,
+        keep_multipliers: bool = False, slots: Slots | None = None, settings: TermSettings | None = None,
     ) -> None:
         resolved = get_method(method) if isinstance(method, Method) or method in method_names() else None
         if resolved is None or not resolved.optimized:
@@ -88,19 +100,21 @@ class TrajectoryOptimizer:
             raise InvalidInputError(f"waypoints: expected at least 1, got {n}")
         self.robot, self.n, self.method_spec = robot, n, resolved
         self.method = resolved.name
-        weights = resolved.resolve_weights(weights)
-        self.weights, self.fix_initial, self.options = weights, fix_initial, options
+        if isinstance(weights, WeightSet):
+            weights, settings = weights.weights, weights.settings if settings is None else settings
+        weights, settings = resolved.resolve(weights, settings)
+        self.weights, self.settings, self.fix_initial, self.options = weights, settings, fix_initial, options
         self.limits, self.keep_multipliers = limits, keep_multipliers
         self._warm_solver: Any = None
         self._vel, self._acc = limits.resolve(robot)
-        terms = resolved.cost_terms(weights)
+        terms = resolved.cost_terms(settings)
         self._stage = tuple(t for t in terms if t.kind == "stage")
         self._quadratic = tuple(t for t in terms if t.kind == "quadratic")
         start = time.perf_counter()
         self.slots = slots
         self._clear = [load_collision_kernels(robot, f.frame, f.slots, options, f.other)
                        for f in slots.frames] if slots else []
-        self.kernels = load_kernels(robot, resolved, weights, options)
+        self.kernels = load_kernels(robot, resolved, settings, options)
         self._build()
         self.build_time = time.perf_counter() - start
 
@@ -326,7 +340,7 @@ class TrajectoryOptimizer:
             solver, extra = self.warm_solver(), {"lam_x0": warm[0], "lam_g0": warm[1]}
         if self._progress is not None:
             self._progress.start(lbg, ubg, margin_of(self.robot, self.n, np.asarray(t, dtype=float), f, r,
-                                                     self.weights.capability_params.alpha))
+                                                     self.settings.alpha))
         try:
             with progress.step(f"solving with IPOPT ({self.method}, N = {n})"):
                 result = solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **extra)

@@ -142,7 +142,7 @@ def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]
         sol = solve_in_scene(coarse, method, force, start_guess(coarse, nominal), nominal, task.solver)[1]
     else:
         opt = TrajectoryOptimizer(task.robot, coarse.n, method, task.weights, options=task.solver,
-                                  limits=task.limits)
+                                  limits=task.limits, settings=task.settings)
         sol = _solve(opt, coarse, force, start_guess(coarse, nominal), nominal)
     if not sol.success:
         return None
@@ -187,7 +187,7 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         opt, sol, info["clearance_rows"] = solve_in_scene(task, method, force, q_guess, nominal, options)
     else:
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
-                                  options=options, limits=task.limits)
+                                  options=options, limits=task.limits, settings=task.settings)
         sol = _solve(opt, task, force, q_guess, nominal)
     if task.mode == "hold" and guess is None and options.hold_starts > 1:
         def solve_from(q: FloatArray) -> SolverResult:
@@ -203,7 +203,7 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         "build_time_s": sol.build_time, "solve_time_s": sol.solve_time, "kernels": sol.codegen,
         "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, (rep := reported or force).f, rep.r,
                                      term_values=term_values(method, rep, task.terms)),
-        "term_weights": opt.term_weights(), "term_settings": term_settings(method, task.terms),
+        "term_weights": opt.term_weights(), "term_settings": term_settings(method, opt.settings),
         "quadratic_forms": opt.quadratic_forms,
     }
     if "starts" in info:  # the work of every start, the chosen start's own figures under "starts"
@@ -348,7 +348,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         q, solved, status = spec.produce(task), True, spec.status
         verdict = judge_plan(task, q, force)
     info["wall_time_s"] = time.perf_counter() - start
-    metrics = evaluate(task.robot, q, task.t, force, task.weights.capability_params, task.scene)
+    metrics = evaluate(task.robot, q, task.t, force, task.settings.capability_params, task.scene)
     return Plan(method=spec.name, robot=task.robot, t=task.t, q=q, force=force, payload=task.payload,
                 metrics=metrics, solved=solved, status=status, solver=info, task=task, verdict=verdict,
                 scene=task.scene, contact=task.contact)

@@ -6,6 +6,8 @@ CasADi's code generation, so the two can be checked against each other.
 
 from __future__ import annotations
 
+from typing import Any
+
 import casadi as ca
 import numpy as np
 
@@ -13,30 +15,32 @@ from forte.model.robot import N_BASE
 from forte.model.twin import CasadiTwin
 from forte.planning.capability_terms import Capability
 from forte.planning.costs import Stage
-from forte.planning.motion_terms import dct_penalty_matrix
-from forte.settings import CapabilityParameters, CostWeights
+from forte.planning.motion_terms import BaseSmoothness, BaseSpectral, Smoothness, dct_penalty_matrix
+from forte.settings import CapabilityParameters
 from forte.validation import FloatArray
 
 
-def smoothness_weights(n_arm: int, weights: CostWeights) -> FloatArray:
-    """Diagonal of ``W_s`` (base x, y, yaw, then the arm joints); with ``base_smoothness_linear``
-    the base entries are ``sqrt(smoothness_base)``, so that ``W_s^2`` is the metric used linearly."""
-    base = np.asarray(weights.smoothness_base, dtype=float)
-    return np.concatenate([np.sqrt(base) if weights.base_smoothness_linear else base,
-                           np.full(n_arm, weights.smoothness_arm)])
+def smoothness_weights(n_arm: int, settings: Any = None) -> FloatArray:
+    """Diagonal of ``W_s`` (base x, y, yaw, then the arm joints) for ``settings`` (term -> {setting:
+    value}); with ``base_smoothness.linear`` the base entries are ``sqrt(base)``, so that ``W_s^2``
+    is the metric used linearly."""
+    base_term, arm_term = BaseSmoothness.from_settings(settings), Smoothness.from_settings(settings)
+    base = np.asarray(base_term.base, dtype=float)
+    return np.concatenate([np.sqrt(base) if base_term.linear else base, np.full(n_arm, arm_term.arm)])
 
 
-def base_spectral_cost(base: FloatArray, weights: CostWeights) -> float:
+def base_spectral_cost(base: FloatArray, settings: Any = None) -> float:
     """Numeric J5 = 1/2 sum_xi eta_xi sum_{l in H} gamma_l bhat_{xi,l}^2 for base (N x 3)."""
     base = np.asarray(base, dtype=float)
-    P = dct_penalty_matrix(base.shape[0], weights)
-    return 0.5 * float(sum(eta * base[:, i] @ P @ base[:, i] for i, eta in enumerate(weights.dct_axis)))
+    P = dct_penalty_matrix(base.shape[0], settings)
+    axis = BaseSpectral.from_settings(settings).axis
+    return 0.5 * float(sum(eta * base[:, i] @ P @ base[:, i] for i, eta in enumerate(axis)))
 
 
-def smoothness_cost(q: FloatArray, weights: CostWeights) -> float:
+def smoothness_cost(q: FloatArray, settings: Any = None) -> float:
     """Numeric J4 = sum_k 1/2 ||W_s (q_k - q_{k-1})||^2."""
     q = np.asarray(q, dtype=float)
-    W = smoothness_weights(q.shape[1] - N_BASE, weights)
+    W = smoothness_weights(q.shape[1] - N_BASE, settings)
     return 0.5 * float(np.sum((np.diff(q, axis=0) * W) ** 2))
 
 

@@ -118,7 +118,7 @@ class Replanner:
         else:
             self.optimizer = TrajectoryOptimizer(
                 task.robot, task.n, self.method, task.weights, fix_initial=task.mode != "hold",
-                options=task.solver, limits=task.limits, keep_multipliers=True)
+                options=task.solver, limits=task.limits, keep_multipliers=True, settings=task.settings)
             first = self._solve(self.task, self.force, self.nominal, guess, None)
         if not converged(first):
             raise InvalidInputError(f"re-planning: the first solve failed ({first.status}); nothing to warm-start")
@@ -181,7 +181,8 @@ class Replanner:
         if task.scene:  # the pairs near the shifted horizon get the rows: a new NLP, solved cold
             slots = assign_slots(task.robot, guess, task.scene, task.clearance, True)
             opt = TrajectoryOptimizer(task.robot, task.n, self.method, task.weights, options=task.solver,
-                                      limits=task.limits, keep_multipliers=True, slots=slots)
+                                      limits=task.limits, keep_multipliers=True, slots=slots,
+                                      settings=task.settings)
             return Problem(task, force, shift_rows(self.nominal, steps), guess, None, opt)
         if self.last.iterate is not None:
             warm = self.optimizer.stagewise().shifted(self.last.iterate, steps)
@@ -208,7 +209,7 @@ class Replanner:
                 cold = start_guess(pb.task, pb.nominal)
                 sol, used_warm = self._solve(pb.task, pb.force, pb.nominal, cold, None, opt), False
                 iterations, solve_s = iterations + sol.iterations, solve_s + sol.solve_time
-            metrics = evaluate(pb.task.robot, sol.q, pb.task.t, pb.force, pb.task.weights.capability_params)
+            metrics = evaluate(pb.task.robot, sol.q, pb.task.t, pb.force, pb.task.settings.capability_params)
         ok = converged(sol)
         if ok:
             self.task, self.force, self.nominal, self.last = pb.task, pb.force, pb.nominal, sol

@@ -54,7 +54,8 @@ def solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatA
     for _ in range(SCENE_ROUNDS + 1):
         slots = assign_slots(task.robot, start, task.scene, task.clearance, fix, extra)
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=fix, options=options,
-                                  limits=task.limits, slots=slots, keep_multipliers=keep_multipliers)
+                                  limits=task.limits, slots=slots, keep_multipliers=keep_multipliers,
+                                  settings=task.settings)
         sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, start, nominal,
                         term_values=term_values(method, force, task.terms))
         missing = missing_pairs(task.robot, sol.q, task.scene, task.clearance, slots)

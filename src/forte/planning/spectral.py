@@ -223,7 +223,7 @@ def banded_form(n: int, cutoff: float, power: float, ramp: bool, reference: int)
 
 def spectral_form(n: int, cutoff: float, power: float, ramp: bool, form: str = "auto",
                   reference: int = 41) -> SpectralForm:
-    """The form of J5's matrix the optimizer solves with (``CostWeights.dct_form``).
+    """The form of J5's matrix the optimizer solves with (the ``base_spectral`` term's ``form``).
 
     ``dense`` and ``banded`` as named; ``exact``: :func:`exact_form` (lifted when it can be,
     else dense); ``auto``: ``exact`` when that is lifted or ``n <= DENSE_MAX_WAYPOINTS``, else

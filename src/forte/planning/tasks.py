@@ -32,7 +32,6 @@ from forte.force.taskforce import (
     payload_force,
 )
 from forte.force.wrench import with_payload_moment
-from forte.model.description import N_BASE
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import quintic_path
@@ -57,9 +56,9 @@ from forte.planning.schema import (
     robot_section,
     rotation,
 )
-from forte.planning.terms_section import terms_section
-from forte.planning.weights_section import by_joint_name, weight_preset
-from forte.settings import CostWeights, KinematicLimits, SolverOptions
+from forte.planning.terms_section import settings_of, terms_section
+from forte.planning.weights_section import by_joint_name, read_weights
+from forte.settings import CostWeights, KinematicLimits, SolverOptions, TermSettings, WeightSet
 from forte.validation import MAX_DURATION_S, MAX_FILE_BYTES, MAX_WAYPOINTS, FloatArray
 
 MODES = ("trajectory", "hold")
@@ -121,9 +120,16 @@ class Task:
     clearance: float = DEFAULT_CLEARANCE
     #: Cost terms the task adds to every optimized method, with their weight and settings
     #: (``terms:``, :mod:`forte.planning.terms_section`).
-    terms: dict[str, dict[str, float]] = field(default_factory=dict)
+    terms: dict[str, dict[str, Any]] = field(default_factory=dict)
+    #: The cost terms' parameters (the weight set's with the task's own; :mod:`forte.planning.weights_section`).
+    settings: TermSettings = field(default_factory=TermSettings)
     #: A contact-rich task (``contact:``, :mod:`forte.force.contact`): its model gives the force.
     contact: Contact | None = None
+
+    def with_weights(self, weight_set: WeightSet) -> Task:
+        """The task with a named set's weights and term settings (the task's own ``terms:``
+        settings kept on top)."""
+        return replace(self, weights=weight_set.weights, settings=weight_set.settings.merged(settings_of(self.terms)))
 
     @property
     def n(self) -> int:
@@ -342,14 +348,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
         raise reader.error("payload", "give a payload (mass, or description/image) or a force profile")
     if force_at is not None and reader.has("force_model"):
         raise reader.error("force_model", "sets a payload's force; this task gives its force profile directly")
-    base_names = ("base_x", "base_y", "base_yaw")
-    by_joint_name(reader, "weights", "joint_dof_weights", (*base_names, *robot.arm_joints),
-                   np.r_[np.zeros(N_BASE), np.ones(robot.n_arm)])
-    weights = dataclass_from(reader, "weights", CostWeights, weight_preset(reader, mode))
-    dof = reader.get("weights", {}).get("joint_dof_weights") if isinstance(reader.get("weights"), dict) else None
-    if dof is not None and len(weights.joint_dof_weights or ()) != robot.nq:
-        raise reader.sub("weights").error("joint_dof_weights", f"expected {robot.nq} values (x, y, yaw and the "
-                                          f"{robot.n_arm} arm joints), got {len(weights.joint_dof_weights or ())}")
+    weights, settings = read_weights(reader, mode, robot)
     solver = dataclass_from(reader, "solver", SolverOptions, SolverOptions())
     for key, default in (("arm_velocity", robot.model.velocityLimit), ("arm_acceleration", robot.acceleration_limits)):
         by_joint_name(reader, "limits", key, tuple(robot.arm_joints), default)
@@ -367,8 +366,8 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     name = str(reader.get("name", path.stem if path else "task"))
     return Task(name=name, source=path, robot=robot, mode=mode, t=t, targets=targets, q_init=q_init,
                 radius=radius, payload=payload or Payload(source="none"),
-                force_profile=None if force_at is None else force_at(t), weights=weights, solver=solver,
-                teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
+                force_profile=None if force_at is None else force_at(t), weights=weights, settings=settings,
+                solver=solver, teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
                 targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots,
                 radius_rule=radius_rule, force_model=force_model, scene=scene_section(reader, base),
                 clearance=clearance_value(reader), terms=terms_section(reader), contact=contact)

@@ -226,7 +226,7 @@ def capacity_shortfall(task: Any, q: Any, force: TaskForce, per_interval: int = 
     """Per waypoint: the worst capacity shortfall (N, ``max(-d, |f| + r - capacity, 0)``) on the
     samples of the intervals next to it (what a radius at that waypoint must cover)."""
     samples = sample_motion(task.robot, task.t, q, per_interval)
-    ctx = context(task.robot, samples, force, task.weights.alpha, None, task.limits, {}, False)
+    ctx = context(task.robot, samples, force, task.settings.alpha, None, task.limits, {}, False)
     minus_d, short = (m.value for m in Capacity().measures(ctx))
     worst = np.maximum(np.maximum(minus_d, short), 0.0)
     out = np.zeros(task.n)
@@ -250,7 +250,7 @@ def judge_plan(task: Any, q: Any, force: TaskForce, solver: dict[str, Any] | Non
     optimized plan, ``None`` for one that was not optimized), with the payload bound when the
     capacity or torque requirement fails and the force comes from a payload mass."""
     samples = sample_motion(task.robot, task.t, q, per_interval)
-    ctx = context(task.robot, samples, force, task.weights.alpha, _task_targets(task), task.limits,
+    ctx = context(task.robot, samples, force, task.settings.alpha, _task_targets(task), task.limits,
                   solver or {}, solver is not None, task.scene, task.clearance)
     verdict = judge_context(ctx, REQUIREMENTS, per_interval)
     mass = task.payload.mass

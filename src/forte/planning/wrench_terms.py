@@ -28,8 +28,9 @@ import numpy as np
 
 from forte.capability.wrench import smooth_wrench_penalty_expr
 from forte.exceptions import InvalidInputError
+from forte.planning.capability_terms import capability_params
 from forte.planning.costs import CostTerm, Stage, register_term
-from forte.settings import CapabilityParameters, CostWeights
+from forte.settings import CapabilityParameters
 from forte.validation import FloatArray
 
 #: The 3-D capability term and its wrench variant.
@@ -45,11 +46,12 @@ class WrenchCapability(CostTerm):
     name: ClassVar[str] = WRENCH_TERM
     weight_field: ClassVar[str | None] = "capability"
     parameters: ClassVar[tuple[tuple[str, int], ...]] = (("moment", 3), ("moment_radius", 1), ("moment_scale", 1))
+    settings_of: ClassVar[str | None] = FORCE_TERM
     params: CapabilityParameters = field(default_factory=CapabilityParameters)
 
     @classmethod
-    def from_weights(cls, weights: CostWeights) -> WrenchCapability:
-        return cls(weights.capability_params)
+    def from_settings(cls, settings: Any = None) -> CostTerm:
+        return cls(capability_params(settings))
 
     def stage(self, s: Stage) -> ca.SX:
         p = s.parameters
