@@ -41,6 +41,25 @@ def test_replan_equals_a_cold_solve_of_the_same_problem(task):
     assert warm.latency_s >= warm.solve_s > 0
 
 
+@pytest.mark.parametrize("name", ["offset-payload.yaml", "tipover.yaml"])
+def test_a_replan_solves_what_the_planner_solves(name):
+    """The payload's moment (J1 on the wrench) and the task's own terms (tip-over) reach re-plans:
+    the re-planner's first solve is the planner's plan, and a warm re-plan after a mass change is a
+    solution of the planner's problem for the new mass (solved from it, the planner stays there;
+    from its own start it may find a neighbouring optimum: the tip-over task has one 4e-4 rad off)."""
+    task = load_task(LIFT.parent / name, waypoints=15)
+    planner = Replanner(task)
+    spec = planner.optimizer.method_spec
+    assert ("wrench_capability" in spec.terms) == (name == "offset-payload.yaml")
+    assert ("tipover" in spec.terms) == (name == "tipover.yaml")
+    np.testing.assert_allclose(planner.last.q, plan(task, "forte").q, atol=1e-5)
+    changed = task.with_payload(task.payload.with_mass(task.payload.mass * 0.8))
+    warm = planner.replan(mass=changed.payload.mass)
+    again = plan(changed, "forte", guess=warm.plan.q)
+    assert warm.plan.solved and again.solved
+    np.testing.assert_allclose(warm.plan.q, again.q, atol=1e-5)
+
+
 def test_a_shifted_replan_equals_a_cold_solve_of_the_shifted_problem(task):
     planner = Replanner(task)
     result = planner.shift(3, mass=1.0)

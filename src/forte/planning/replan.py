@@ -58,7 +58,9 @@ from forte.planning.optimizer import SolverResult, TrajectoryOptimizer
 from forte.planning.planner import Plan, evaluate, resolve_payload, start_guess
 from forte.planning.scene_solve import solve_in_scene
 from forte.planning.tasks import Task
+from forte.planning.terms_section import term_values, with_task_terms
 from forte.planning.verdict import judge_plan
+from forte.planning.wrench_terms import for_requirement
 from forte.validation import FloatArray
 
 #: IPOPT's status of a solve converged to its ``tol`` (its "acceptable level" exit is not).
@@ -110,6 +112,8 @@ class Replanner:
             raise InvalidInputError(f"method: re-planning needs an optimized method, got '{self.method.name}'")
         self.task = resolve_payload(task, estimator_options)
         self.force = self.task.force()
+        # as the planner solves it: J1 on the wrench when the payload has a moment, the task's terms
+        self.method = with_task_terms(for_requirement(self.method, self.force), self.task.terms)
         self.nominal = self.task.nominal()  # the planner's nominal trajectory, shifted with the horizon
         guess = start_guess(self.task, self.nominal)
         if self.task.scene:  # clearance rows for the pairs near the first solution (planner.solve_in_scene)
@@ -229,7 +233,8 @@ class Replanner:
                warm: tuple[FloatArray, FloatArray] | Any | None, optimizer: TrajectoryOptimizer | None = None
                ) -> SolverResult:
         opt = optimizer or self.optimizer
-        return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, guess, nominal, warm=warm)
+        return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, guess, nominal, warm=warm,
+                         term_values=term_values(opt.method_spec, force, task.terms))
 
 
 def _shifted_path(task: Task, steps: int) -> Callable[[FloatArray], FloatArray] | None:
