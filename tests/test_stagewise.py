@@ -265,3 +265,32 @@ def test_kernels_without_a_compiler_give_the_same_numbers():
         args = (q, data.p_d, data.R_d, *extra)
         np.testing.assert_allclose(getattr(native, name)(task.n, *args)[0], getattr(virtual, name)(task.n, *args)[0],
                                    rtol=1e-10, atol=1e-10)
+
+
+@pytest.mark.parametrize("name, waypoints", [("lift.yaml", 41), ("lift.yaml", 70), ("hold.yaml", None)])
+def test_the_compiled_newton_step_equals_numpys(name, waypoints):
+    """The step in C (:mod:`forte.planning.solvers.native_step`) and in NumPy give the same
+    direction, multipliers and inertia correction: at the start of the lift (where the Hessian is
+    indefinite) with J5's dense blocks coupling distant waypoints (N = 41), with J5's lifted rows
+    (N = 70), and at the holding point (one free block)."""
+    from forte.planning.solvers.interior_point import InteriorPoint
+
+    task = load_task(TASKS / name, waypoints=waypoints)
+    _, opt = _optimizers(task)
+    solver = opt.stagewise()
+    pb, ip = solver.problem, solver.ip
+    if ip.native is None:
+        pytest.skip("no C compiler: the NumPy step is the only one")
+    plain = InteriorPoint(pb, use_native=False)
+    f, nominal = task.force(), task.nominal()
+    data = pb.task_data(task.t, task.targets, f.f, f.r, task.q_init, nominal)
+    it = ip.start(pb.y_of(start_guess(task, nominal)), data)
+    ev = ip.evaluate(it, data)
+    ev.extras["hess"] = it.scale * pb.stage_hessians(it.y, data)
+    fast, slow = ip.step(it, ev, data, it.mu), plain.step(it, ev, data, it.mu)
+    scale = max(1.0, np.abs(slow[0]).max())
+    np.testing.assert_allclose(fast[0], slow[0], atol=1e-10 * scale)
+    np.testing.assert_allclose(fast[1], slow[1], atol=1e-8 * max(1.0, np.abs(slow[1]).max()))
+    assert fast[2] == slow[2]
+    if waypoints is not None:  # J5's wide coupling (41) or its lifted rows (70) are exercised
+        assert (pb.Wy.nnz > 0, pb.g.size > 0) == (waypoints == 41, waypoints == 70)
