@@ -113,7 +113,7 @@ class RealTimeIteration:
                 it, _, _ = ip.iteration(it, ev, data, line_search=True)
             except (np.linalg.LinAlgError, FloatingPointError):
                 reason = "solver error"
-        q = solver.problem.x_of(it.y, data).reshape(task.n, task.robot.nq)
+        q = solver.problem.x_of(it.y, data).reshape(task.n, task.robot.nq).copy()
         violation = np.inf
         if not reason and not (np.isfinite(q).all() and np.isfinite(it.lam).all()):
             reason = "not finite"

@@ -162,7 +162,7 @@ class InteriorPoint:
     def error(self, ev: Evaluation, it: Iterate, data: TaskData, mu: float) -> tuple[float, float]:
         """IPOPT's scaled optimality error at barrier ``mu``, and the constraint violation."""
         rd = self._dual_residual(ev, it)
-        lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
+        lo, up = data.lo, data.up
         comp = np.concatenate([((it.s - data.lower) * it.zl - mu)[lo], ((data.upper - it.s) * it.zu - mu)[up]])
         m = it.lam.size + it.s.size
         s_d = max(S_MAX, (np.abs(it.lam).sum() + np.abs(it.zl[lo]).sum() + np.abs(it.zu[up]).sum())
@@ -205,7 +205,7 @@ class InteriorPoint:
              ) -> tuple[FloatArray, FloatArray, float, tuple]:
         """``(dy, lam_new, delta, parts)`` of the Newton step at barrier ``mu``."""
         pb, nq, r = self.pb, self.pb.nq, self.r
-        lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
+        lo, up = data.lo, data.up
         sl = np.where(lo, it.s - data.lower, 1.0)
         su = np.where(up, data.upper - it.s, 1.0)
         sig_l = np.where(lo, it.zl / sl, 0.0)
@@ -316,7 +316,7 @@ class InteriorPoint:
         y = trial.y if trial is not None and trial.dy is dy and trial.alpha == a_p else it.y + a_p * dy
         new = Iterate(y, it.lam + a_p * (lam_new - it.lam), it.s + a_p * ds,
                       it.zl + a_d * dzl, it.zu + a_d * dzu, mu, it.scale)
-        lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
+        lo, up = data.lo, data.up
         # IPOPT's safeguard: z stays within a factor kappa_sigma of mu / slack
         sl, su = np.where(lo, new.s - data.lower, 1.0), np.where(up, data.upper - new.s, 1.0)
         new.zl = np.where(lo, np.clip(new.zl, mu / (KAPPA_SIGMA * sl), KAPPA_SIGMA * mu / sl), 0.0)
@@ -330,7 +330,7 @@ class InteriorPoint:
         pb = self.pb
         v = pb.A @ y0 + data.b
         s = self._push(v, data)
-        lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
+        lo, up = data.lo, data.up
         it = Iterate(y0.copy(), np.zeros((pb.posed.size, 6)), s, lo * 1.0, up * 1.0, mu0)
         it.scale = min(1.0, MAX_GRADIENT / max(float(np.abs(pb.gradient(y0, data)).max(initial=0.0)), 1e-300))
         ev = self.evaluate(it, data)

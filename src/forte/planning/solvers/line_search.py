@@ -38,7 +38,7 @@ class Trial(NamedTuple):
 
 def barrier_objective(f: float, s: FloatArray, data: Any, mu: float) -> float:
     """``f - mu sum log(slack)`` over the finite bounds (``inf`` outside them)."""
-    lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
+    lo, up = data.lo, data.up
     sl, su = (s - data.lower)[lo], (data.upper - s)[up]
     if (sl <= 0).any() or (su <= 0).any():
         return np.inf

@@ -7,10 +7,12 @@ iteration around a factorization of 0.05 ms. Here the same arithmetic runs in tw
 dense Cholesky with IPOPT's inertia correction staying with LAPACK
 (:class:`~forte.planning.solvers.reduced_system.ReducedSystem`) in between:
 
-1. ``prepare``: ``p_Y = -R^-T c`` and ``y_Y = Y p_Y`` per posed block; the right-hand side
-   ``-Z^T (g + H y_Y)``; the reduced matrix ``M += sum_k Zw_k^T H_k Zw_k + Z^T diag(b) Z`` (the
-   window Hessians reduced slot pair by slot pair, the bounds' barrier per block) onto the part of
-   ``Q`` NumPy reduced;
+1. ``prepare``: the window Hessians (stage, ``D``'s near-diagonal part, pose rows' curvature,
+   kinematic rows' barrier); ``J^T = [Y Z] [R; 0]`` per posed block (Householder); ``p_Y = -R^-T c``
+   and ``y_Y = Y p_Y``; the right-hand side ``-Z^T (g + H y_Y)``; the lower triangle of the
+   reduced matrix ``M = Z^T (W + R^T G R) Z + sum_k Zw_k^T H_k Zw_k + Z^T diag(b) Z`` (the rest of
+   ``Q``, the windows reduced slot pair by slot pair, the bounds' barrier per block): the
+   Cholesky reads no more;
 2. ``finish``: ``dy = y_Y + Z p_Z`` and the multipliers ``lam = -R^-1 Y^T (g + H dy + delta dy)``.
 
 ``H v`` is the windows' scatter of ``H_k v_k`` plus ``scale (W v + R^T diag(g) R v)`` (``Q``'s part
@@ -119,7 +121,7 @@ static void reduced_quadratic(const layout* s, double* M) {
   if (d) {
     double T[d * r];
     for (int bi = 0; bi < nb; ++bi)
-      for (int bj = 0; bj < nb; ++bj) {
+      for (int bj = 0; bj <= bi; ++bj) {
         const double* Zj = s->Z + (i64)bj * nq * r;
         const double* Zi = s->Z + (i64)bi * nq * r;
         for (int m = 0; m < d; ++m)  /* T = W_ij Zs_j */
@@ -150,7 +152,7 @@ static void reduced_quadratic(const layout* s, double* M) {
       for (int i = 0; i < nr; ++i) {
         if (rz[i] == 0.0) continue;
         double t = gl * rz[i];
-        for (int j = 0; j < nr; ++j) M[(i64)i * nr + j] += t * rz[j];
+        for (int j = 0; j <= i; ++j) M[(i64)i * nr + j] += t * rz[j];
       }
     }
   }
@@ -225,7 +227,7 @@ int forte_step_prepare(const layout* s, const double* c, double* M, double* rhs,
       i64 ba = s->wb[k * 3 + sa];
       if (ba >= s->blocks) continue;
       const double* Za = s->Z + ba * nq * r;
-      for (int sb = 0; sb < 3; ++sb) {
+      for (int sb = 0; sb <= sa; ++sb) {  /* the lower triangle: later slots have later blocks */
         i64 bb = s->wb[k * 3 + sb];
         if (bb >= s->blocks) continue;
         const double* Zb = s->Z + bb * nq * r;
@@ -235,11 +237,13 @@ int forte_step_prepare(const layout* s, const double* c, double* M, double* rhs,
             for (int m = 0; m < nq; ++m) acc += H[(sa * nq + i) * w + sb * nq + m] * Zb[m * r + j];
             T[i * r + j] = acc;
           }
+        int mirrored = sb < sa && ba == bb;  /* two slots of one block: the (sb, sa) pair lands here too */
         for (int a = 0; a < r; ++a)
           for (int j = 0; j < r; ++j) {
             double acc = 0.0;
             for (int i = 0; i < nq; ++i) acc += Za[i * r + a] * T[i * r + j];
             M[(ba * r + a) * nr + bb * r + j] += acc;
+            if (mirrored) M[(bb * r + j) * nr + ba * r + a] += acc;
           }
       }
     }
@@ -350,8 +354,9 @@ class NativeStep:
     def prepare(self, stage_hessians: FloatArray, pose_hessians: FloatArray, J: FloatArray, c: FloatArray,
                 g: FloatArray, bdiag: FloatArray, kin_sigma: FloatArray, kin_coef: FloatArray, kin_flat: FloatArray,
                 scale: float) -> tuple[FloatArray, FloatArray]:
-        """``(M, rhs)``: the reduced matrix (before the padded columns' ones) and right-hand side;
-        :attr:`Z`, :attr:`Y`, :attr:`R` and the window Hessians :attr:`Hw` as computed on the way."""
+        """``(M, rhs)``: the reduced matrix (its lower triangle, before the padded columns' ones) and
+        the right-hand side; :attr:`Z`, :attr:`Y`, :attr:`R` and the window Hessians :attr:`Hw` as
+        computed on the way."""
         arrays = {"Hs": np.ascontiguousarray(stage_hessians, dtype=float),
                   "PH": np.ascontiguousarray(pose_hessians, dtype=float), "J": np.ascontiguousarray(J, dtype=float),
                   "g": np.ascontiguousarray(g, dtype=float), "bdiag": np.ascontiguousarray(bdiag, dtype=float),

@@ -46,6 +46,8 @@ class TaskData(NamedTuple):
     b: FloatArray  # A y + b: the rows' values
     lower: FloatArray
     upper: FloatArray
+    lo: FloatArray  # which lower bounds are finite
+    up: FloatArray  # which upper bounds are finite
 
 
 def supported(opt: TrajectoryOptimizer) -> str | None:
@@ -85,6 +87,13 @@ class StageProblem:
         self._kinematic_matrix()
         self.window_block = self.block_of[self._widx[:, :: self.nq] // self.nq]  # n x 3, -1: fixed
         self.Dw, self.Wy = self._windowed(self.D)
+        Q = self.D + (self.R.T @ sparse.diags(self.g) @ self.R if self.g.size else 0)
+        self.Ty_Q = sparse.csr_matrix(self.T.T @ Q)  # T^T Q: the quadratic terms' gradient in y
+        w = self._widx.size  # window entry -> its y variable (fixed ones dropped)
+        target = self.ymap[self._widx.ravel()]
+        keep = np.flatnonzero(target >= 0)
+        self._window_to_y = sparse.csr_matrix((np.ones(keep.size), (target[keep], keep)), shape=(self.ny, w))
+        self._last_x: tuple | None = None
 
     def _windowed(self, D: sparse.csr_matrix) -> tuple[FloatArray, sparse.csr_matrix]:
         """``D`` split into what couples waypoints at most two apart (the smoothness and velocity
@@ -167,10 +176,11 @@ class StageProblem:
         if key != getattr(self, "_rows_key", None):  # the rows change with the time grid only
             self.A, self._G, self._bounds = self._rows(dt, lbx[:n * nq], ubx[:n * nq])
             self.At = sparse.csr_matrix(self.A.T)
+            self._finite = (np.isfinite(self._bounds[0]), np.isfinite(self._bounds[1]))
             self._rows_key = key
         lower, upper = self._bounds
         b = np.concatenate([np.zeros(self.bound_vars.size), self._G @ x_fix])
-        return TaskData(args, targets[:, :3, 3].copy(), R_d, x_fix, b, lower, upper)
+        return TaskData(args, targets[:, :3, 3].copy(), R_d, x_fix, b, lower, upper, *self._finite)
 
     def _rows(self, dt: FloatArray, lbx: FloatArray, ubx: FloatArray
               ) -> tuple[sparse.csr_matrix, sparse.csr_matrix, tuple[FloatArray, FloatArray]]:
@@ -230,8 +240,14 @@ class StageProblem:
 
     # -- evaluations ----------------------------------------------------------------------
     def x_of(self, y: FloatArray, data: TaskData) -> FloatArray:
-        """``T y + x_fix`` (``T`` a selection: a gather)."""
-        return np.append(y, 0.0)[self._gather] + data.x_fix
+        """``T y + x_fix`` (``T`` a selection: a gather); the last one is kept (the solver asks for
+        the same point's several times: cost, gradient, pose rows). Treat the result as read-only."""
+        last = self._last_x
+        if last is not None and last[0] is y and last[1] is data:
+            return last[2]
+        x = np.append(y, 0.0)[self._gather] + data.x_fix
+        self._last_x = (y, data, x)  # holding y keeps its identity from being reused
+        return x
 
     def objective(self, y: FloatArray, data: TaskData) -> float:
         x = self.x_of(y, data)
@@ -239,10 +255,10 @@ class StageProblem:
         return float(stage.sum() + 0.5 * x @ (self.D @ x) + 0.5 * self.g @ (self.R @ x) ** 2)
 
     def gradient(self, y: FloatArray, data: TaskData) -> FloatArray:
+        """``T^T (sum_k scatter(grad c_k) + Q x)``: the window gradients by one sparse map to ``y``."""
         x = self.x_of(y, data)
         g = self.kernels.grad(self.n, self._win(x), *data.stage_args)[0]
-        gx = np.bincount(self._widx.ravel(), weights=g.ravel(), minlength=x.size) + self.quadratic_gradient(x)
-        return np.bincount(self.ymap[self._free_x_idx], gx[self._free_x_idx], minlength=self.ny)  # T^T gx
+        return self._window_to_y @ g.ravel() + self.Ty_Q @ x
 
     def quadratic_gradient(self, x: FloatArray) -> FloatArray:
         """``Q x = D x + R^T (g * R x)``."""

@@ -42,7 +42,7 @@ class StagewiseSolver:
         it = self.ip.warm(warm, data)
         it.mu = self.ip.mu_min
         if warm.zl is None:  # a shifted iterate: bound multipliers on the central path
-            lo, up = np.isfinite(data.lower), np.isfinite(data.upper)
+            lo, up = data.lo, data.up
             it.zl = np.where(lo, it.mu / np.where(lo, it.s - data.lower, 1.0), 0.0)
             it.zu = np.where(up, it.mu / np.where(up, data.upper - it.s, 1.0), 0.0)
         return it
@@ -59,7 +59,7 @@ class StagewiseSolver:
 
     def result(self, res: IPResult, data: TaskData, solve_time: float) -> SolverResult:
         pb = self.problem
-        q = pb.x_of(res.iterate.y, data).reshape(pb.n, pb.nq)
+        q = pb.x_of(res.iterate.y, data).reshape(pb.n, pb.nq).copy()
         ok = res.converged and np.isfinite(q).all()
         return SolverResult(q=q, success=ok, status=res.status, iterations=res.iterations, objective=res.objective,
                    constraint_violation=res.violation, build_time=self.opt.build_time, solve_time=solve_time,
