@@ -161,15 +161,19 @@ class InteriorPoint:
 
     def error(self, ev: Evaluation, it: Iterate, data: TaskData, mu: float) -> tuple[float, float]:
         """IPOPT's scaled optimality error at barrier ``mu``, and the constraint violation."""
-        rd = self._dual_residual(ev, it)
         lo, up = data.lo, data.up
-        comp = np.concatenate([((it.s - data.lower) * it.zl - mu)[lo], ((data.upper - it.s) * it.zu - mu)[up]])
-        m = it.lam.size + it.s.size
-        s_d = max(S_MAX, (np.abs(it.lam).sum() + np.abs(it.zl[lo]).sum() + np.abs(it.zu[up]).sum())
-                  / max(m + it.y.size, 1)) / S_MAX
-        s_c = max(S_MAX, (np.abs(it.zl[lo]).sum() + np.abs(it.zu[up]).sum()) / max(it.s.size, 1)) / S_MAX
-        viol = self.violation(ev.c, it.y, data)
-        err = max(np.abs(rd).max(initial=0) / s_d, viol, np.abs(comp).max(initial=0) / s_c)
+        key = (it.y, it.lam, it.zl, it.zu, it.s)  # the terms without mu, once per iterate
+        cached = ev.extras.get("error")
+        if cached is None or any(a is not b for a, b in zip(cached[0], key, strict=True)):
+            rd = self._dual_residual(ev, it)
+            z = np.abs(it.zl[lo]).sum() + np.abs(it.zu[up]).sum()
+            s_d = max(S_MAX, (np.abs(it.lam).sum() + z) / max(it.lam.size + it.s.size + it.y.size, 1)) / S_MAX
+            s_c = max(S_MAX, z / max(it.s.size, 1)) / S_MAX
+            dual = np.abs(rd).max(initial=0) / s_d
+            products = np.concatenate([((it.s - data.lower) * it.zl)[lo], ((data.upper - it.s) * it.zu)[up]])
+            cached = ev.extras["error"] = (key, dual, s_c, products, self.violation(ev.c, it.y, data))
+        _, dual, s_c, products, viol = cached
+        err = max(dual, viol, np.abs(products - mu).max(initial=0) / s_c)
         return float(err), viol
 
     def violation(self, c: FloatArray, y: FloatArray, data: TaskData) -> float:

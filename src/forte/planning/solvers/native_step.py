@@ -24,6 +24,7 @@ compiler the NumPy step runs (same numbers; the tests compare the two).
 from __future__ import annotations
 
 import ctypes
+import time
 from pathlib import Path
 from typing import Any
 
@@ -344,6 +345,7 @@ class NativeStep:
             setattr(self.layout, name, _ptr(arr))
         self._work, self._ypy = np.empty(pb.ny), np.empty(pb.ny)
         self._keep: tuple = ()
+        self.clock = [0.0]  # seconds in the compiled calls, summed (the benchmark's time split)
 
     @classmethod
     def load(cls, folder: Path | None, pb: Any, r: int, wb: FloatArray, wy: FloatArray) -> NativeStep | None:
@@ -370,7 +372,11 @@ class NativeStep:
         c = np.ascontiguousarray(c, dtype=float)
         nr = self.pb.blocks * self.r
         M, rhs = np.empty((nr, nr)), np.empty(nr)
-        if self._prepare(ctypes.byref(self.layout), _ptr(c), _ptr(M), _ptr(rhs), _ptr(self._ypy), _ptr(self._work)):
+        begin = time.perf_counter()
+        failed = self._prepare(ctypes.byref(self.layout), _ptr(c), _ptr(M), _ptr(rhs), _ptr(self._ypy),
+                               _ptr(self._work))
+        self.clock[0] += time.perf_counter() - begin
+        if failed:
             raise np.linalg.LinAlgError("singular pose Jacobian")
         return M, rhs
 
@@ -378,7 +384,10 @@ class NativeStep:
         """``(dy, lam_new)`` from the reduced step ``pZ`` (after :meth:`prepare`)."""
         pZ = np.ascontiguousarray(pZ, dtype=float)
         dy, lam = np.empty(self.pb.ny), np.empty((self.pb.posed.size, 6))
-        if self._finish(ctypes.byref(self.layout), _ptr(pZ), ctypes.c_double(delta), _ptr(self._ypy), _ptr(dy),
-                        _ptr(lam), _ptr(self._work)):
+        begin = time.perf_counter()
+        failed = self._finish(ctypes.byref(self.layout), _ptr(pZ), ctypes.c_double(delta), _ptr(self._ypy),
+                              _ptr(dy), _ptr(lam), _ptr(self._work))
+        self.clock[0] += time.perf_counter() - begin
+        if failed:
             raise np.linalg.LinAlgError("singular pose Jacobian")
         return dy, lam
