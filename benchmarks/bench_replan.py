@@ -273,6 +273,33 @@ def time_split(task: Task, replans: int, seed: int) -> None:
           f"{100 * (total - inside) / total:.0f} %")
 
 
+def step_cost(task: Task, mass: float = 3.3, repeats: int = 300) -> None:
+    """One Newton step of the stagewise solver (everything but the kernels' evaluation) after a
+    mass change, compiled (:mod:`forte.planning.solvers.native_step`) and in NumPy."""
+    from forte.planning.solvers.interior_point import InteriorPoint
+
+    planner = Replanner(task, backend="stagewise")
+    solver = planner.optimizer.stagewise()
+    pb, it = solver.problem, planner.last.iterate
+    force = task.with_payload(task.payload.with_mass(mass)).force()
+    data = pb.task_data(task.t, task.targets, force.f, force.r, task.q_init, planner.nominal)
+    ev = solver.ip.evaluate(it, data)
+    ev.extras["hess"] = it.scale * pb.stage_hessians(it.y, data)
+    line = []
+    for label, ip in (("compiled", solver.ip), ("NumPy", InteriorPoint(pb, use_native=False))):
+        if label == "compiled" and ip.native is None:
+            continue
+        times = []
+        for _ in range(repeats):
+            ip.system.reset()  # the same inertia correction each time
+            begin = time.perf_counter()
+            delta = ip.step(it, ev, data, it.mu)[2]
+            times.append(time.perf_counter() - begin)
+        line.append(f"{label} {1000 * np.median(times):.2f} ms")
+    print(f"one Newton step after a change to {mass} kg (factorizations with inertia correction delta = {delta:g} "
+          f"included, kernels not), median of {repeats}: " + ", ".join(line))
+
+
 def ratio(name: str, fast: Series | Ticks, reference: Series) -> None:
     print(f"{name}: median {np.median(reference.wall) / np.median(fast.wall):.1f}x faster than IPOPT's converged "
           f"re-plan ({1000 * np.median(fast.wall):.1f} ms against {1000 * np.median(reference.wall):.1f} ms)")
@@ -333,6 +360,7 @@ def main() -> None:
         ratio(f"{label}, converged (stagewise)", shift_fast, shift_ipopt)
         ratio(f"{label}, one real-time iteration", shift_rti, shift_ipopt)
     time_split(task, args.replans, args.seed)
+    step_cost(task)
     if args.cold:
         cold_plans(task)
     print(load())

@@ -37,12 +37,11 @@ from __future__ import annotations
 
 import time
 from collections import Counter
-from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import numpy as np
 from scipy import sparse
 
+from forte.planning.solvers.iterate import Evaluation, IPResult, Iterate, StepInfo
 from forte.planning.solvers.line_search import FilterLineSearch, Trial
 from forte.planning.solvers.native_step import NativeStep
 from forte.planning.solvers.reduced_system import DENSE_VARIABLES, ReducedSystem
@@ -53,45 +52,6 @@ S_MAX = 100.0  # IPOPT's s_max of the scaled optimality error
 MAX_GRADIENT = 100.0  # IPOPT's nlp_scaling_max_gradient: the objective is scaled so that its gradient stays below
 KAPPA_EPS = 10.0
 KAPPA_SIGMA = 1e10
-
-
-@dataclass
-class Iterate:
-    """A primal-dual point."""
-
-    y: FloatArray
-    lam: FloatArray  # P x 6
-    s: FloatArray
-    zl: FloatArray
-    zu: FloatArray
-    mu: float
-    scale: float = 1.0  # objective scaling (IPOPT's gradient-based: max |grad f| at the start <= 100)
-
-    def copy(self) -> Iterate:
-        def cp(a: FloatArray | None) -> FloatArray | None:
-            return None if a is None else a.copy()
-        return Iterate(self.y.copy(), self.lam.copy(), self.s.copy(), cp(self.zl), cp(self.zu), self.mu, self.scale)
-
-
-class StepInfo(NamedTuple):
-    """What one iteration measured at its starting point and did."""
-
-    error: float  # scaled KKT error at mu = 0 before the step
-    violation: float  # constraint violation before the step
-    alpha: float
-    delta: float  # inertia correction
-
-
-@dataclass
-class Evaluation:
-    """Derivatives at one iterate."""
-
-    f: float
-    grad: FloatArray
-    c: FloatArray
-    J: FloatArray
-    rA: FloatArray
-    extras: dict = field(default_factory=dict)
 
 
 class InteriorPoint:
@@ -418,15 +378,3 @@ class InteriorPoint:
         ev = self.evaluate(it, data)
         new, _, _ = self.iteration(it, ev, data, line_search=False)
         return new, ev
-
-
-class IPResult(NamedTuple):
-    """The end of a solve."""
-
-    iterate: Iterate
-    converged: bool
-    iterations: int
-    status: str  # IPOPT's names: Solve_Succeeded, Maximum_Iterations_Exceeded, ...
-    objective: float
-    violation: float
-    history: list[StepInfo]
