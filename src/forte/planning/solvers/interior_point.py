@@ -131,14 +131,15 @@ class InteriorPoint:
             s_c = max(S_MAX, z / max(it.s.size, 1)) / S_MAX
             dual = np.abs(rd).max(initial=0) / s_d
             products = np.concatenate([((it.s - data.lower) * it.zl)[lo], ((data.upper - it.s) * it.zu)[up]])
-            cached = ev.extras["error"] = (key, dual, s_c, products, self.violation(ev.c, it.y, data))
+            cached = ev.extras["error"] = (key, dual, s_c, products, self.violation(ev.c, it.y, data, ev.rA + it.s))
         _, dual, s_c, products, viol = cached
         err = max(dual, viol, np.abs(products - mu).max(initial=0) / s_c)
         return float(err), viol
 
-    def violation(self, c: FloatArray, y: FloatArray, data: TaskData) -> float:
-        """Largest violation of the pose rows ``c`` and of the rows' bounds at ``y`` (as IPOPT reports)."""
-        v = self.pb.A @ y + data.b
+    def violation(self, c: FloatArray, y: FloatArray, data: TaskData, rows: FloatArray | None = None) -> float:
+        """Largest violation of the pose rows ``c`` and of the rows' bounds at ``y`` (as IPOPT
+        reports; ``rows``: ``A y + b`` when known)."""
+        v = self.pb.A @ y + data.b if rows is None else rows
         rows = np.maximum(np.maximum(data.lower - v, v - data.upper), 0)
         return float(max(np.abs(c).max(initial=0), rows.max(initial=0)))
 
@@ -258,12 +259,12 @@ class InteriorPoint:
                               parts: tuple, tau: float) -> tuple[float, float]:
         _, _, _, sl, su, lo, up, _, _ = parts
 
-        def largest(v: FloatArray, dv: FloatArray) -> float:
-            neg = dv < 0
-            return float(min(1.0, np.min(-tau * v[neg] / dv[neg]))) if neg.any() else 1.0
+        def largest(v: FloatArray, dv: FloatArray, finite: FloatArray) -> float:
+            neg = np.flatnonzero(finite & (dv < 0))
+            return float(min(1.0, np.min(-tau * v[neg] / dv[neg]))) if neg.size else 1.0
 
-        a_p = min(largest(sl[lo], ds[lo]), largest(su[up], -ds[up]))
-        a_d = min(largest(it.zl[lo], dzl[lo]), largest(it.zu[up], dzu[up]))
+        a_p = min(largest(sl, ds, lo), largest(su, -ds, up))
+        a_d = min(largest(it.zl, dzl, lo), largest(it.zu, dzu, up))
         return a_p, a_d
 
     def _directions(self, it: Iterate, ev: Evaluation, dy: FloatArray, parts: tuple, mu: float

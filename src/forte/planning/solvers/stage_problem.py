@@ -92,7 +92,8 @@ class StageProblem:
         w = self._widx.size  # window entry -> its y variable (fixed ones dropped)
         target = self.ymap[self._widx.ravel()]
         keep = np.flatnonzero(target >= 0)
-        self._window_to_y = sparse.csr_matrix((np.ones(keep.size), (target[keep], keep)), shape=(self.ny, w))
+        to_y = sparse.csr_matrix((np.ones(keep.size), (target[keep], keep)), shape=(self.ny, w))
+        self._gradient_map = sparse.hstack([to_y, self.Ty_Q], format="csr")  # [window gradients; x] -> y
         self._last_x: tuple | None = None
 
     def _windowed(self, D: sparse.csr_matrix) -> tuple[FloatArray, sparse.csr_matrix]:
@@ -255,10 +256,10 @@ class StageProblem:
         return float(stage.sum() + 0.5 * x @ (self.D @ x) + 0.5 * self.g @ (self.R @ x) ** 2)
 
     def gradient(self, y: FloatArray, data: TaskData) -> FloatArray:
-        """``T^T (sum_k scatter(grad c_k) + Q x)``: the window gradients by one sparse map to ``y``."""
+        """``T^T (sum_k scatter(grad c_k) + Q x)``: one sparse product of ``[window gradients; x]``."""
         x = self.x_of(y, data)
         g = self.kernels.grad(self.n, self._win(x), *data.stage_args)[0]
-        return self._window_to_y @ g.ravel() + self.Ty_Q @ x
+        return self._gradient_map @ np.concatenate([g.ravel(), x])
 
     def quadratic_gradient(self, x: FloatArray) -> FloatArray:
         """``Q x = D x + R^T (g * R x)``."""
