@@ -21,7 +21,8 @@ of simulated time (100 Hz: every 10th 1 ms control step) and at each tick
    (:meth:`~forte.planning.replan.Replanner.replan`); otherwise nothing. Every solve goes through
    :meth:`MpcLoop._solve_tick`;
 3. publishes a solve that converged within its deadline (``deadline_s``, default
-   ``1 / rate_hz``; measured: the wall-clock latency of the re-plan call, its verdict excluded)
+   ``1 / rate_hz``; measured: the wall-clock latency of the re-plan call, its metrics and verdict
+   excluded)
    by splicing it into the controller's reference from the horizon's first waypoint on. A
    solve that does not converge is never published (the plan in force stays; counted as
    *failed*; no solve is tried again before the next waypoint unless the mass departs from the

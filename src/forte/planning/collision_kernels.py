@@ -35,6 +35,7 @@ import numpy as np
 from forte import __version__, progress
 from forte.model.description import N_BASE
 from forte.model.twin import CasadiTwin, rot_z
+from forte.planning.compile_target import signature
 from forte.settings import SolverOptions
 
 EPS = 1e-9
@@ -174,7 +175,8 @@ def load_collision_kernels(robot: Any, frame: int, slots: int, options: SolverOp
     compiler = shutil.which("gcc") or shutil.which("cc")
     if options.codegen and compiler:
         key = hashlib.sha256(repr((__version__, robot.fingerprint, frame, slots, other, ca.__version__,
-                                   Path(__file__).read_bytes(), stage._source_digest())).encode()).hexdigest()[:20]
+                                   Path(__file__).read_bytes(), stage._source_digest(),
+                                   signature(compiler))).encode()).hexdigest()[:20]
         tag = f"f{frame}" if other is None else f"f{frame}-{other}"
         lib = stage.cache_root(options) / f"clearance_{tag}_{slots}_{key}.so"
         fns = stage._load_verified(lib, names=KERNEL_NAMES)

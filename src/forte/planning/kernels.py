@@ -37,6 +37,7 @@ from forte import __version__, progress
 from forte.exceptions import SolverError
 from forte.model.robot import MobileManipulator
 from forte.model.twin import CasadiTwin
+from forte.planning.compile_target import signature, target_flags
 from forte.planning.costs import CostTerm, Stage
 from forte.planning.methods import Method, get_method
 from forte.settings import SolverOptions
@@ -118,7 +119,8 @@ def kernel_key(robot: MobileManipulator, method: str | Method,
     as its declaration makes them from ``settings``), the terms' source."""
     method = get_method(method)
     baked = tuple((t.name, t.baked(), _class_digest(type(t))) for t in stage_terms(method, settings))
-    text = repr((__version__, robot.fingerprint, method.name, baked, ca.__version__, _source_digest()))
+    text = repr((__version__, robot.fingerprint, method.name, baked, ca.__version__, _source_digest(),
+                 signature(shutil.which("gcc") or shutil.which("cc"))))
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
@@ -270,7 +272,8 @@ def _generate(name: str, fn: ca.Function, folder: Path) -> Path:
 def _compile_objects(sources: list[Path], compiler: str) -> list[Path]:
     """Object files of ``sources``, compiled by concurrent compiler processes (one per core),
     the largest first so that it does not finish last."""
-    jobs = [[compiler, _optimization(src), "-fPIC", "-c", str(src), "-o", str(src.with_suffix(".o"))]
+    jobs = [[compiler, _optimization(src), *target_flags(compiler), "-fPIC", "-c", str(src), "-o",
+             str(src.with_suffix(".o"))]
             for src in sorted(sources, key=lambda p: p.stat().st_size, reverse=True)]
     with ThreadPoolExecutor(max_workers=max(1, min(len(jobs), cpu_count()))) as pool:
         list(pool.map(_run_compiler, jobs))  # re-raises the first failure

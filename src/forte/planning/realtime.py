@@ -108,7 +108,10 @@ class RealTimeIteration:
         converged = error <= ip.tol and start_violation <= ip.constraint_tol
         reason = ""
         if not converged:
-            ip.reset()  # each tick's problem is new: no filter entries from another one
+            # each tick's problem is new: no filter entries from another one; the inertia correction
+            # goes on from the last tick's (IPOPT's rule within a solve; the ticks are one solve that
+            # follows a moving problem), which spares the sequence from 1e-4 up at every tick
+            ip.line_search.reset()
             try:
                 it, _, _ = ip.iteration(it, ev, data, line_search=True)
             except (np.linalg.LinAlgError, FloatingPointError):
