@@ -2,8 +2,8 @@
 
 The kernels (:mod:`forte.planning.kernels`, :mod:`forte.planning.collision_kernels`) are built
 with ``-march=native`` where the compiler accepts it: fused multiply-adds and the processor's
-vector instructions. On this project's machine that makes the lift's 41 stage Hessians 0.70 ms
-instead of 0.84 ms and a converged stagewise re-plan 2 ms faster (``benchmarks/bench_replan.py``).
+vector instructions (``benchmarks/bench_replan.py`` with and without ``FORTE_PORTABLE_KERNELS=1``
+measures what it gives; README, Performance).
 Fused multiply-adds round once where a multiply and an add round twice, so results differ from a
 portable build in the last bits (about 1e-16 relative per operation).
 
