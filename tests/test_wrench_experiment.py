@@ -26,6 +26,16 @@ def test_wrench_experiment_at_one_offset(tmp_path):
     assert doc["agreement"]["all"]["plans"] == 3
     text = (out / "README.md").read_text()
     assert "| 0.2 | forte (force only) |" in text and "![offset payloads](wrench.png)" in text
+    # the hold, whose posture is free: the wrench plan keeps d >= 0 and holds in MuJoCo, the
+    # force-only plan loads a wrist joint past its limit and saturates there in MuJoCo too
+    hold = {r["method"]: r for r in doc["hold"]["rows"]}
+    wrench, force_only = hold["forte"], hold[FORCE_ONLY]
+    assert wrench["verdict"] == "feasible" and wrench["min_d_n"] >= 0 and wrench["max_torque_ratio"] < 1
+    assert all(sim["success"] for sim in wrench["sims"])
+    assert force_only["max_torque_ratio"] > 1 and force_only["worst_joint"] in (5, 6, 7)
+    assert "torque" in force_only["failed"] or "capacity" in force_only["failed"]
+    assert not force_only["sims"][0]["success"] and force_only["sims"][0]["reason"] == "torque saturation"
+    assert "## Holding 4 kg 0.2 m to the side of the hand" in text
 
 
 def test_offsets_only_for_the_wrench_experiment(tmp_path, capsys):
