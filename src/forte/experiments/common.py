@@ -302,6 +302,12 @@ def write_summary(directory: Path, title: str, intro: list[str], cases: list[Cas
     return doc
 
 
+def write_doc(directory: Path, doc: dict[str, Any], lines: list[str], page: str = "README.md") -> None:
+    """An experiment's ``summary.json`` (``doc``) and its page of text (``lines``)."""
+    (directory / "summary.json").write_text(json.dumps(jsonable(doc), indent=1) + "\n")
+    (directory / page).write_text("\n".join(lines))
+
+
 # -- plotting helpers ------------------------------------------------------------------------
 def check_format(fmt: str) -> str:
     if fmt not in FORMATS:

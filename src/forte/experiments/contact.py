@@ -22,13 +22,13 @@ from typing import Any
 import numpy as np
 
 from forte.execution.run import simulate_plan
-from forte.experiments.common import Log, check_format, quiet, save, style, task_path
+from forte.experiments.common import Log, check_format, quiet, save, style, task_path, write_doc
 from forte.experiments.wrench import unscaled_verdict
 from forte.force.contact import Carry, Contact, Drawer, PushBox, contact_to_dict
 from forte.io.figures import pyplot
 from forte.io.outputs import GENERATOR, replace_directory
 from forte.io.plandir import FORMAT_VERSION, write_plan
-from forte.io.reports import jsonable, package_versions
+from forte.io.reports import package_versions
 from forte.planning.planner import plan
 from forte.planning.tasks import load_task
 
@@ -153,17 +153,15 @@ def run_contact(out: str | Path, waypoints: int | None = None, log: Log = quiet,
     def build(tmp: Path) -> None:
         with tempfile.TemporaryDirectory() as plans:
             results = [r for name in tasks for r in run_task(Path(plans), name, tuple(rows), waypoints, log)]
-        radius = load_task(task_path(tasks[0])).radius
+        first = load_task(task_path(tasks[0]))
         doc = {"generator": GENERATOR, "format_version": FORMAT_VERSION, "experiment": "contact",
-               "tasks": list(tasks), "radius_n": radius, "rows": results,
-               "alpha": load_task(task_path(tasks[0])).settings.alpha,
+               "tasks": list(tasks), "radius_n": first.radius, "rows": results, "alpha": first.settings.alpha,
                "agreement": {"agree": sum(r["agrees"] for r in results), "plans": len(results)},
                "agreement_unscaled": {"agree": sum(r["agrees_unscaled"] for r in results), "plans": len(results)},
                "versions": package_versions()}
         figure = _figure(results, tmp, fmt)
         doc["figures"] = [figure]
-        (tmp / "summary.json").write_text(json.dumps(jsonable(doc), indent=1) + "\n")
-        (tmp / "README.md").write_text("\n".join(summary_lines(doc, figure)))
+        write_doc(tmp, doc, summary_lines(doc, figure))
 
     replace_directory(build, out)
     return json.loads((out / "summary.json").read_text())

@@ -25,11 +25,11 @@ import numpy as np
 
 from forte.execution.closed_loop import ReplanOptions
 from forte.execution.run import simulate_plan
-from forte.experiments.common import Log, check_format, quiet, save, task_path
+from forte.experiments.common import Log, check_format, quiet, save, task_path, write_doc
 from forte.io.figures import pyplot
 from forte.io.outputs import GENERATOR, replace_directory
 from forte.io.plandir import FORMAT_VERSION, write_plan
-from forte.io.reports import jsonable, package_versions
+from forte.io.reports import package_versions
 from forte.planning.planner import plan
 from forte.planning.tasks import load_task
 
@@ -133,8 +133,7 @@ def run_replan(out: str | Path, waypoints: int | None = 41, log: Log = quiet, fm
         doc = {"generator": GENERATOR, "format_version": FORMAT_VERSION, "experiment": "replan",
                "planned_mass": PLANNED_MASS, "waypoints": task.n, "runs": runs, "figures": [figure],
                "versions": package_versions()}
-        (tmp / "summary.json").write_text(json.dumps(jsonable(doc), indent=1) + "\n")
-        (tmp / "summary.md").write_text("\n".join(_summary_lines(runs, task.n)).replace("replan.png", figure))
+        write_doc(tmp, doc, [line.replace("replan.png", figure) for line in _summary_lines(runs, task.n)], "summary.md")
 
     replace_directory(build, out)
     return json.loads((out / "summary.json").read_text())

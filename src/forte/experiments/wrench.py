@@ -38,11 +38,11 @@ import numpy as np
 
 from forte.capability.polytope import trajectory_rfp
 from forte.execution.run import simulate_plan
-from forte.experiments.common import Log, check_format, quiet, save, style, task_path
+from forte.experiments.common import Log, check_format, quiet, save, style, task_path, write_doc
 from forte.io.figures import pyplot
 from forte.io.outputs import GENERATOR, replace_directory
 from forte.io.plandir import FORMAT_VERSION, write_plan
-from forte.io.reports import jsonable, package_versions
+from forte.io.reports import package_versions
 from forte.model.description import N_BASE
 from forte.planning.evaluation import evaluate
 from forte.planning.planner import Plan, plan
@@ -306,8 +306,7 @@ def run_wrench(out: str | Path, waypoints: int | None = None, log: Log = quiet, 
                "versions": package_versions()}
         figure = _figure(results, tmp, fmt)
         doc["figures"] = [figure]
-        (tmp / "summary.json").write_text(json.dumps(jsonable(doc), indent=1) + "\n")
-        (tmp / "README.md").write_text("\n".join(summary_lines(doc, figure)))
+        write_doc(tmp, doc, summary_lines(doc, figure))
 
     replace_directory(build, out)
     return json.loads((out / "summary.json").read_text())
