@@ -237,17 +237,13 @@ class InteriorPoint:
         """``Z^T (W + R^T diag(g) R) Z``: the constant quadratic terms the window Hessians do not
         carry (dense form): ``W`` on the few dofs it couples (J5's dense blocks), ``R Z`` per block."""
         pb, r, blocks = self.pb, self.r, self.pb.blocks
-        if not hasattr(self, "_w4"):
-            wc = sparse.coo_matrix(pb.Wy)
-            self._wdofs = np.unique(np.concatenate([wc.row, wc.col]) % pb.nq)  # the dofs W couples
-            sel = (np.arange(blocks)[:, None] * pb.nq + self._wdofs[None, :]).ravel()
-            d = self._wdofs.size
-            self._w4 = pb.Wy[sel][:, sel].toarray().reshape(blocks, d, blocks * d)
+        if not hasattr(self, "_r3"):
             self._r3 = pb.Ry.toarray().reshape(-1, blocks, pb.nq).transpose(1, 0, 2)  # blocks x L x nq
         out = np.zeros((self.nr, self.nr))
-        if self._wdofs.size:
-            Zs = Z[:, self._wdofs, :]  # blocks x d x r
-            t1 = np.matmul(Zs.transpose(0, 2, 1), self._w4).reshape(blocks * r, blocks, -1)  # (i a), j, m
+        if pb.wide_dofs.size:
+            Zs = Z[:, pb.wide_dofs, :]  # blocks x d x r
+            w4 = pb.W_dofs.reshape(blocks, pb.wide_dofs.size, -1)
+            t1 = np.matmul(Zs.transpose(0, 2, 1), w4).reshape(blocks * r, blocks, -1)  # (i a), j, m
             out += np.matmul(t1.transpose(1, 0, 2), Zs).transpose(1, 0, 2).reshape(self.nr, self.nr)
         if pb.g.size:
             rz = np.matmul(self._r3, Z).transpose(1, 0, 2).reshape(pb.g.size, self.nr)  # R Z, L x nr

@@ -325,10 +325,7 @@ class NativeStep:
             fn.restype = ctypes.c_int
         self.pb, self.r = pb, r
         n, nq, blocks, P = pb.n, pb.nq, pb.blocks, pb.posed.size
-        wide = pb.Wy.tocsr()
-        wc = wide.tocoo()
-        wdofs = np.unique(np.concatenate([wc.row, wc.col]) % nq).astype(np.int64)  # the dofs W couples
-        sel = (np.arange(blocks)[:, None] * nq + wdofs[None, :]).ravel()
+        wide, wdofs = pb.Wy.tocsr(), pb.wide_dofs.astype(np.int64)
         self.Hw, self.Z = np.empty((n, 3 * nq, 3 * nq)), np.empty((blocks, nq, r))
         self.Y, self.R = np.empty((P, nq, 6)), np.empty((P, 6, 6))
         self._const = {"wb": np.ascontiguousarray(wb, dtype=np.int64), "wy": np.ascontiguousarray(wy, dtype=np.int64),
@@ -336,7 +333,7 @@ class NativeStep:
                        "posed_x": np.ascontiguousarray(pb.posed, dtype=np.int64),
                        "Wp": wide.indptr.astype(np.int64), "Wi": wide.indices.astype(np.int64),
                        "Wx": np.ascontiguousarray(wide.data, dtype=float),
-                       "W": np.ascontiguousarray(wide[sel][:, sel].toarray(), dtype=float), "wdofs": wdofs,
+                       "W": np.ascontiguousarray(pb.W_dofs, dtype=float), "wdofs": wdofs,
                        "Ry": np.ascontiguousarray(pb.Ry.toarray(), dtype=float),
                        "gr": np.ascontiguousarray(pb.g, dtype=float), "Dw": np.ascontiguousarray(pb.Dw, dtype=float),
                        "Hw": self.Hw, "Z": self.Z, "Y": self.Y, "R": self.R}

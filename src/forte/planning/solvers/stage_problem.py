@@ -87,6 +87,10 @@ class StageProblem:
         self._kinematic_matrix()
         self.window_block = self.block_of[self._widx[:, :: self.nq] // self.nq]  # n x 3, -1: fixed
         self.Dw, self.Wy = self._windowed(self.D)
+        wc = self.Wy.tocoo()
+        self.wide_dofs = np.unique(np.concatenate([wc.row, wc.col]) % self.nq)  # the dofs W couples (J5's)
+        sel = (np.arange(self.blocks)[:, None] * self.nq + self.wide_dofs[None, :]).ravel()
+        self.W_dofs = self.Wy[sel][:, sel].toarray()  # W on those dofs of every block (blocks d x blocks d)
         Q = self.D + (self.R.T @ sparse.diags(self.g) @ self.R if self.g.size else 0)
         self.Ty_Q = sparse.csr_matrix(self.T.T @ Q)  # T^T Q: the quadratic terms' gradient in y
         w = self._widx.size  # window entry -> its y variable (fixed ones dropped)
