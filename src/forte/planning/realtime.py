@@ -122,10 +122,7 @@ class RealTimeIteration:
         if not reason and not (np.isfinite(q).all() and np.isfinite(it.lam).all()):
             reason = "not finite"
         if not reason:
-            trial = ip._trial  # the line search evaluated the pose rows at the point it accepted
-            c = trial.c if trial is not None and trial.y is it.y and trial.data is data else \
-                solver.problem.pose(it.y, data)
-            violation = ip.violation(c, it.y, data)
+            violation = ip.violation(ip.pose_rows(it.y, data), it.y, data)
             reason = "violation" if not violation <= self.violation_tol else ""
         result = SolverResult(q=q, success=converged, status="Solve_Succeeded" if converged else "Real_Time_Step",
                               iterations=0 if converged else 1, objective=float(ev.f) / it.scale,

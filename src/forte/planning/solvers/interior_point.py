@@ -111,6 +111,11 @@ class InteriorPoint:
         return Evaluation(f, it.scale * pb.gradient(it.y, data), c, pb.pose_jacobian(it.y, data),
                           pb.A @ it.y + data.b - it.s)
 
+    def pose_rows(self, y: FloatArray, data: TaskData) -> FloatArray:
+        """The pose rows at ``y`` (those the line search evaluated at the point it accepted, reused)."""
+        trial = self._trial
+        return trial.c if trial is not None and trial.y is y and trial.data is data else self.pb.pose(y, data)
+
     def _dual_residual(self, ev: Evaluation, it: Iterate) -> FloatArray:
         pb = self.pb
         jt = np.zeros(pb.ny)
