@@ -119,3 +119,28 @@ def test_truncated_cache_is_no_sigbus_end_to_end(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "rebuilding" in proc.stderr and "Traceback" not in proc.stderr
     assert verify_library(lib) is None
+
+
+def test_the_processor_specific_build_is_in_the_cache_key(robot, monkeypatch):
+    """``-march=native`` (where the compiler takes it) is keyed by the compiler's own expansion of
+    it, so a cache shared between machines never loads another processor's build; with
+    ``FORTE_PORTABLE_KERNELS=1`` the build and the key are the portable ones."""
+    from forte.planning import compile_target
+    from forte.planning.kernels import kernel_key
+
+    compiler = shutil.which("gcc") or shutil.which("cc")
+    if compiler is None or compile_target._native(compiler) is None:
+        pytest.skip("no compiler that accepts -march=native")
+    monkeypatch.delenv(compile_target.PORTABLE_ENV, raising=False)
+    native_flags, native_sig, native_key = (compile_target.target_flags(compiler),
+                                            compile_target.signature(compiler), kernel_key(robot, "forte"))
+    assert native_flags == ("-march=native",) and native_sig != "portable"
+    monkeypatch.setenv(compile_target.PORTABLE_ENV, "1")
+    assert compile_target.target_flags(compiler) == () and compile_target.signature(compiler) == "portable"
+    assert kernel_key(robot, "forte") != native_key
+    # another processor's expansion of the flag is another key
+    monkeypatch.delenv(compile_target.PORTABLE_ENV)
+    monkeypatch.setattr(compile_target, "_native", lambda c: "cc1 -march=another-cpu -mno-avx")
+    assert compile_target.signature(compiler) not in (native_sig, "portable")
+    assert kernel_key(robot, "forte") != native_key
+    assert compile_target.target_flags(None) == ()
