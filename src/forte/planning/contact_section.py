@@ -14,11 +14,13 @@ a contact task gives neither a payload nor a force profile. Every error names th
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-from forte.exceptions import InvalidInputError
+from forte.exceptions import InvalidInputError, TaskFileError
 from forte.force.contact import CONTACT_KINDS, Carry, Contact, Drawer, PushBox, straight_direction
-from forte.force.payload import MAX_COM_OFFSET_M
+from forte.force.payload import MAX_COM_OFFSET_M, Payload
 from forte.planning.schema import Reader
 from forte.validation import MAX_DURATION_S, MAX_MASS_KG, FloatArray
 
@@ -95,3 +97,22 @@ def contact_conflicts(reader: Reader, contact: Contact | None) -> None:
         if reader.has(name):
             raise reader.error(name, f"not used by a contact task (contact.kind {contact.kind!r} gives the force); "
                                "leave it out")
+
+
+def read_contact(reader: Reader, targets: FloatArray, mode: str, mass: float | None
+                 ) -> tuple[Contact | None, Payload | None]:
+    """The task's ``contact:`` section checked against the rest of the task (its path, the fields it
+    excludes), and what the hand carries: a carried object (simulated at its centre of mass; ``mass``,
+    the command line's ``--mass``, replaces its mass), else nothing."""
+    contact = contact_section(reader)
+    if contact is None:
+        return None, None
+    if isinstance(contact, Carry) and mass is not None:
+        contact = replace(contact, mass=mass)
+    contact_conflicts(reader, contact)
+    check_contact_path(reader, contact, targets, mode)
+    if not isinstance(contact, Carry):
+        if mass is not None:
+            raise TaskFileError(f"--mass: a {contact.kind} task carries no payload; its masses are in contact:")
+        return contact, None
+    return contact, Payload(mass=contact.mass, source="contact", com=contact.com)

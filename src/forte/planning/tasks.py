@@ -35,7 +35,7 @@ from forte.force.wrench import with_payload_moment
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import quintic_path
-from forte.planning.contact_section import check_contact_path, contact_conflicts, contact_section
+from forte.planning.contact_section import read_contact
 from forte.planning.paths import (
     ForceAt,
     TargetsAt,
@@ -337,12 +337,8 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
         t = np.zeros(1)
         targets = _hold_pose(reader, robot, T0, teaching)
         targets_at = None
-    contact = contact_section(reader)
-    if isinstance(contact, Carry) and mass is not None:  # --mass: the carried object's
-        contact = replace(contact, mass=mass)
-    contact_conflicts(reader, contact)
-    check_contact_path(reader, contact, targets, mode)
-    payload = payload_section(reader, base, mass) if contact is None else _contact_payload(contact, mass)
+    contact, carried = read_contact(reader, targets, mode, mass)
+    payload = payload_section(reader, base, mass) if contact is None else carried
     force_at = _force_profile(reader, t, radius)
     if force_at is None and payload is None and contact is None:
         raise reader.error("payload", "give a payload (mass, or description/image) or a force profile")
@@ -371,16 +367,6 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                 targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots,
                 radius_rule=radius_rule, force_model=force_model, scene=scene_section(reader, base),
                 clearance=clearance_value(reader), terms=terms_section(reader), contact=contact)
-
-
-def _contact_payload(contact: Contact, mass: float | None) -> Payload | None:
-    """What the hand carries in a contact task: a carried object (simulated at its centre of
-    mass), else nothing; ``--mass`` applies to a carried object only."""
-    if not isinstance(contact, Carry):
-        if mass is not None:
-            raise TaskFileError(f"--mass: a {contact.kind} task carries no payload; its masses are in contact:")
-        return None
-    return Payload(mass=contact.mass if mass is None else mass, source="contact", com=contact.com)
 
 
 def _hold_pose(reader: Reader, robot: MobileManipulator, T0: FloatArray, teaching: FloatArray | None) -> FloatArray:
