@@ -302,6 +302,11 @@ def write_summary(directory: Path, title: str, intro: list[str], cases: list[Cas
     return doc
 
 
+def sim_cell(sim: dict[str, Any]) -> str:
+    """A simulated run in a summary table: ``ok`` or its failure and when."""
+    return "ok" if sim["success"] else f"{sim['reason']} at {sim['failure_time']:.2f} s"
+
+
 def write_doc(directory: Path, doc: dict[str, Any], lines: list[str], page: str = "README.md") -> None:
     """An experiment's ``summary.json`` (``doc``) and its page of text (``lines``)."""
     (directory / "summary.json").write_text(json.dumps(jsonable(doc), indent=1) + "\n")

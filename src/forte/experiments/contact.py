@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from forte.execution.run import simulate_plan
-from forte.experiments.common import Log, check_format, quiet, save, style, task_path, write_doc
+from forte.experiments.common import Log, check_format, quiet, save, sim_cell, style, task_path, write_doc
 from forte.experiments.wrench import unscaled_verdict
 from forte.force.contact import Carry, Contact, Drawer, PushBox, contact_to_dict
 from forte.io.figures import pyplot
@@ -110,10 +110,6 @@ def _figure(rows: list[dict[str, Any]], directory: Path, fmt: str) -> str:
     return save(fig, directory, "contact", fmt)
 
 
-def _cell(sim: dict[str, Any]) -> str:
-    return "ok" if sim["success"] else f"{sim['reason']} at {sim['failure_time']:.2f} s"
-
-
 def summary_lines(doc: dict[str, Any], figure: str) -> list[str]:
     """The README.md of the experiment (every number from ``doc``)."""
     lines = ["# Contact-rich tasks: push, drawer, carry with a partner (issue 25)", "",
@@ -128,8 +124,8 @@ def summary_lines(doc: dict[str, Any], figure: str) -> list[str]:
         verdict = r["verdict"] + (f" ({', '.join(r['failed'])})" if r["failed"] else "")
         peak = r["sims"][0]["peak_hand_force_n"]
         lines.append(f"| {r['task']} | {r['method']} | {verdict} | {r['min_d_n']:.2f} | {r['max_torque_ratio']:.3f} | "
-                     f"{r['peak_model_force_n']:.1f} | {_cell(r['sims'][0])} | "
-                     f"{'–' if peak is None else f'{peak:.1f}'} | {_cell(r['sims'][1])} | {r['unscaled_verdict']} |")
+                     f"{r['peak_model_force_n']:.1f} | {sim_cell(r['sims'][0])} | "
+                     f"{'–' if peak is None else f'{peak:.1f}'} | {sim_cell(r['sims'][1])} | {r['unscaled_verdict']} |")
     a, u = doc["agreement"], doc["agreement_unscaled"]
     ok = sum(r["sims"][0]["success"] for r in doc["rows"])
     lines += ["", f"![contact tasks]({figure})", "",

@@ -38,7 +38,7 @@ import numpy as np
 
 from forte.capability.polytope import trajectory_rfp
 from forte.execution.run import simulate_plan
-from forte.experiments.common import Log, check_format, quiet, save, style, task_path, write_doc
+from forte.experiments.common import Log, check_format, quiet, save, sim_cell, style, task_path, write_doc
 from forte.io.figures import pyplot
 from forte.io.outputs import GENERATOR, replace_directory
 from forte.io.plandir import FORMAT_VERSION, write_plan
@@ -176,7 +176,7 @@ def hold_lines(doc: dict[str, Any]) -> list[str]:
     for r in doc["hold"]["rows"]:
         verdict = r["verdict"] + (f" ({', '.join(r['failed'])})" if r["failed"] else "")
         lines.append(f"| {r['method']} | {verdict} | {r['min_d_n']:.2f} | {r['max_torque_ratio']:.3f} | "
-                     f"{r['worst_joint']} | {_sim_cell(r['sims'][0])} | {_sim_cell(r['sims'][1])} |")
+                     f"{r['worst_joint']} | {sim_cell(r['sims'][0])} | {sim_cell(r['sims'][1])} |")
     return lines + [""]
 
 
@@ -219,12 +219,6 @@ def _figure(rows: list[dict[str, Any]], directory: Path, fmt: str) -> str:
     return save(fig, directory, "wrench", fmt)
 
 
-def _sim_cell(sim: dict[str, Any]) -> str:
-    if sim["success"]:
-        return "ok"
-    return f"{sim['reason']} at {sim['failure_time']:.2f} s"
-
-
 def summary_lines(doc: dict[str, Any], figure: str) -> list[str]:
     """The README.md of the experiment (every number from ``doc``)."""
     mass, ball = doc["mass_kg"], doc["ball_mass_kg"]
@@ -243,7 +237,7 @@ def summary_lines(doc: dict[str, Any], figure: str) -> list[str]:
         tip = "–" if r["min_tipover_margin_m"] is None else f"{r['min_tipover_margin_m']:.3f}"
         unscaled = r["unscaled_verdict"] + (f" ({', '.join(r['unscaled_failed'])})" if r["unscaled_failed"] else "")
         lines.append(f"| {r['offset_m']:g} | {r['method']} | {verdict} | {r['min_d_n']:.2f} | "
-                     f"{r['max_torque_ratio']:.3f} | {tip} | {_sim_cell(r['sims'][0])} | {_sim_cell(r['sims'][1])} | "
+                     f"{r['max_torque_ratio']:.3f} | {tip} | {sim_cell(r['sims'][0])} | {sim_cell(r['sims'][1])} | "
                      f"{unscaled} |")
 
     def agree(key: str) -> str:
