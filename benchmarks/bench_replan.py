@@ -108,7 +108,7 @@ def cold_solve(planner: Replanner, problem: tuple) -> np.ndarray | None:
     """A cold solve of a re-planned problem (task, force, nominal) from the planner's initial guess."""
     task, force, nominal = problem
     sol = planner.optimizer.solve(task.t, task.targets, force.f, force.r, task.q_init,
-                                  start_guess(task, nominal), nominal)
+                                  start_guess(task, nominal), nominal, start=task.start_motion)
     return sol.q if converged(sol) else None
 
 

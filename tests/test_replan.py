@@ -66,7 +66,9 @@ def test_a_shifted_replan_equals_a_cold_solve_of_the_shifted_problem(task):
     assert result.plan.solved and result.warm
     t, force, nominal = planner.task, planner.force, planner.nominal
     np.testing.assert_allclose(nominal, shift_rows(task.nominal(), 3))  # the nominal moves with the horizon
-    cold = planner.optimizer.solve(t.t, t.targets, force.f, force.r, t.q_init, start_guess(t, nominal), nominal)
+    assert t.start_motion is not None  # the new start moves as the last plan did there
+    cold = planner.optimizer.solve(t.t, t.targets, force.f, force.r, t.q_init, start_guess(t, nominal), nominal,
+                                   start=t.start_motion)
     assert converged(cold)
     np.testing.assert_allclose(result.plan.q, cold.q, atol=1e-5)
 

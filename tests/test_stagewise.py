@@ -255,7 +255,7 @@ def test_kernels_without_a_compiler_give_the_same_numbers():
     data = pb.task_data(task.t, task.targets, f.f, f.r, task.q_init, task.nominal())
     rng = np.random.default_rng(5)
     x = pb.x_of(pb.y_of(start_guess(task, task.nominal())) + 0.05 * rng.standard_normal(pb.ny), data)
-    z = pb._win(x)
+    z = pb._win(x, data)
     for name in ("cost", "grad", "hess"):
         a, b = (getattr(k, name)(task.n, z, *data.stage_args)[0] for k in (native, virtual))
         np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-10)

@@ -26,24 +26,25 @@ import numpy as np
 
 from forte.exceptions import InvalidInputError
 from forte.model.robot import MobileManipulator
-from forte.model.trajectory import backward_differences
+from forte.model.trajectory import StartMotion, backward_differences
 from forte.validation import FloatArray, as_array, check_times
 
 #: Normals shorter than this are treated as zero (units of the Jacobian, m).
 ZERO_NORMAL = 1e-9
 
 
-def nominal_torques(robot: MobileManipulator, q: Any, t: Any) -> FloatArray:
+def nominal_torques(robot: MobileManipulator, q: Any, t: Any, start: StartMotion | None = None) -> FloatArray:
     """``tau_nom,k = RNEA(q_a,k, dq_a,k, ddq_a,k)`` (N x n) with backward differences.
 
     Args:
         q: Whole-body configurations (N x nq); only the arm part enters the dynamics.
         t: Strictly increasing time stamps (N).
+        start: The first waypoint's whole-body motion (default: at rest).
     """
     times = check_times(t)
     Q = as_array(q, "q", (times.size, robot.nq))
     qa = Q[:, 3:]
-    dq, ddq = backward_differences(qa, times, "q_a")
+    dq, ddq = backward_differences(qa, times, "q_a", None if start is None else start.columns(slice(3, None)))
     return robot.rnea_along(qa, dq, ddq)
 
 
@@ -150,9 +151,11 @@ class TrajectoryRFP:
         return ResidualForcePolytope(self.A[k], self.b[k], self.J[k], self.tau_nom[k], self.alpha)
 
 
-def trajectory_rfp(robot: MobileManipulator, q: Any, t: Any, alpha: float = 1.0) -> TrajectoryRFP:
-    """Dynamic RFPs of a whole-body trajectory ``q`` (N x nq) at times ``t``."""
-    tau_nom = nominal_torques(robot, q, t)
+def trajectory_rfp(robot: MobileManipulator, q: Any, t: Any, alpha: float = 1.0,
+                   start: StartMotion | None = None) -> TrajectoryRFP:
+    """Dynamic RFPs of a whole-body trajectory ``q`` (N x nq) at times ``t`` (``start``: the first
+    waypoint's motion, default at rest)."""
+    tau_nom = nominal_torques(robot, q, t, start)
     J = robot.arm_jacobians(q)
     A, b = halfspaces(J, *residual_margins(tau_nom, robot.torque_limits), alpha=alpha)
     return TrajectoryRFP(J=J, tau_nom=tau_nom, A=A, b=b, alpha=alpha)

@@ -57,6 +57,7 @@ from forte.capability.metrics import capability_penalty, normalization
 from forte.capability.polytope import ZERO_NORMAL, nominal_torques, residual_margins
 from forte.exceptions import InvalidInputError
 from forte.model.robot import N_BASE, MobileManipulator
+from forte.model.trajectory import StartMotion
 from forte.settings import CapabilityParameters
 from forte.validation import FloatArray
 
@@ -93,10 +94,11 @@ class TrajectoryWrenchPolytope:
     alpha: float
 
 
-def trajectory_wrench_polytope(robot: MobileManipulator, q: Any, t: Any,
-                               alpha: float = 1.0) -> TrajectoryWrenchPolytope:
-    """Dynamic residual wrench polytopes of a whole-body trajectory ``q`` (N x nq) at times ``t``."""
-    tau = nominal_torques(robot, q, t)
+def trajectory_wrench_polytope(robot: MobileManipulator, q: Any, t: Any, alpha: float = 1.0,
+                               start: StartMotion | None = None) -> TrajectoryWrenchPolytope:
+    """Dynamic residual wrench polytopes of a whole-body trajectory ``q`` (N x nq) at times ``t``
+    (``start``: the first waypoint's motion, default at rest)."""
+    tau = nominal_torques(robot, q, t, start)
     J6 = np.array([wrench_jacobian(robot, qk) for qk in np.asarray(q, dtype=float)])
     A, b = wrench_halfspaces(J6, *residual_margins(tau, robot.torque_limits), alpha=alpha)
     return TrajectoryWrenchPolytope(J6, tau, A, b, alpha)
@@ -234,11 +236,12 @@ def requirement_measures(J6: Any, tau_nom: Any, tau_max: Any, force: Any, alpha:
             "torque_ratio": np.max(np.abs(tau_nom + np.einsum("kij,ki->kj", J6, w)) / tau_max, axis=1)}
 
 
-def wrench_metrics(robot: MobileManipulator, q: Any, t: Any, force: Any, alpha: float) -> dict[str, FloatArray]:
+def wrench_metrics(robot: MobileManipulator, q: Any, t: Any, force: Any, alpha: float,
+                   start: StartMotion | None = None) -> dict[str, FloatArray]:
     """The metrics.csv columns that follow the wrench when the task needs a moment: ``d``,
     ``directional_capacity``, ``capacity_margin`` and ``max_torque_ratio_with_force`` from
     :func:`requirement_measures`, and ``mx, my, mz`` (N m, world frame, at the end effector)."""
-    poly = trajectory_wrench_polytope(robot, q, t, alpha=1.0)
+    poly = trajectory_wrench_polytope(robot, q, t, alpha=1.0, start=start)
     out = requirement_measures(poly.J6, poly.tau_nom, robot.torque_limits, force, alpha)
     return {"d": out["d"], "directional_capacity": out["capacity"], "capacity_margin": -out["shortfall"],
             "max_torque_ratio_with_force": out["torque_ratio"],

@@ -15,7 +15,7 @@ import numpy as np
 
 from forte.exceptions import InvalidInputError
 from forte.model.robot import STANDARD_GRAVITY
-from forte.model.trajectory import backward_differences, quintic_blend
+from forte.model.trajectory import StartMotion, backward_differences, quintic_blend
 from forte.validation import FloatArray, as_array, as_positive, check_times
 
 #: The paper's task-force uncertainty radius (N).
@@ -94,16 +94,17 @@ def payload_force(
     mass: Any,
     radius: Any = DEFAULT_RADIUS,
     gravity: float = STANDARD_GRAVITY,
+    start: StartMotion | None = None,
 ) -> TaskForce:
     """``f_k = m (p''_k - g)`` from end-effector positions (N x 3) at times ``t``.
 
-    Accelerations are the paper's backward differences with the trajectory starting at rest
-    (see :func:`forte.model.trajectory.backward_differences`).
+    Accelerations are the paper's backward differences with the trajectory starting at rest, or
+    with the end effector's ``start`` motion (see :func:`forte.model.trajectory.backward_differences`).
     """
     m = as_positive(mass, "mass")
     times = check_times(t)
     pos = as_array(positions, "positions", (times.size, 3))
-    _, acc = backward_differences(pos, times, "positions")
+    _, acc = backward_differences(pos, times, "positions", start)
     g = np.array([0.0, 0.0, -gravity])
     return TaskForce(times, m * (acc - g), _radii(radius, times.size))
 

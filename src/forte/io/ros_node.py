@@ -68,7 +68,7 @@ def trajectory_message(plan: Plan, names: list[str]) -> Any:
 
     msg = JointTrajectory()
     msg.joint_names = list(names)
-    qd = backward_differences(plan.q, plan.t)[0]
+    qd = backward_differences(plan.q, plan.t, start=getattr(plan.task, "start_motion", None))[0]
     for tk, qk, vk in zip(plan.t - plan.t[0], plan.q, qd, strict=True):
         point = JointTrajectoryPoint()
         point.positions, point.velocities = [float(v) for v in qk], [float(v) for v in vk]

@@ -42,7 +42,7 @@ import pinocchio as pin
 from forte.exceptions import InvalidInputError
 from forte.model.description import N_BASE
 from forte.model.robot import MobileManipulator
-from forte.model.trajectory import backward_differences
+from forte.model.trajectory import StartMotion, backward_differences
 from forte.validation import FloatArray, as_array
 
 _MODELS: dict[str, tuple[pin.Model, int]] = {}
@@ -137,12 +137,14 @@ def tipover_margin(robot: MobileManipulator, q: Any, dq: Any, ddq: Any, wrench: 
     return np.where(np.isnan(zmp[:, 0]), -np.inf, margin)
 
 
-def trajectory_tipover_margin(robot: MobileManipulator, q: Any, t: Any, force: Any) -> FloatArray:
+def trajectory_tipover_margin(robot: MobileManipulator, q: Any, t: Any, force: Any,
+                              start: StartMotion | None = None) -> FloatArray:
     """The margin at each waypoint of a plan with its backward-difference velocities and
     accelerations (the paper's quantities, the ``tipover_margin`` column of metrics.csv), for a
-    :class:`~forte.force.taskforce.TaskForce` (its moment when it has one)."""
+    :class:`~forte.force.taskforce.TaskForce` (its moment when it has one); ``start``: the first
+    waypoint's motion (default: at rest)."""
     q = np.asarray(q, dtype=float).copy()
     q[:, 2] = np.unwrap(q[:, 2])
-    dq, ddq = backward_differences(q, t, "q")
+    dq, ddq = backward_differences(q, t, "q", start)
     return tipover_margin(robot, q, dq, ddq, force.wrench)
 

@@ -4,14 +4,19 @@ Section 3.2 of the paper approximates velocities and accelerations by backward d
 
     v_k = (x_k - x_{k-1}) / dt_k,    a_k = (v_k - v_{k-1}) / dt_k,    dt_k = t_k - t_{k-1}.
 
-The formulas need the samples before ``k = 1``; forte assumes the trajectory starts at rest:
-``v_1 = 0`` and ``a_1 = 0``, so ``a_2 = v_2 / dt_2``. The same rule serves the end-effector
-positions (task force, Section 4.1) and the arm joints (nominal torques, Section 3.2).
+The formulas need the samples before ``k = 1``. By default forte assumes the trajectory starts
+at rest: ``v_1 = 0`` and ``a_1 = 0``, so ``a_2 = v_2 / dt_2``. A trajectory that starts in motion
+(a receding horizon spliced into a moving plan) has a :class:`StartMotion` ``(v_1, a_1)``; its
+samples before ``k = 1`` are then the two of :func:`start_history`, one step ``dt_2`` apart, whose
+backward differences give ``v_1`` and ``a_1`` (and ``a_2 = (v_2 - v_1) / dt_2``). The same rule
+serves the end-effector positions (task force, Section 4.1) and the arm joints (nominal torques,
+Section 3.2).
 """
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -24,16 +29,66 @@ def trajectory_header(n_arm: int) -> list[str]:
     return ["t", "x_b", "y_b", "yaw", *(f"q{i}" for i in range(1, n_arm + 1))]
 
 
-def backward_differences(x: Any, t: Any, name: str = "x") -> tuple[FloatArray, FloatArray]:
+class StartMotion(NamedTuple):
+    """Velocity and acceleration (backward differences) at a trajectory's first sample; ``None``
+    in their place everywhere means "at rest"."""
+
+    velocity: FloatArray  # d
+    acceleration: FloatArray  # d
+
+    def columns(self, part: slice) -> StartMotion:
+        """The motion of some coordinates (e.g. the arm's, ``slice(3, None)``)."""
+        return StartMotion(self.velocity[part], self.acceleration[part])
+
+    @staticmethod
+    def checked(velocity: Any, acceleration: Any, size: int, name: str = "start") -> StartMotion:
+        """A start motion of ``size`` coordinates, validated (finite); ``acceleration`` ``None``: zero."""
+        v = as_array(velocity, f"{name}.velocity", (size,))
+        a = np.zeros(size) if acceleration is None else as_array(acceleration, f"{name}.acceleration", (size,))
+        return StartMotion(v, a)
+
+
+def start_history(x0: Any, start: StartMotion | None, h: float) -> FloatArray:
+    """The two samples ``[x_{-1}; x_0]`` before the first ``x_1 = x0``, ``h`` apart (2 x d), whose
+    backward differences give ``start``: ``x_0 = x_1 - v h``, ``x_{-1} = x_0 - (v - a h) h``; at
+    rest (``start`` ``None``) both are ``x0``."""
+    x0 = np.asarray(x0, dtype=float)
+    if start is None:
+        return np.stack([x0, x0])
+    before = x0 - start.velocity * h
+    return np.stack([before - (start.velocity - start.acceleration * h) * h, before])
+
+
+def start_of(samples: Any, h: float) -> StartMotion:
+    """The start motion of ``[x_{-1}; x_0; x_1]`` (3 x d, ``h`` apart): the inverse of
+    :func:`start_history` (e.g. the end effector's, from its positions at a start history)."""
+    s = np.asarray(samples, dtype=float)
+    v, before = (s[2] - s[1]) / h, (s[1] - s[0]) / h
+    return StartMotion(v, (v - before) / h)
+
+
+def start_through(position: Callable[[FloatArray], FloatArray], x0: Any, start: StartMotion | None,
+                  h: float) -> StartMotion | None:
+    """The start motion of ``position(x)`` (e.g. the end effector's) while ``x`` starts at ``x0``
+    with ``start``: :func:`start_of` its values along :func:`start_history`."""
+    if start is None:
+        return None
+    return start_of([position(x) for x in (*start_history(x0, start, h), np.asarray(x0, dtype=float))], h)
+
+
+def backward_differences(x: Any, t: Any, name: str = "x",
+                         start: StartMotion | None = None) -> tuple[FloatArray, FloatArray]:
     """Velocities and accelerations of samples ``x`` (N x d) at times ``t`` (N).
 
     Returns:
-        ``(v, a)``, each N x d, with ``v[0] = a[0] = 0`` (start at rest).
+        ``(v, a)``, each N x d, with ``v[0], a[0]`` the ``start`` motion (default: 0, at rest).
     """
     times = check_times(t, "t")
     samples = as_array(x, name, (times.size, None))
     v = np.zeros_like(samples)
     a = np.zeros_like(samples)
+    if start is not None:
+        v[0], a[0] = start.velocity, start.acceleration
     if times.size > 1:
         dt = np.diff(times)[:, None]
         v[1:] = np.diff(samples, axis=0) / dt
@@ -85,14 +140,15 @@ def quintic_hermite(t_knots: Any, q: Any, v: Any, a: Any, times: Any) -> tuple[A
     return pos, np.where(outside, 0.0, vel), np.where(outside, 0.0, acc)
 
 
-def clamped_spline(t_knots: Any, q: Any, times: Any) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Clamped cubic spline through ``(t_k, q_k)`` (C2, zero velocity at both ends) sampled at
-    ``times``: position, velocity, acceleration; the first/last knot is held outside the knots'
-    range (velocity and acceleration 0). One knot: held everywhere.
+def clamped_spline(t_knots: Any, q: Any, times: Any,
+                   v_start: FloatArray | None = None) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Clamped cubic spline through ``(t_k, q_k)`` (C2, zero velocity at both ends, or ``v_start``
+    at the first knot) sampled at ``times``: position, velocity, acceleration; the first/last knot
+    is held outside the knots' range (velocity and acceleration 0). One knot: held everywhere.
 
     The knot slopes ``m_k`` solve the tridiagonal continuity system
     ``h_k m_{k-1} + 2 (h_{k-1} + h_k) m_k + h_{k-1} m_{k+1} = 3 (h_k s_{k-1} + h_{k-1} s_k)``
-    (``h_k`` the intervals, ``s_k`` the secant slopes, ``m_0 = m_N = 0``) by the Thomas
+    (``h_k`` the intervals, ``s_k`` the secant slopes, ``m_0 = v_start`` or 0, ``m_N = 0``) by the Thomas
     algorithm; each interval is then the cubic Hermite through its ends (equal to SciPy's
     ``CubicSpline(..., bc_type="clamped")``, tested; written out because importing
     ``scipy.interpolate`` alone takes half a second of every ``forte plan``).
@@ -103,7 +159,7 @@ def clamped_spline(t_knots: Any, q: Any, times: Any) -> tuple[FloatArray, FloatA
     if tk.size == 1:
         pos = np.repeat(qk, ts.size, axis=0)
         return pos, np.zeros_like(pos), np.zeros_like(pos)
-    m = _clamped_slopes(tk, qk)
+    m = _clamped_slopes(tk, qk, v_start)
     tc = np.clip(ts, tk[0], tk[-1])
     seg = np.clip(np.searchsorted(tk, tc, side="right") - 1, 0, tk.size - 2)
     h = (tk[seg + 1] - tk[seg])[:, None]
@@ -117,16 +173,19 @@ def clamped_spline(t_knots: Any, q: Any, times: Any) -> tuple[FloatArray, FloatA
     return pos, np.where(inside, vel, 0.0), np.where(inside, 2 * c2 + 6 * c3 * x, 0.0)
 
 
-def _clamped_slopes(tk: FloatArray, qk: FloatArray) -> FloatArray:
+def _clamped_slopes(tk: FloatArray, qk: FloatArray, v_start: FloatArray | None = None) -> FloatArray:
     """Knot slopes of the clamped cubic spline (see :func:`clamped_spline`)."""
     h = np.diff(tk)[:, None]
     secant = np.diff(qk, axis=0) / h
     m = np.zeros_like(qk)
+    if v_start is not None:
+        m[0] = v_start
     n = tk.size - 1  # unknowns m_1 .. m_{n-1}
     if n < 2:
         return m
     lower, diag, upper = h[1:], 2 * (h[:-1] + h[1:]), h[:-1]
     rhs = 3 * (h[1:] * secant[:-1] + h[:-1] * secant[1:])
+    rhs[0] = rhs[0] - lower[0] * m[0]  # the known first slope's part of the first equation
     d, r = diag.copy(), rhs.copy()
     for k in range(1, n - 1):  # forward sweep
         w = lower[k] / d[k - 1]

@@ -12,13 +12,14 @@ from forte.model.clearance import clearances
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.model.stability import trajectory_tipover_margin
+from forte.model.trajectory import StartMotion
 from forte.settings import CapabilityParameters
 from forte.validation import FloatArray
 
 
 def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: TaskForce,
              params: CapabilityParameters | float = CapabilityParameters(),
-             scene: Scene | None = None) -> dict[str, FloatArray]:
+             scene: Scene | None = None, start: StartMotion | None = None) -> dict[str, FloatArray]:
     """Exact per-waypoint metrics of a plan (the columns of metrics.csv).
 
     ``d`` uses the metric's ``alpha``; the directional capacity (along the desired force) and
@@ -28,9 +29,10 @@ def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: Task
     ``d``, the capacity and the torque follow it, plus ``mx, my, mz`` (:func:`~forte.capability.wrench.wrench_metrics`).
     A robot that states its base support gets ``tipover_margin`` (m, the ZMP's distance to the
     support polygon's edge, positive inside; :func:`~forte.model.stability.trajectory_tipover_margin`).
+    ``start``: the first waypoint's motion (default: at rest, as every plan of a task file).
     """
     alpha = params.alpha if isinstance(params, CapabilityParameters) else float(params)
-    rfp = trajectory_rfp(robot, q, t, alpha=1.0)
+    rfp = trajectory_rfp(robot, q, t, alpha=1.0, start=start)
     capacity = directional_capacity(rfp.A, rfp.b, force.direction)
     return {
         "t": np.asarray(t, dtype=float),
@@ -46,5 +48,6 @@ def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: Task
         "max_torque_ratio_with_force": np.max(
             np.abs(rfp.tau_nom + np.einsum("kij,ki->kj", rfp.J, force.f)) / robot.torque_limits, axis=1),
         "clearance": clearances(robot, scene, q).distance if scene else np.full(len(rfp.J), np.inf),
-    } | (wrench_metrics(robot, q, t, force, alpha) if force.has_moment else {}) | (
-        {} if robot.base_support is None else {"tipover_margin": trajectory_tipover_margin(robot, q, t, force)})
+    } | (wrench_metrics(robot, q, t, force, alpha, start) if force.has_moment else {}) | (
+        {} if robot.base_support is None else {"tipover_margin": trajectory_tipover_margin(robot, q, t, force,
+                                                                                            start)})

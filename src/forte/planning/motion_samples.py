@@ -29,7 +29,7 @@ import pinocchio as pin
 from forte.capability.polytope import halfspaces, residual_margins
 from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE, MobileManipulator
-from forte.model.trajectory import backward_differences, clamped_spline
+from forte.model.trajectory import StartMotion, backward_differences, clamped_spline
 from forte.validation import FloatArray, as_array, check_times
 
 #: Dense samples per interval between two waypoints (see the module docstring).
@@ -82,16 +82,18 @@ def dense_times(t: FloatArray, per_interval: int = SAMPLES_PER_INTERVAL) -> Floa
     return np.r_[(t[:-1, None] + s[None, :] * np.diff(t)[:, None]).ravel(), t[-1]]
 
 
-def sample_motion(robot: MobileManipulator, t: Any, q: Any, per_interval: int = SAMPLES_PER_INTERVAL) -> MotionSamples:
+def sample_motion(robot: MobileManipulator, t: Any, q: Any, per_interval: int = SAMPLES_PER_INTERVAL,
+                  start: StartMotion | None = None) -> MotionSamples:
     """The plan ``(t, q)`` at its waypoints and along its executed motion (module docstring);
-    ``per_interval = 0`` gives the waypoints alone."""
+    ``per_interval = 0`` gives the waypoints alone. ``start``: the first waypoint's motion (a
+    horizon spliced into a moving plan; the spline then leaves it with that velocity)."""
     t = check_times(t)
     q = as_array(q, "q", (t.size, robot.nq)).copy()
     q[:, 2] = np.unwrap(q[:, 2])  # as the controllers' reference: never turn the long way round
-    v, a = backward_differences(q, t, "q")
+    v, a = backward_differences(q, t, "q", start)
     if per_interval > 0 and t.size > 1:
         ts = dense_times(t, per_interval)
-        Qs, Vs, As = clamped_spline(t, q, ts)
+        Qs, Vs, As = clamped_spline(t, q, ts, None if start is None else start.velocity)
         times, Q, V, Acc = np.r_[t, ts], np.vstack([q, Qs]), np.vstack([v, Vs]), np.vstack([a, As])
     else:
         times, Q, V, Acc = t, q, v, a

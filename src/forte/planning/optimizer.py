@@ -36,13 +36,21 @@ from scipy import sparse
 from forte import progress
 from forte.exceptions import InvalidInputError, SolverError
 from forte.model.robot import MobileManipulator
+from forte.model.trajectory import StartMotion
 from forte.planning import layout
 from forte.planning.assembly import dm, gather, hessian_pattern, scatter_matrix
 from forte.planning.base_rows import lateral_hessian, lateral_rows, pin_base
 from forte.planning.clearance_rows import clearance_hessian, clearance_jacobian
 from forte.planning.collision_kernels import load_collision_kernels
 from forte.planning.collision_slots import Slots
-from forte.planning.ipopt_nlp import constraint_jacobian, ipopt_options, kinematic_rows, lagrangian_hessian
+from forte.planning.history import history_parameters, history_windows, shifted_acceleration_bounds
+from forte.planning.ipopt_nlp import (
+    constraint_jacobian,
+    ipopt_options,
+    kinematic_rows,
+    lagrangian_hessian,
+    warm_options,
+)
 from forte.planning.ipopt_progress import IpoptProgress, margin_of
 from forte.planning.kernels import load_kernels, notice
 from forte.planning.methods import Method, get_method, method_names
@@ -128,8 +136,8 @@ class TrajectoryOptimizer:
 
     # -- construction -------------------------------------------------------------------
     def _parameter_layout(self) -> dict[str, tuple[int, int]]:
-        n = self.n
-        sizes = {"dt": n, "f": 3 * n, "r": n, "q_nom": self.robot.nq * n, "p_d": 3 * n, "R_d": 9 * n}
+        n, nq = self.n, self.robot.nq
+        sizes = {"dt": n, "history": 2 * nq, "f": 3 * n, "r": n, "q_nom": nq * n, "p_d": 3 * n, "R_d": 9 * n}
         for term in self._stage:
             sizes |= {name: size * n for name, size in term.parameters}
         for ck in self._clear:
@@ -161,14 +169,16 @@ class TrajectoryOptimizer:
         ``z = A vec(q)`` (:mod:`forte.planning.layout`)."""
         return layout.full_x(q, self._lift)
 
-    def bounds(self, t: Any, q_init: FloatArray) -> layout.Bounds:
+    def bounds(self, t: Any, q_init: FloatArray, start: StartMotion | None = None) -> layout.Bounds:
         """Bounds of a solve at times ``t``: joint limits, ``q_1 = q_init`` (trajectory mode), free
-        lifted variables; pose and lifting rows equal 0, kinematic rows within ``v dt``, ``a dt``."""
+        lifted variables; pose and lifting rows equal 0, kinematic rows within ``v dt``, ``a dt``
+        (the first acceleration rows moved by the ``start`` velocity, :mod:`forte.planning.history`)."""
         lifted = self._lift.shape[0]
         lbx, ubx = layout.variable_bounds(self.robot, self.n, lifted, q_init if self.fix_initial else None)
         pin_base(self.robot, self.n, lbx, ubx, q_init)
         kinematic = layout.kinematic_bounds(self._vel[self._vel_rows], self._acc[self._acc_rows], t,
                                             2 * self.robot.nq if self.rests_at_end else 0)
+        kinematic = shifted_acceleration_bounds(kinematic, start, self._vel_rows.size * (self.n - 1), self._acc_rows)
         lbg, ubg = layout.constraint_bounds(self._pose_steps.size, kinematic, lifted)
         clear = self._clear_index.size  # clearance rows: >= 0; then the base's lateral rows: = 0
         lateral = np.zeros(self._lateral)
@@ -191,9 +201,9 @@ class TrajectoryOptimizer:
         xq = x[: nq * n]
         X = ca.reshape(xq, nq, n)
         index = self._window_index()
-        Z = ca.reshape(gather(x, index.T.ravel()), 3 * nq, n)
+        Z = ca.reshape(gather(x, index.T.ravel()), 3 * nq, n) + history_windows(par("history", 2 * nq), nq, n)
         dt = par("dt", 1)
-        stage_args = [Z, ca.horzcat(ca.MX(1), dt[:, : n - 1]), dt, par("f", 3), par("r", 1), par("q_nom", nq)]
+        stage_args = [Z, ca.horzcat(dt[:, :1], dt[:, : n - 1]), dt, par("f", 3), par("r", 1), par("q_nom", nq)]
         stage_args += [par(name, size) for t in self._stage for name, size in t.parameters]
         wvec = ca.DM([self.method_spec.term_weight(t, self.weights) for t in self._stage])
         stage_args.append(ca.repmat(wvec, 1, n))
@@ -268,38 +278,27 @@ class TrajectoryOptimizer:
             raise SolverError(f"IPOPT could not be set up: {str(exc).splitlines()[-1]}", status="setup") from exc
 
     def warm_solver(self) -> Any:
-        """The same NLP with IPOPT set to start from a given primal-dual point (built once).
-
-        The barrier parameter starts at ``tol / 10``: from a near-optimal primal-dual point a
-        larger one only costs the iterations that bring it down again (on the lift's seeded mass
-        changes, 375 warm iterations in all with 1e-7, 406 with 1e-5, 417 with 1e-6). No
-        "acceptable level" exit: a warm solve converges to ``tol`` or fails.
-        """
+        """The same NLP with IPOPT set to start from a given primal-dual point (built once; its
+        options: :func:`~forte.planning.ipopt_nlp.warm_options`)."""
         if self._warm_solver is None:
-            opts = dict(self._nlp_options) | {
-                "ipopt.warm_start_init_point": "yes", "ipopt.warm_start_bound_push": 1e-9,
-                "ipopt.warm_start_bound_frac": 1e-9, "ipopt.warm_start_slack_bound_push": 1e-9,
-                "ipopt.warm_start_slack_bound_frac": 1e-9, "ipopt.warm_start_mult_bound_push": 1e-9,
-                "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 0.1 * self.options.tol,
-                "ipopt.acceptable_iter": 0, "calc_lam_x": True,
-            }
-            self._warm_solver = self._nlpsol(opts)
+            self._warm_solver = self._nlpsol(dict(self._nlp_options) | warm_options(self.options))
         return self._warm_solver
 
     # -- solving ------------------------------------------------------------------------
     def parameters(self, t: FloatArray, targets: FloatArray, f: FloatArray, r: FloatArray,
-                   nominal: FloatArray | None = None, term_values: dict[str, Any] | None = None) -> FloatArray:
+                   nominal: FloatArray | None = None, term_values: dict[str, Any] | None = None,
+                   start: StartMotion | None = None) -> FloatArray:
         """Pack the task data into the NLP parameter vector (``nominal``: N x nq, default zeros;
         ``term_values``: values of term parameters given by the caller, by name, e.g. the task's
-        moment for ``wrench_capability``, instead of the term's ``parameter_values``)."""
+        moment for ``wrench_capability``, instead of the term's ``parameter_values``; ``start``:
+        the first waypoint's motion, :mod:`forte.planning.history`)."""
         n = self.n
         t = np.asarray(t, dtype=float)
-        dt = np.ones(n)
-        dt[1:] = np.diff(t)
+        dt, offsets = history_parameters(self, t, start)
         f = np.asarray(f, dtype=float)
         r = np.asarray(r, dtype=float)
         values = {
-            "dt": dt, "f": f.ravel(), "r": r,
+            "dt": dt, "history": offsets.ravel(), "f": f.ravel(), "r": r,
             "q_nom": np.zeros(n * self.robot.nq) if nominal is None else np.asarray(nominal, dtype=float).ravel(),
             "p_d": targets[:, :3, 3].ravel(),
             "R_d": np.concatenate([T[:3, :3].ravel(order="F") for T in targets]),
@@ -314,13 +313,15 @@ class TrajectoryOptimizer:
 
     def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,
               nominal: FloatArray | None = None, warm: tuple[FloatArray, FloatArray] | Any | None = None,
-              term_values: dict[str, Any] | None = None) -> SolverResult:
+              term_values: dict[str, Any] | None = None, start: StartMotion | None = None) -> SolverResult:
         """Solve for the whole-body trajectory (N x nq) from the initial guess ``q_guess``.
 
         ``nominal`` (N x nq) is the nominal trajectory of the nominal and base joint-limit terms
         (default: ``q_guess``). ``warm = (lam_x, lam_g)``, the multipliers of an earlier solve of
         this problem (see ``keep_multipliers``), starts IPOPT from that primal-dual point with a
         small barrier parameter instead of from scratch. ``term_values``: see :meth:`parameters`.
+        ``start``: the first waypoint's velocity and acceleration (default: at rest;
+        :mod:`forte.planning.history`).
         """
         n, nq = self.n, self.robot.nq
         targets = np.asarray(targets, dtype=float)
@@ -328,11 +329,11 @@ class TrajectoryOptimizer:
         stagewise = self.stagewise()
         if stagewise is not None:
             return stagewise.solve(t, targets, f, r, q_init, q_guess, self._nominal,
-                                   warm if warm is None or not isinstance(warm, tuple) else None, term_values)
+                                   warm if warm is None or not isinstance(warm, tuple) else None, term_values, start)
         if warm is not None and not isinstance(warm, tuple):
             warm = None  # a stagewise iterate does not warm-start IPOPT
-        p = self.parameters(t, targets, f, r, self._nominal, term_values)
-        lbx, ubx, lbg, ubg = self.bounds(t, q_init)
+        p = self.parameters(t, targets, f, r, self._nominal, term_values, start)
+        lbx, ubx, lbg, ubg = self.bounds(t, q_init, start)
         x0 = self.full_x(np.clip(np.asarray(q_guess, dtype=float).ravel(), lbx[: n * nq], ubx[: n * nq]))
         start = time.perf_counter()
         solver, extra = self.solver, {}
@@ -379,11 +380,12 @@ class TrajectoryOptimizer:
         return self._stagewise
 
     def cost_terms(self, q: FloatArray, t: Any, targets: Any, f: Any, r: Any,
-                   nominal: FloatArray | None = None, term_values: dict[str, Any] | None = None) -> dict[str, float]:
+                   nominal: FloatArray | None = None, term_values: dict[str, Any] | None = None,
+                   start: StartMotion | None = None) -> dict[str, float]:
         """Unweighted value of each cost term (capability-type terms are their smooth surrogates)."""
         if nominal is None:
             nominal = getattr(self, "_nominal", None)
-        p = self.parameters(t, np.asarray(targets, dtype=float), f, r, nominal, term_values)
+        p = self.parameters(t, np.asarray(targets, dtype=float), f, r, nominal, term_values, start)
         values = np.array(self._terms(self.full_x(q), p)).ravel()
         return dict(zip(self.term_names, map(float, values), strict=True))
 

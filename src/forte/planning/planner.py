@@ -168,7 +168,7 @@ def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:
 
 def _solve(opt: TrajectoryOptimizer, task: Task, force: TaskForce, q: FloatArray, nominal: FloatArray) -> SolverResult:
     return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q, nominal,
-                     term_values=term_values(opt.method_spec, force, task.terms))
+                     term_values=term_values(opt.method_spec, force, task.terms), start=task.start_motion)
 
 
 def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None,
@@ -202,7 +202,7 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         "accepted_violation": accepted_violation(options),
         "build_time_s": sol.build_time, "solve_time_s": sol.solve_time, "kernels": sol.codegen,
         "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, (rep := reported or force).f, rep.r,
-                                     term_values=term_values(method, rep, task.terms)),
+                                     term_values=term_values(method, rep, task.terms), start=task.start_motion),
         "term_weights": opt.term_weights(), "term_settings": term_settings(method, opt.settings),
         "quadratic_forms": opt.quadratic_forms,
     }
@@ -291,7 +291,8 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
         if "acceleration" in current_verdict.failed:
             ratio = arm_acceleration_ratios(task, current.q)
             # scale the joint's largest waypoint acceleration, so the tighter bound binds
-            peak = np.max(np.abs(backward_differences(current.q[:, N_BASE:], task.t)[1]), axis=0)
+            arm_start = None if task.start_motion is None else task.start_motion.columns(slice(N_BASE, None))
+            peak = np.max(np.abs(backward_differences(current.q[:, N_BASE:], task.t, start=arm_start)[1]), axis=0)
             acc = np.where(ratio > 1.0, np.minimum(acc, peak) / (1.05 * ratio), acc)
         trial_task = replace(task, limits=replace(task.limits, arm_acceleration=tuple(acc)))
         trial, trial_info = _optimize(trial_task, spec, replace(force, r=radius), current.q,
@@ -348,7 +349,8 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         q, solved, status = spec.produce(task), True, spec.status
         verdict = judge_plan(task, q, force)
     info["wall_time_s"] = time.perf_counter() - start
-    metrics = evaluate(task.robot, q, task.t, force, task.settings.capability_params, task.scene)
+    metrics = evaluate(task.robot, q, task.t, force, task.settings.capability_params, task.scene,
+                       task.start_motion)
     return Plan(method=spec.name, robot=task.robot, t=task.t, q=q, force=force, payload=task.payload,
                 metrics=metrics, solved=solved, status=status, solver=info, task=task, verdict=verdict,
                 scene=task.scene, contact=task.contact)

@@ -29,6 +29,7 @@ from forte.force.taskforce import TaskForce
 from forte.planning.blas import single_threaded_blas
 from forte.planning.replan import Problem, Replanner
 from forte.planning.solvers.result import SolverResult
+from forte.planning.terms_section import term_values
 from forte.validation import FloatArray
 
 #: Largest constraint violation (m, rad) of a published real-time step.
@@ -71,14 +72,16 @@ class RealTimeIteration:
         self.steps = 0
 
     def step(self, mass: float | None = None, steps: int = 0, q_now: FloatArray | None = None,
-             deadline_s: float | None = None) -> RealTimeStep:
+             deadline_s: float | None = None, v_now: FloatArray | None = None,
+             a_now: FloatArray | None = None) -> RealTimeStep:
         """One tick: the problem after the changes (a new payload ``mass``; the horizon moved
-        ``steps`` waypoints, starting at ``q_now``), one Newton step, the checks."""
+        ``steps`` waypoints, starting at ``q_now`` with ``v_now, a_now``, default: the plan's,
+        :meth:`~forte.planning.replan.Replanner.shift`), one Newton step, the checks."""
         start = time.perf_counter()
         rp = self.replanner
         with single_threaded_blas():
             if steps:
-                pb = rp._shifted(steps, q_now, mass)
+                pb = rp._shifted(steps, q_now, mass, v_now, a_now)
             elif mass is not None or q_now is not None:
                 pb = rp._changed(mass, None, None, q_now)
             else:
@@ -101,7 +104,8 @@ class RealTimeIteration:
         iterate (or keeps the last one when the step is not finite)."""
         rp, solver, ip = self.replanner, self.solver, self.solver.ip
         task = pb.task
-        data = solver.data(task.t, task.targets, pb.force.f, pb.force.r, task.q_init, pb.nominal)
+        data = solver.data(task.t, task.targets, pb.force.f, pb.force.r, task.q_init, pb.nominal,
+                           term_values(rp.optimizer.method_spec, pb.force, task.terms), task.start_motion)
         it = solver.start(pb.guess, data, pb.warm)
         ev = ip.evaluate(it, data)
         error, start_violation = ip.error(ev, it, data, 0.0)

@@ -50,6 +50,7 @@ import numpy as np
 
 from forte.exceptions import InvalidInputError
 from forte.force.taskforce import TaskForce
+from forte.model.trajectory import StartMotion, backward_differences
 from forte.planning.blas import single_threaded_blas
 from forte.planning.collision_slots import assign_slots, missing_pairs
 from forte.planning.layout import shift_rows
@@ -134,15 +135,18 @@ class Replanner:
         """Re-solve after a new payload ``mass``, ``force`` profile, ``targets`` or start ``q_init``."""
         return self._run(lambda: self._changed(mass, force, targets, q_init))
 
-    def shift(self, steps: int, q_now: FloatArray | None = None, mass: float | None = None) -> ReplanResult:
+    def shift(self, steps: int, q_now: FloatArray | None = None, mass: float | None = None,
+              v_now: FloatArray | None = None, a_now: FloatArray | None = None) -> ReplanResult:
         """Move the horizon ``steps`` waypoints forward; the tail holds the last target.
 
         ``q_now`` (the measured configuration) becomes the new first waypoint (default: the
         planned one at the new start); ``mass``, when given, is the payload's new mass. The new
-        first waypoint starts at rest, as every plan does (the backward differences need it).
+        first waypoint moves: with ``v_now`` (the measured velocity, nq) and ``a_now`` (nq), by
+        default with the last plan's backward-difference velocity and acceleration there, so a
+        plan continues its own motion (:mod:`forte.planning.history`; zeros give a start at rest).
         With ``force_model: authors`` the force blend goes on from where it was (no restart).
         """
-        return self._run(lambda: self._shifted(steps, q_now, mass))
+        return self._run(lambda: self._shifted(steps, q_now, mass, v_now, a_now))
 
     def _changed(self, mass: float | None, force: TaskForce | None, targets: FloatArray | None,
                  q_init: FloatArray | None) -> Problem:
@@ -164,11 +168,13 @@ class Replanner:
         warm = self.last.iterate if self.last.iterate is not None else (self.last.lam_x, self.last.lam_g)
         return Problem(task, force, nominal, guess, warm)
 
-    def _shifted(self, steps: int, q_now: FloatArray | None, mass: float | None) -> Problem:
+    def _shifted(self, steps: int, q_now: FloatArray | None, mass: float | None,
+                 v_now: FloatArray | None = None, a_now: FloatArray | None = None) -> Problem:
         """The problem ``steps`` waypoints further, to be solved from the last solution shifted."""
         n = self.task.n
         if not 0 < steps < n:
             raise InvalidInputError(f"steps: expected 0 < steps < {n}, got {steps}")
+        start = self._start_at(steps, v_now, a_now)
         targets = shift_rows(self.task.targets, steps)
         guess = shift_rows(self.last.q, steps)
         guess[0] = guess[0] if q_now is None else self.task.robot.check_configuration(q_now, "q_now")
@@ -178,7 +184,7 @@ class Replanner:
         if profile is not None:  # a given profile moves with the horizon, like the path
             profile = TaskForce(profile.t, shift_rows(profile.f, steps), shift_rows(profile.r, steps))
         task = replace(self.task, targets=targets, q_init=guess[0].copy(), force_ramp_elapsed=elapsed,
-                       force_profile=profile, targets_at=_shifted_path(self.task, steps))
+                       force_profile=profile, targets_at=_shifted_path(self.task, steps), start_motion=start)
         if mass is not None:
             task = task.with_payload(task.payload.with_mass(mass, source="replan"))
         force = task.force()
@@ -193,6 +199,17 @@ class Replanner:
         else:
             warm = self.optimizer.shifted_multipliers(self.last.lam_x, self.last.lam_g, steps)
         return Problem(task, force, shift_rows(self.nominal, steps), guess, warm)
+
+    def _start_at(self, steps: int, v_now: FloatArray | None, a_now: FloatArray | None) -> StartMotion:
+        """The motion of the new first waypoint: measured where given, else the last plan's (its
+        backward differences at waypoint ``steps``, from the three waypoints up to it)."""
+        lo = max(steps - 2, 0)
+        v, a = backward_differences(self.last.q[lo:steps + 1], self.task.t[lo:steps + 1], "q",
+                                    self.task.start_motion if lo == 0 else None)
+        if v_now is None and a_now is None:
+            return StartMotion(v[-1], a[-1])
+        return StartMotion.checked(v[-1] if v_now is None else v_now, a[-1] if a_now is None else a_now,
+                                   self.task.robot.nq, "v_now/a_now")
 
     # -- solving ------------------------------------------------------------------------
     def _run(self, change: Callable[[], Problem]) -> ReplanResult:
@@ -220,7 +237,8 @@ class Replanner:
         latency = time.perf_counter() - start  # the new trajectory is ready for the controller
         # its report after that, as the verdict's: the exact metrics (about 1 ms at N = 41)
         with single_threaded_blas():
-            metrics = evaluate(pb.task.robot, sol.q, pb.task.t, pb.force, pb.task.settings.capability_params)
+            metrics = evaluate(pb.task.robot, sol.q, pb.task.t, pb.force, pb.task.settings.capability_params,
+                               start=pb.task.start_motion)
         plan = Plan(method=self.method.name, robot=pb.task.robot, t=pb.task.t, q=sol.q, force=pb.force,
                     payload=pb.task.payload, metrics=metrics, solved=ok, status=sol.status,
                     solver={"iterations": iterations, "warm": used_warm, "solve_time_s": solve_s,
@@ -236,7 +254,7 @@ class Replanner:
                ) -> SolverResult:
         opt = optimizer or self.optimizer
         return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, guess, nominal, warm=warm,
-                         term_values=term_values(opt.method_spec, force, task.terms))
+                         term_values=term_values(opt.method_spec, force, task.terms), start=task.start_motion)
 
 
 def _shifted_path(task: Task, steps: int) -> Callable[[FloatArray], FloatArray] | None:

@@ -34,7 +34,7 @@ from forte.force.taskforce import (
 from forte.force.wrench import with_payload_moment
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
-from forte.model.trajectory import quintic_path
+from forte.model.trajectory import StartMotion, quintic_path, start_through
 from forte.planning.contact_section import read_contact
 from forte.planning.paths import (
     ForceAt,
@@ -62,8 +62,6 @@ from forte.settings import CostWeights, KinematicLimits, SolverOptions, TermSett
 from forte.validation import MAX_DURATION_S, MAX_FILE_BYTES, MAX_WAYPOINTS, FloatArray
 
 MODES = ("trajectory", "hold")
-
-
 
 
 @dataclass
@@ -125,6 +123,9 @@ class Task:
     settings: TermSettings = field(default_factory=TermSettings)
     #: A contact-rich task (``contact:``, :mod:`forte.force.contact`): its model gives the force.
     contact: Contact | None = None
+    #: The first waypoint's velocity and acceleration (a horizon spliced into a moving plan,
+    #: :mod:`forte.planning.history`); ``None``: at rest, as a task file's.
+    start_motion: StartMotion | None = None
 
     def with_weights(self, weight_set: WeightSet) -> Task:
         """The task with a named set's weights and term settings (the task's own ``terms:``
@@ -195,13 +196,20 @@ class Task:
             ramp = AUTHORS_FORCE_RAMP_S if self.mode == "trajectory" else 0.0
             force = authors_force(self.t, total, self.radius, self.robot.gravity, ramp, self.force_ramp_elapsed)
         else:
-            force = payload_force(self.t, self.targets[:, :3, 3], total, self.radius, self.robot.gravity)
+            force = payload_force(self.t, self.targets[:, :3, 3], total, self.radius, self.robot.gravity,
+                                  self.ee_start())
         share = force.f * (m / total)  # the payload's own share: the tool load has no lever arm
         if profile is not None:
             force = TaskForce(self.t, profile.f + force.f, profile.r)
         elif self.radius_rule == "mass-range" and mass is None and self.payload.mass_range is not None:
             force = mass_range_radius(force, total, m, self.payload.mass_range, self.radius)
         return with_payload_moment(force, self.payload, self.targets[:, :3, :3], share)
+
+    def ee_start(self) -> StartMotion | None:
+        """The end effector's start motion: its positions along ``start_motion``'s history."""
+        if self.start_motion is None:
+            return None
+        return start_through(self.robot.ee_position, self.q_init, self.start_motion, float(self.t[1] - self.t[0]))
 
     def _contact_force(self, mass: float | None) -> TaskForce:
         """The contact model's force along the path (:func:`~forte.force.contact.contact_force`);

@@ -225,7 +225,7 @@ def _task_targets(task: Any) -> Callable[[FloatArray], FloatArray] | None:
 def capacity_shortfall(task: Any, q: Any, force: TaskForce, per_interval: int = SAMPLES_PER_INTERVAL) -> FloatArray:
     """Per waypoint: the worst capacity shortfall (N, ``max(-d, |f| + r - capacity, 0)``) on the
     samples of the intervals next to it (what a radius at that waypoint must cover)."""
-    samples = sample_motion(task.robot, task.t, q, per_interval)
+    samples = sample_motion(task.robot, task.t, q, per_interval, task.start_motion)
     ctx = context(task.robot, samples, force, task.settings.alpha, None, task.limits, {}, False)
     minus_d, short = (m.value for m in Capacity().measures(ctx))
     worst = np.maximum(np.maximum(minus_d, short), 0.0)
@@ -240,7 +240,7 @@ def capacity_shortfall(task: Any, q: Any, force: TaskForce, per_interval: int = 
 
 def arm_acceleration_ratios(task: Any, q: Any, per_interval: int = SAMPLES_PER_INTERVAL) -> FloatArray:
     """Per arm joint: the worst ``|ddq_i| / a_max,i`` of the plan's samples (the task's limits)."""
-    samples = sample_motion(task.robot, task.t, q, per_interval)
+    samples = sample_motion(task.robot, task.t, q, per_interval, task.start_motion)
     return JointAccelerations.ratios(samples, task.limits.resolve(task.robot)[1])
 
 
@@ -249,7 +249,7 @@ def judge_plan(task: Any, q: Any, force: TaskForce, solver: dict[str, Any] | Non
     """The verdict of configurations ``q`` planned for ``task`` (``solver``: the facts of an
     optimized plan, ``None`` for one that was not optimized), with the payload bound when the
     capacity or torque requirement fails and the force comes from a payload mass."""
-    samples = sample_motion(task.robot, task.t, q, per_interval)
+    samples = sample_motion(task.robot, task.t, q, per_interval, task.start_motion)
     ctx = context(task.robot, samples, force, task.settings.alpha, _task_targets(task), task.limits,
                   solver or {}, solver is not None, task.scene, task.clearance)
     verdict = judge_context(ctx, REQUIREMENTS, per_interval)

@@ -28,7 +28,9 @@ import numpy as np
 from scipy import sparse
 
 from forte.exceptions import InvalidInputError
+from forte.model.trajectory import StartMotion
 from forte.planning import layout
+from forte.planning.history import acceleration_shift, add_history, history_parameters
 from forte.planning.solvers.native import StageKernels
 from forte.validation import FloatArray
 
@@ -48,6 +50,7 @@ class TaskData(NamedTuple):
     upper: FloatArray
     lo: FloatArray  # which lower bounds are finite
     up: FloatArray  # which upper bounds are finite
+    offsets: FloatArray | None = None  # the windows' history offsets (2 x nq, forte.planning.history); None at rest
 
 
 def supported(opt: TrajectoryOptimizer) -> str | None:
@@ -154,14 +157,15 @@ class StageProblem:
 
     # -- one solve's data -----------------------------------------------------------------
     def task_data(self, t: FloatArray, targets: FloatArray, f: FloatArray, r: FloatArray, q_init: FloatArray,
-                  nominal: FloatArray, term_values: dict[str, FloatArray] | None = None) -> TaskData:
+                  nominal: FloatArray, term_values: dict[str, FloatArray] | None = None,
+                  start: StartMotion | None = None) -> TaskData:
         """Kernel inputs and the rows of a solve (as :meth:`TrajectoryOptimizer.parameters` and
-        :meth:`~TrajectoryOptimizer.bounds` pack them for IPOPT)."""
+        :meth:`~TrajectoryOptimizer.bounds` pack them for IPOPT; ``start``: the first waypoint's
+        motion, :mod:`forte.planning.history`)."""
         opt, n, nq = self.opt, self.n, self.nq
         t = np.asarray(t, dtype=float)
-        dt = np.ones(n)
-        dt[1:] = np.diff(t)
-        dt_prev = np.concatenate([[1.0], dt[:-1]])
+        dt, offsets = history_parameters(opt, t, start)
+        dt_prev = np.concatenate([dt[:1], dt[:-1]])
         f, r = np.asarray(f, float).reshape(n, 3), np.asarray(r, float).reshape(n)
         given = term_values or {}  # e.g. the task's moment for wrench_capability
         terms = [np.asarray(given[name] if name in given else t.parameter_values(name, f, r), float).reshape(n, size)
@@ -177,7 +181,7 @@ class StageProblem:
             owner_fixed = self.block_of < 0
             for k in np.flatnonzero(owner_fixed):
                 x_fix[k * nq:(k + 1) * nq] = q_init
-        key = dt.tobytes() + lbx[self.owner_x].tobytes() + ubx[self.owner_x].tobytes()  # not q_init's
+        key = dt[1:].tobytes() + lbx[self.owner_x].tobytes() + ubx[self.owner_x].tobytes()  # not q_init's, dt_1
         if key != getattr(self, "_rows_key", None):  # the rows change with the time grid only
             self.A, self._G, self._bounds = self._rows(dt, lbx[:n * nq], ubx[:n * nq])
             self.At = sparse.csr_matrix(self.A.T)
@@ -185,7 +189,12 @@ class StageProblem:
             self._rows_key = key
         lower, upper = self._bounds
         b = np.concatenate([np.zeros(self.bound_vars.size), self._G @ x_fix])
-        return TaskData(args, targets[:, :3, 3].copy(), R_d, x_fix, b, lower, upper, *self._finite)
+        shift = acceleration_shift(start, self.acc_rows)
+        if shift is not None and shift.size:  # the first acceleration rows: dq_2 - v_1
+            rows, dofs = self._first_acceleration
+            b[rows] -= shift[dofs]
+        return TaskData(args, targets[:, :3, 3].copy(), R_d, x_fix, b, lower, upper, *self._finite,
+                        None if start is None else offsets)
 
     def _rows(self, dt: FloatArray, lbx: FloatArray, ubx: FloatArray
               ) -> tuple[sparse.csr_matrix, sparse.csr_matrix, tuple[FloatArray, FloatArray]]:
@@ -226,6 +235,9 @@ class StageProblem:
         A = sparse.vstack([parts[0], Gy[keep]], format="csr")
         self.bound_vars = bounded
         self.kin_rows = np.asarray(ident, dtype=int).reshape(-1, 3)[keep]
+        first = np.flatnonzero((self.kin_rows[:, 0] == 1) & (self.kin_rows[:, 1] == 1))
+        # the first step's acceleration rows (in b) and their dofs' places in acc_rows
+        self._first_acceleration = (bounded.size + first, np.searchsorted(self.acc_rows, self.kin_rows[first, 2]))
         self._window_rows(dt)
         return A, sparse.csr_matrix(G[keep]), (np.concatenate([lows[0], low[keep]]),
                                                 np.concatenate([ups[0], up[keep]]))
@@ -256,13 +268,13 @@ class StageProblem:
 
     def objective(self, y: FloatArray, data: TaskData) -> float:
         x = self.x_of(y, data)
-        stage = self.kernels.cost(self.n, self._win(x), *data.stage_args)[0]
+        stage = self.kernels.cost(self.n, self._win(x, data), *data.stage_args)[0]
         return float(stage.sum() + 0.5 * x @ (self.D @ x) + 0.5 * self.g @ (self.R @ x) ** 2)
 
     def gradient(self, y: FloatArray, data: TaskData) -> FloatArray:
         """``T^T (sum_k scatter(grad c_k) + Q x)``: one sparse product of ``[window gradients; x]``."""
         x = self.x_of(y, data)
-        g = self.kernels.grad(self.n, self._win(x), *data.stage_args)[0]
+        g = self.kernels.grad(self.n, self._win(x, data), *data.stage_args)[0]
         return self._gradient_map @ np.concatenate([g.ravel(), x])
 
     def quadratic_gradient(self, x: FloatArray) -> FloatArray:
@@ -279,7 +291,7 @@ class StageProblem:
         """Hessians of the weighted stage costs in their windows (n x 3nq x 3nq)."""
         x = self.x_of(y, data)
         w = 3 * self.nq
-        return self.kernels.hess(self.n, self._win(x), *data.stage_args)[0].reshape(self.n, w, w)
+        return self.kernels.hess(self.n, self._win(x, data), *data.stage_args)[0].reshape(self.n, w, w)
 
     def pose(self, y: FloatArray, data: TaskData) -> FloatArray:
         """Pose residuals of the posed waypoints (P x 6)."""
@@ -298,9 +310,10 @@ class StageProblem:
         h = self.kernels.pose_hess(self.posed.size, q, data.p_d[self.posed], data.R_d[self.posed], lam)[0]
         return h.reshape(-1, self.nq, self.nq)
 
-    def _win(self, x: FloatArray) -> FloatArray:
-        """The stage windows of ``x`` (n x 3nq)."""
-        return x[self._widx]
+    def _win(self, x: FloatArray, data: TaskData) -> FloatArray:
+        """The stage windows of ``x`` (n x 3nq), with the history before the first waypoint."""
+        windows = x[self._widx]
+        return windows if data.offsets is None else add_history(windows, data.offsets)
 
     def y_of(self, q: FloatArray) -> FloatArray:
         """The free variables of configurations ``q`` (n x nq; a tied waypoint reads its owner's)."""

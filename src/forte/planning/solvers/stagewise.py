@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from forte.model.trajectory import StartMotion
 from forte.planning.blas import single_threaded_blas
 from forte.planning.solvers.interior_point import InteriorPoint, IPResult, Iterate
 from forte.planning.solvers.result import SolverResult
@@ -32,8 +33,8 @@ class StagewiseSolver:
                                 max_iter=opt.options.max_iter)
 
     def data(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, nominal: FloatArray,
-             term_values: dict[str, FloatArray] | None = None) -> TaskData:
-        return self.problem.task_data(t, targets, f, r, q_init, nominal, term_values)
+             term_values: dict[str, FloatArray] | None = None, start: StartMotion | None = None) -> TaskData:
+        return self.problem.task_data(t, targets, f, r, q_init, nominal, term_values, start)
 
     def start(self, q_guess: FloatArray, data: TaskData, warm: Iterate | None) -> Iterate:
         """A cold start from ``q_guess`` or ``warm`` (its barrier parameter at the floor)."""
@@ -48,10 +49,11 @@ class StagewiseSolver:
         return it
 
     def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,
-              nominal: FloatArray, warm: Iterate | None = None, term_values: dict[str, FloatArray] | None = None
-              ) -> SolverResult:
-        """Solve to convergence (``warm``: the iterate of an earlier solve of this problem)."""
-        data = self.data(t, targets, f, r, q_init, nominal, term_values)
+              nominal: FloatArray, warm: Iterate | None = None, term_values: dict[str, FloatArray] | None = None,
+              start: StartMotion | None = None) -> SolverResult:
+        """Solve to convergence (``warm``: the iterate of an earlier solve of this problem;
+        ``start``: the first waypoint's motion, :mod:`forte.planning.history`)."""
+        data = self.data(t, targets, f, r, q_init, nominal, term_values, start)
         begin = time.perf_counter()
         with single_threaded_blas():  # small dense factorizations: threads only wait (forte.planning.blas)
             res = self.ip.solve(self.start(q_guess, data, warm), data)
