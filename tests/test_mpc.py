@@ -51,7 +51,7 @@ def _mpc(plan_dir: Path, **options) -> tuple[object, dict]:
     ({"rate_hz": 2000}, "rate_hz"), ({"deadline_s": 0}, "deadline_s"), ({"on_miss": "later"}, "on_miss"),
     ({"threshold": -1}, "threshold"), ({"add_mass": (1.0, -2.0)}, "add_mass"),
     ({"estimates": ((0.8, 0.0),)}, "estimates"), ({"estimates": ((-1, 2.7),)}, "estimates"),
-    ({"source": 3}, "source"),
+    ({"source": 3}, "source"), ({"start": "planned"}, "start"),
 ])
 def test_bad_options_are_one_line_errors(options, field):
     with pytest.raises(InvalidInputError, match=f"^{field}: expected") as info:
@@ -65,6 +65,7 @@ def test_bad_rate_exits_2_through_the_cli(short_plan, capsys):
     assert err.count("\n") == 0 and err.startswith("forte: error: --mpc: expected a rate in (0, 1000]"), err
     assert main(["simulate", str(short_plan), "--mpc", "100", "--replan"]) == 2
     assert main(["simulate", str(short_plan), "--estimate-at", "0.8:2.7"]) == 2  # without --mpc
+    assert main(["simulate", str(short_plan), "--mpc-start", "rest"]) == 2  # without --mpc
     assert main(["simulate", str(short_plan), "--mpc", "100", "--estimate-at", "soon"]) == 2
     assert "--mpc" in capsys.readouterr().err
 
@@ -171,3 +172,26 @@ def test_real_time_iterations_carry_a_misjudged_payload_and_never_publish_an_uns
     assert any(e["published"] and e["planned_mass"] == 2.7 for e in steps)
     assert all(e["iterations"] in (0, 1) for e in steps) and mpc["solver"] == "rti"
     assert result.success, result.detail
+
+
+def test_a_shift_starts_moving_as_the_reference_does(short_plan, monkeypatch):
+    """Each shift hands the re-planner the measured configuration and the motion of the reference
+    there (not at rest): the new horizon's first waypoint moves as the spliced reference does (the
+    step itself runs unchanged)."""
+    from forte.planning.realtime import RealTimeIteration
+
+    seen = []
+    real_step = RealTimeIteration.step
+
+    def recording_step(self, *args, **kwargs):
+        out = real_step(self, *args, **kwargs)
+        if kwargs.get("steps"):
+            seen.append((kwargs["v_now"], self.replanner.task.start_motion.velocity))
+        return out
+
+    monkeypatch.setattr(RealTimeIteration, "step", recording_step)
+    result, mpc = _mpc(short_plan, deadline_s=10.0)
+    assert result.success and len(seen) == 19  # every waypoint but the last
+    for measured, used in seen:
+        np.testing.assert_array_equal(used, measured)
+    assert max(np.abs(v[3:]).max() for v, _ in seen) > 0.05  # mid-motion: the arm moves

@@ -91,6 +91,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mpc-solver", choices=("rti", "stagewise", "ipopt"), default=None,
                    help="--mpc: one real-time iteration of the stagewise solver per tick (rti, default), or a "
                    "warm re-plan to convergence with the stagewise solver or IPOPT")
+    p.add_argument("--mpc-start", choices=("reference", "measured", "rest"), default=None,
+                   help="--mpc: the motion a shifted horizon starts with: the controller reference's at the "
+                   "splice (default), the measured velocity, or at rest")
     p.add_argument("--no-identify", action="store_true",
                    help="--mpc: no identification from the joint torques: only --estimate-at changes the mass")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
@@ -119,7 +122,7 @@ def _replan_options(args: argparse.Namespace) -> object | None:
 def _mpc_options(args: argparse.Namespace) -> object | None:
     mpc_only = (("--on-miss", args.on_miss is not None), ("--deadline", args.deadline is not None),
                 ("--estimate-at", bool(args.estimate_at)), ("--no-identify", args.no_identify),
-                ("--mpc-solver", args.mpc_solver is not None))
+                ("--mpc-solver", args.mpc_solver is not None), ("--mpc-start", args.mpc_start is not None))
     if args.mpc is None:
         for flag, given in mpc_only:
             if given:
@@ -134,7 +137,8 @@ def _mpc_options(args: argparse.Namespace) -> object | None:
                           identify=not args.no_identify, add_mass=args.add_mass,
                           estimates=tuple(args.estimate_at or ()),
                           solver="rti" if args.mpc_solver in (None, "rti") else "converged",
-                          backend=args.mpc_solver if args.mpc_solver in ("stagewise", "ipopt") else "stagewise")
+                          backend=args.mpc_solver if args.mpc_solver in ("stagewise", "ipopt") else "stagewise",
+                          start=args.mpc_start or "reference")
     except InvalidInputError as exc:  # name the flag, not the field
         field, _, rest = str(exc).partition(": ")
         flag = {"rate_hz": "--mpc", "deadline_s": "--deadline"}.get(field, field)

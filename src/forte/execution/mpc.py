@@ -14,8 +14,9 @@ of simulated time (100 Hz: every 10th 1 ms control step) and at each tick
    only the asynchronous estimates);
 2. solves when the plan in force is stale: when the simulated time has passed a waypoint of the
    task's grid (lift: 0.25 s) that the planner's horizon has not reached, the horizon shifts
-   there with the *measured* configuration as its first waypoint
-   (:meth:`~forte.planning.replan.Replanner.shift`); otherwise, when the mass differs from the
+   there with the *measured* state: the configuration as its first waypoint, the velocity as
+   that waypoint's motion (:meth:`~forte.planning.replan.Replanner.shift`,
+   :mod:`forte.planning.history`); otherwise, when the mass differs from the
    plan in force's by ``max(threshold m, 3 sigma, min_change)`` or more, or the planner holds a
    solution that was not published, the current horizon is re-solved
    (:meth:`~forte.planning.replan.Replanner.replan`); otherwise nothing. Every solve goes through
@@ -36,10 +37,9 @@ Simulated time stands still while the planner solves; the wall-clock time of eve
 measured (on a shared machine it varies from run to run). The log has one entry per tick: time,
 mass estimate, the mass of the plan in force, ``min_d`` (the smallest margin ``d`` of the plan in
 force over its waypoints after the tick, at the mass it was planned for, with the derivatives of
-the executed waypoint sequence: a shifted plan's own metrics start it at rest at its first
-waypoint, which makes the margin of the next waypoint mid-motion look several newtons worse than
-what is executed), the solve's kind and time, whether it missed its deadline and whether a plan
-was published.
+the executed waypoint sequence: the waypoints in force before the splice, then the new plan's;
+its own metrics start from the measured velocity instead), the solve's kind and time, whether it
+missed its deadline and whether a plan was published.
 """
 
 from __future__ import annotations
@@ -57,6 +57,7 @@ from forte.execution.closed_loop import MIN_PAYLOAD, PayloadLoop, replanner_of_p
 from forte.execution.control import Reference
 from forte.execution.model import SimModel
 from forte.force.taskforce import TaskForce
+from forte.model.trajectory import start_of
 from forte.planning.planner import evaluate
 from forte.planning.realtime import RealTimeIteration
 from forte.planning.replan import ReplanResult
@@ -67,6 +68,8 @@ from forte.validation import FloatArray
 MPC_SOLVERS = ("rti", "converged")
 #: How the loop treats a solve that overruns its deadline.
 ON_MISS = ("drop", "delay")
+#: The motion a shifted horizon starts with (:class:`MpcOptions`' ``start``).
+START_MOTIONS = ("reference", "measured", "rest")
 #: Simulated-time tolerance of "at or after" (s): tick times are sums of 1 ms steps.
 TIME_EPS = 1e-9
 
@@ -90,6 +93,12 @@ class MpcOptions:
             has converged; ``"converged"``: a warm re-plan to convergence with ``backend``.
         backend: the NLP solver of ``"converged"`` solves (``stagewise`` or ``ipopt``; ``"rti"``
             always uses ``stagewise``).
+        start: the motion of a shifted horizon's first waypoint (the measured configuration):
+            ``"reference"`` (default), the backward differences of the waypoints the controller's
+            reference passes through (the plan in force's two before it, then the measured
+            configuration), so the new plan's dynamics are those the spliced reference executes;
+            ``"measured"``, the measured velocity (the plan's acceleration there); ``"rest"``, at
+            rest (what a shift did before: the ablation).
     """
 
     rate_hz: float = 100.0
@@ -103,8 +112,11 @@ class MpcOptions:
     source: Callable[[float], float | None] | None = None
     solver: str = "rti"
     backend: str = "stagewise"
+    start: str = "reference"
 
     def __post_init__(self) -> None:
+        if self.start not in START_MOTIONS:
+            raise InvalidInputError(f"start: expected one of {', '.join(START_MOTIONS)}, got {self.start!r}")
         if self.solver not in MPC_SOLVERS:
             raise InvalidInputError(f"solver: expected one of {', '.join(MPC_SOLVERS)}, got {self.solver!r}")
         if self.backend not in SOLVER_BACKENDS:
@@ -201,10 +213,10 @@ class MpcLoop(PayloadLoop):
             self.estimates.append((t, self.mass, None))  # the newest asynchronous estimate
         self._maybe_add_mass(t, self.options.add_mass)
         if k % self.every == 0:
-            self._tick(k, t, q)
+            self._tick(k, t, q, dq)
 
     # -- one tick -----------------------------------------------------------------------
-    def _tick(self, k: int, t: float, q: FloatArray) -> None:
+    def _tick(self, k: int, t: float, q: FloatArray, dq: FloatArray) -> None:
         self._receive(t)
         entry: dict[str, Any] = {"t": t, "mass": self.mass, "kind": None, "solve_s": None, "missed": False,
                                  "published": False}
@@ -214,7 +226,7 @@ class MpcLoop(PayloadLoop):
         if self.pending is not None:
             self.busy_ticks += 1
         else:
-            self._maybe_solve(k, t, q, entry)
+            self._maybe_solve(k, t, q, dq, entry)
         entry["planned_mass"] = self.published[1]
         entry["min_d"] = self._remaining_min_d(t)
         self.log.append(entry)
@@ -235,7 +247,7 @@ class MpcLoop(PayloadLoop):
             self.mass = arrived[-1][1]
             self.identifier.mass = self.mass + self.tool_mass  # identification goes on from it
 
-    def _maybe_solve(self, k: int, t: float, q: FloatArray, entry: dict[str, Any]) -> None:
+    def _maybe_solve(self, k: int, t: float, q: FloatArray, dq: FloatArray, entry: dict[str, Any]) -> None:
         i = int(np.searchsorted(self.plan_t, t + TIME_EPS, side="right")) - 1  # the waypoint just passed
         if i >= self.plan_t.size - 1:
             return  # the motion is over: nothing left to solve
@@ -246,11 +258,12 @@ class MpcLoop(PayloadLoop):
             kind, steps = "resolve", 0  # (real-time iterations: also until the iterate has converged)
         else:
             return
+        state = (q, *self._start_motion(i, q, dq)) if kind == "shift" else None
         if self.rti is not None:
-            return self._rti_tick(k, t, q, kind, steps, target, entry)
+            return self._rti_tick(k, t, state, kind, steps, target, entry)
         if self.failed is not None and self.failed[0] == i and not self._departs(target, self.failed[1]):
             return  # failed at this waypoint for this mass already: the plan in force stays until the next
-        result = self._solve_tick(kind, steps, q if kind == "shift" else None, target)
+        result = self._solve_tick(kind, steps, state, target)
         missed = result.latency_s > self.options.deadline
         entry.update(kind=kind, solve_s=result.latency_s, iterations=result.iterations, missed=missed,
                      solved=result.plan.solved, verdict=result.plan.label)
@@ -264,12 +277,25 @@ class MpcLoop(PayloadLoop):
         elif self.options.on_miss == "delay":
             self.pending = done
 
-    def _rti_tick(self, k: int, t: float, q: FloatArray, kind: str, steps: int, target: float,
-                  entry: dict[str, Any]) -> None:
+    def _start_motion(self, j: int, q: FloatArray, dq: FloatArray) -> tuple[FloatArray, FloatArray | None]:
+        """Velocity and acceleration of a horizon shifted to waypoint ``j`` of the grid, starting at
+        the measured ``q`` (:class:`MpcOptions`' ``start``)."""
+        if self.options.start == "measured":
+            return dq, None
+        if self.options.start == "rest":
+            return np.zeros_like(dq), np.zeros_like(dq)
+        before = self.plan_q[[max(j - 2, 0), max(j - 1, 0)]]  # the reference's waypoints before the splice
+        t = self.replanner.task.t
+        motion = start_of(np.vstack([before, q]), float(t[1] - t[0]))
+        return motion.velocity, motion.acceleration
+
+    def _rti_tick(self, k: int, t: float, state: tuple[FloatArray, FloatArray, FloatArray | None] | None,
+                  kind: str, steps: int, target: float, entry: dict[str, Any]) -> None:
         """One real-time iteration: the problem moves on (horizon, mass) whether or not the step is
         sound; a sound step within its deadline is published (a late one as ``on_miss`` says)."""
-        step = self.rti.step(mass=None if target == self.rti_mass else target, steps=steps,
-                             q_now=q if kind == "shift" else None)
+        q_now, v_now, a_now = state if state is not None else (None, None, None)
+        step = self.rti.step(mass=None if target == self.rti_mass else target, steps=steps, q_now=q_now,
+                             v_now=v_now, a_now=a_now)
         self.horizon += steps
         self.rti_mass, self.rti_converged = target, step.converged
         missed = step.latency_s > self.options.deadline
@@ -284,12 +310,15 @@ class MpcLoop(PayloadLoop):
         elif self.options.on_miss == "delay":
             self.pending = done
 
-    def _solve_tick(self, kind: str, steps: int, q_now: FloatArray | None, mass: float) -> ReplanResult:
-        """The one solver call of a tick: ``"shift"`` the horizon ``steps`` waypoints forward with
-        ``q_now`` (measured) as its first waypoint, or ``"resolve"`` the current horizon, for
-        payload ``mass``. A converged result moves the planner's warm start (published or not)."""
+    def _solve_tick(self, kind: str, steps: int, state: tuple[FloatArray, FloatArray, FloatArray | None] | None,
+                    mass: float) -> ReplanResult:
+        """The one solver call of a tick: ``"shift"`` the horizon ``steps`` waypoints forward from
+        ``state`` (the measured configuration, its velocity and acceleration: :meth:`_start_motion`),
+        or ``"resolve"`` the current horizon, for payload ``mass``. A converged result moves the
+        planner's warm start (published or not)."""
         if kind == "shift":
-            return self.replanner.shift(steps, q_now=q_now, mass=mass)
+            q_now, v_now, a_now = state
+            return self.replanner.shift(steps, q_now=q_now, mass=mass, v_now=v_now, a_now=a_now)
         return self.replanner.replan(mass=mass)
 
     def _target_mass(self) -> float:
@@ -312,8 +341,8 @@ class MpcLoop(PayloadLoop):
 
     def _executed_margin(self, start: int, plan: Any) -> FloatArray:
         """The margins of the waypoints in force (after a splice from ``start``): the past ones as they
-        were, the new plan's evaluated after the waypoints before it, not at rest as the shifted plan's
-        own metrics have its first waypoint (:meth:`~forte.planning.replan.Replanner.shift`)."""
+        were, the new plan's evaluated after the waypoints before it (the sequence the reference
+        follows; the shifted plan's own metrics start from the measured velocity)."""
         m = self.plan_t.size - start
         f = np.concatenate([np.repeat(plan.force.f[:1], start, axis=0), plan.force.f[:m]])
         r = np.concatenate([np.repeat(plan.force.r[:1], start), plan.force.r[:m]])
@@ -336,6 +365,7 @@ class MpcLoop(PayloadLoop):
         return {
             "rate_hz": self.options.rate_hz, "tick_period_s": self.every * self.sim.timestep,
             "solver": self.options.solver, "backend": "stagewise" if self.rti is not None else self.options.backend,
+            "start": self.options.start,
             "deadline_s": self.options.deadline, "on_miss": self.options.on_miss,
             "identify": self.options.identify, "ticks": len(self.log), "solves": len(solves),
             "published": sum(e["published"] for e in self.log), "misses": sum(e["missed"] for e in solves),

@@ -7,7 +7,9 @@ scenario runs in every mode of :data:`MODES`: open loop (identification only), t
 re-planner (:class:`~forte.execution.closed_loop.ReplanLoop`), and MPC at 100 Hz
 (:class:`~forte.execution.mpc.MpcLoop`) with a missed deadline dropped or delayed, with online
 identification or hearing only a late asynchronous estimate (a VLM's answer of the true mass,
-:data:`VLM_DELAY` s after the payload changed).
+:data:`VLM_DELAY` s after the payload changed), and with a shifted horizon starting from the
+measured velocity or at rest instead of the reference's motion (the ablations of
+:class:`~forte.execution.mpc.MpcOptions`' ``start``).
 
 Every run stops at its first failure. Reported per run: the verdict in simulation, the solves
 (published, over the deadline, not converged), the solve-time median, p95 and max (wall clock
@@ -56,6 +58,10 @@ MODES: dict[str, tuple[str, str, dict[str, Any]]] = {
     "MPC 100 Hz, real-time iterations": ("tab:red", "-", {"loop": "mpc", "on_miss": "drop", "solver": "rti"}),
     "MPC 100 Hz, real-time iterations, VLM estimate only": (
         "tab:purple", "-", {"loop": "mpc", "on_miss": "drop", "solver": "rti", "vlm": True}),
+    "MPC 100 Hz, real-time iterations, shifts from the measured velocity": (
+        "tab:pink", "-.", {"loop": "mpc", "on_miss": "drop", "solver": "rti", "start": "measured"}),
+    "MPC 100 Hz, real-time iterations, shifts at rest": (
+        "tab:olive", "-.", {"loop": "mpc", "on_miss": "drop", "solver": "rti", "start": "rest"}),
     "MPC 100 Hz, converged stagewise, misses delayed": (
         "tab:green", "--", {"loop": "mpc", "on_miss": "delay", "solver": "converged", "backend": "stagewise"}),
     "MPC 100 Hz, converged IPOPT, misses dropped": (
@@ -73,13 +79,17 @@ NOTES = [
     "with a 10 ms deadline a converged IPOPT solve that changes the problem (a shift, a new mass) rarely fits, "
     "so 'dropped' publishes only when a re-solve of an already solved problem converges at once; 'delayed' is "
     "the same MPC running at the rate its solver allows.",
-    "- min d of the MPC: the plan in force at each tick, over its waypoints after the tick, at the mass it was "
-    "planned for, with the executed waypoints before it (`forte.execution.mpc`). It dips below zero for a few "
-    "ticks after a plan is spliced in where the measured configuration, or the new mass's motion, departs from "
-    "the waypoints before it: the waypoint sequence bends there, and the margin of the next waypoints carries "
-    "that acceleration (`Replanner.shift` starts a horizon at rest and knows nothing of the motion before it). "
-    "The re-planner's min d is each re-plan's own metric, which starts the shifted horizon at rest; open loop: "
-    "the 0.35 kg plan's.",
+    "- shifts: a shifted horizon starts at the measured configuration, moving as the controller's reference "
+    "moves there (the backward differences of the two waypoints in force before the splice and the measured "
+    "configuration: `MpcOptions.start`, `forte.planning.history`), so the new plan's dynamics over its first "
+    "waypoints are those the spliced reference executes. 'shifts from the measured velocity' starts it with the "
+    "measured joint velocity instead, 'shifts at rest' at rest (what every shift did before): the ablations.",
+    "- min d of the MPC: the smallest margin of the plan in force at each tick, over its waypoints after the "
+    "tick, at the mass it was planned for, with the executed waypoints before it (`forte.execution.mpc`; with "
+    "the default start it is the new plan's own metric). It is below zero in the ticks right after the payload "
+    "changes: the first plans for the new mass start from the state the robot is in and cannot keep the margin "
+    "over their first waypoints. The re-planner's min d is each re-plan's own metric; open loop: the 0.35 kg "
+    "plan's.",
 ]
 #: Every TRACE_EVERY-th MPC tick goes into summary.json (the figure's curves).
 TRACE_EVERY = 5
@@ -96,7 +106,7 @@ def _loop_options(scenario: tuple[float, tuple[float, float] | None], mode: dict
         estimates = ((changed + VLM_DELAY, true_mass),)
     return {"mpc": MpcOptions(rate_hz=RATE_HZ, on_miss=mode["on_miss"], identify=not mode.get("vlm"),
                               solver=mode.get("solver", "rti"), backend=mode.get("backend", "stagewise"),
-                              add_mass=add, estimates=estimates)}
+                              add_mass=add, estimates=estimates, start=mode.get("start", "reference"))}
 
 
 def _run(plan_dir: Path, scenario: tuple[float, tuple[float, float] | None], mode: dict[str, Any],
