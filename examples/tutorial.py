@@ -4,7 +4,8 @@
 2. the desired task force, and the capability margin d_k;
 3. planning the lifting task with FORTE and with the manipulability baseline;
 4. reading the plan's metrics;
-5. extending forte: a cost term of your own and a method that uses it, through the registries.
+5. extending forte: a cost term of your own and a method that uses it, through the registries;
+6. re-planning while the robot moves: a new mass, and a receding horizon that starts moving.
 """
 
 from __future__ import annotations
@@ -68,3 +69,15 @@ forte.register_method(forte.Method(
 stay = forte.plan(task, "forte-stay")  # `forte plan --method forte-stay` works too, in this process
 travel = {r.method: float(abs(r.q[:, :2]).max()) for r in (ours, stay)}
 print(f"largest base excursion: forte {travel['forte']:.3f} m, forte-stay {travel['forte-stay']:.3f} m")
+
+# 6. Re-plan while the robot moves. A Replanner keeps the compiled problem and its last solution:
+#    after a new mass it re-solves from there. A shift moves the horizon on by whole waypoints; its
+#    new first waypoint moves as the plan did there (or give the measured q_now, v_now), so the
+#    backward differences, the torques and the margins of the new plan start from that motion.
+replanner = forte.Replanner(task)
+heavier = replanner.replan(mass=3.3)
+shifted = replanner.shift(4)
+speed = float(abs(replanner.task.start_motion.velocity[3:]).max())
+margin = shifted.plan.metrics["d"].min()
+print(f"re-plan for 3.3 kg: {heavier.iterations} iterations, {1000 * heavier.latency_s:.0f} ms; shifted by 4 "
+      f"waypoints, starting at up to {speed:.2f} rad/s: {shifted.plan.label}, min d {margin:.1f} N")
