@@ -57,7 +57,7 @@ from forte.execution.closed_loop import MIN_PAYLOAD, PayloadLoop, replanner_of_p
 from forte.execution.control import Reference
 from forte.execution.model import SimModel
 from forte.force.taskforce import TaskForce
-from forte.model.trajectory import start_of
+from forte.model.trajectory import backward_differences
 from forte.planning.planner import evaluate
 from forte.planning.realtime import RealTimeIteration
 from forte.planning.replan import ReplanResult
@@ -284,10 +284,10 @@ class MpcLoop(PayloadLoop):
             return dq, None
         if self.options.start == "rest":
             return np.zeros_like(dq), np.zeros_like(dq)
-        before = self.plan_q[[max(j - 2, 0), max(j - 1, 0)]]  # the reference's waypoints before the splice
-        t = self.replanner.task.t
-        motion = start_of(np.vstack([before, q]), float(t[1] - t[0]))
-        return motion.velocity, motion.acceleration
+        # the waypoints the reference passes through up to the splice (the task's plan starts at rest)
+        lo = max(j - 2, 0)
+        v, a = backward_differences(np.vstack([self.plan_q[lo:j], q]), self.plan_t[lo:j + 1], "q")
+        return v[-1], a[-1]
 
     def _rti_tick(self, k: int, t: float, state: tuple[FloatArray, FloatArray, FloatArray | None] | None,
                   kind: str, steps: int, target: float, entry: dict[str, Any]) -> None:
