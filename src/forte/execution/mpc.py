@@ -14,8 +14,8 @@ of simulated time (100 Hz: every 10th 1 ms control step) and at each tick
    only the asynchronous estimates);
 2. solves when the plan in force is stale: when the simulated time has passed a waypoint of the
    task's grid (lift: 0.25 s) that the planner's horizon has not reached, the horizon shifts
-   there with the *measured* state: the configuration as its first waypoint, the velocity as
-   that waypoint's motion (:meth:`~forte.planning.replan.Replanner.shift`,
+   there with the *measured* configuration as its first waypoint, moving as the controller's
+   reference moves there (``MpcOptions.start``; :meth:`~forte.planning.replan.Replanner.shift`,
    :mod:`forte.planning.history`); otherwise, when the mass differs from the
    plan in force's by ``max(threshold m, 3 sigma, min_change)`` or more, or the planner holds a
    solution that was not published, the current horizon is re-solved
@@ -38,7 +38,7 @@ measured (on a shared machine it varies from run to run). The log has one entry 
 mass estimate, the mass of the plan in force, ``min_d`` (the smallest margin ``d`` of the plan in
 force over its waypoints after the tick, at the mass it was planned for, with the derivatives of
 the executed waypoint sequence: the waypoints in force before the splice, then the new plan's;
-its own metrics start from the measured velocity instead), the solve's kind and time, whether it
+with the default ``start`` these are the new plan's own metrics), the solve's kind and time, whether it
 missed its deadline and whether a plan was published.
 """
 
@@ -342,7 +342,8 @@ class MpcLoop(PayloadLoop):
     def _executed_margin(self, start: int, plan: Any) -> FloatArray:
         """The margins of the waypoints in force (after a splice from ``start``): the past ones as they
         were, the new plan's evaluated after the waypoints before it (the sequence the reference
-        follows; the shifted plan's own metrics start from the measured velocity)."""
+        follows; the shifted plan's own metrics start from ``MpcOptions.start``'s motion, with the
+        default the same)."""
         m = self.plan_t.size - start
         f = np.concatenate([np.repeat(plan.force.f[:1], start, axis=0), plan.force.f[:m]])
         r = np.concatenate([np.repeat(plan.force.r[:1], start), plan.force.r[:m]])
