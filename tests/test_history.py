@@ -14,7 +14,14 @@ from scipy.interpolate import CubicSpline
 from forte.capability.metrics import smooth_capability_penalty
 from forte.capability.polytope import trajectory_rfp
 from forte.exceptions import InvalidInputError
-from forte.model.trajectory import StartMotion, backward_differences, clamped_spline, start_history, start_of
+from forte.model.trajectory import (
+    StartMotion,
+    backward_differences,
+    clamped_spline,
+    motion_at,
+    start_history,
+    start_of,
+)
 from forte.planning.evaluation import evaluate
 from forte.planning.motion_samples import sample_motion
 from forte.planning.optimizer import TrajectoryOptimizer
@@ -58,6 +65,10 @@ def test_backward_differences_with_a_start_are_those_of_its_history():
     np.testing.assert_allclose(back.velocity, start.velocity, atol=1e-12)
     np.testing.assert_allclose(back.acceleration, start.acceleration, atol=1e-10)
     np.testing.assert_array_equal(start_history(x[0], None, h), [x[0], x[0]])  # at rest
+    for k in (0, 1, 2, 5):  # the motion at one sample, from the three up to it
+        at = motion_at(x, t, k, start)
+        np.testing.assert_allclose(at.velocity, v[k], atol=1e-12)
+        np.testing.assert_allclose(at.acceleration, a[k], atol=1e-12)
 
 
 def test_the_spline_leaves_a_moving_start_with_its_velocity():

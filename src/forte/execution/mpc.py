@@ -57,7 +57,7 @@ from forte.execution.closed_loop import MIN_PAYLOAD, PayloadLoop, replanner_of_p
 from forte.execution.control import Reference
 from forte.execution.model import SimModel
 from forte.force.taskforce import TaskForce
-from forte.model.trajectory import backward_differences
+from forte.model.trajectory import motion_at
 from forte.planning.planner import evaluate
 from forte.planning.realtime import RealTimeIteration
 from forte.planning.replan import ReplanResult
@@ -285,9 +285,8 @@ class MpcLoop(PayloadLoop):
         if self.options.start == "rest":
             return np.zeros_like(dq), np.zeros_like(dq)
         # the waypoints the reference passes through up to the splice (the task's plan starts at rest)
-        lo = max(j - 2, 0)
-        v, a = backward_differences(np.vstack([self.plan_q[lo:j], q]), self.plan_t[lo:j + 1], "q")
-        return v[-1], a[-1]
+        motion = motion_at(np.vstack([self.plan_q[:j], q]), self.plan_t, j)
+        return motion.velocity, motion.acceleration
 
     def _rti_tick(self, k: int, t: float, state: tuple[FloatArray, FloatArray, FloatArray | None] | None,
                   kind: str, steps: int, target: float, entry: dict[str, Any]) -> None:

@@ -42,10 +42,9 @@ class StartMotion(NamedTuple):
 
     @staticmethod
     def checked(velocity: Any, acceleration: Any, size: int, name: str = "start") -> StartMotion:
-        """A start motion of ``size`` coordinates, validated (finite); ``acceleration`` ``None``: zero."""
-        v = as_array(velocity, f"{name}.velocity", (size,))
-        a = np.zeros(size) if acceleration is None else as_array(acceleration, f"{name}.acceleration", (size,))
-        return StartMotion(v, a)
+        """A start motion of ``size`` coordinates, validated (finite)."""
+        return StartMotion(as_array(velocity, f"{name}.velocity", (size,)),
+                           as_array(acceleration, f"{name}.acceleration", (size,)))
 
 
 def start_history(x0: Any, start: StartMotion | None, h: float) -> FloatArray:
@@ -74,6 +73,15 @@ def start_through(position: Callable[[FloatArray], FloatArray], x0: Any, start: 
     if start is None:
         return None
     return start_of([position(x) for x in (*start_history(x0, start, h), np.asarray(x0, dtype=float))], h)
+
+
+def motion_at(x: Any, t: Any, k: int, start: StartMotion | None = None) -> StartMotion:
+    """The backward-difference velocity and acceleration of samples ``x`` at sample ``k`` (from the
+    samples ``k - 2 .. k``; ``start``: the motion at sample 0, default at rest): where a trajectory
+    spliced in at ``k`` starts moving."""
+    lo = max(k - 2, 0)
+    v, a = backward_differences(np.asarray(x)[lo:k + 1], np.asarray(t)[lo:k + 1], "x", start if lo == 0 else None)
+    return StartMotion(v[-1], a[-1])
 
 
 def backward_differences(x: Any, t: Any, name: str = "x",

@@ -50,7 +50,7 @@ import numpy as np
 
 from forte.exceptions import InvalidInputError
 from forte.force.taskforce import TaskForce
-from forte.model.trajectory import StartMotion, backward_differences
+from forte.model.trajectory import StartMotion, motion_at
 from forte.planning.blas import single_threaded_blas
 from forte.planning.collision_slots import assign_slots, missing_pairs
 from forte.planning.layout import shift_rows
@@ -203,13 +203,11 @@ class Replanner:
     def _start_at(self, steps: int, v_now: FloatArray | None, a_now: FloatArray | None) -> StartMotion:
         """The motion of the new first waypoint: measured where given, else the last plan's (its
         backward differences at waypoint ``steps``, from the three waypoints up to it)."""
-        lo = max(steps - 2, 0)
-        v, a = backward_differences(self.last.q[lo:steps + 1], self.task.t[lo:steps + 1], "q",
-                                    self.task.start_motion if lo == 0 else None)
+        planned = motion_at(self.last.q, self.task.t, steps, self.task.start_motion)
         if v_now is None and a_now is None:
-            return StartMotion(v[-1], a[-1])
-        return StartMotion.checked(v[-1] if v_now is None else v_now, a[-1] if a_now is None else a_now,
-                                   self.task.robot.nq, "v_now/a_now")
+            return planned
+        return StartMotion.checked(planned.velocity if v_now is None else v_now,
+                                   planned.acceleration if a_now is None else a_now, self.task.robot.nq, "v_now/a_now")
 
     # -- solving ------------------------------------------------------------------------
     def _run(self, change: Callable[[], Problem]) -> ReplanResult:
