@@ -190,19 +190,74 @@ def starting_at(reader: Reader, first: FloatArray, T0: FloatArray, targets_at: T
                        f"initial_configuration (rpy {pin.rpy.matrixToRpy(T0[:3, :3]).tolist()!r} rad){hint}")
 
 
-def ending_at_rest(targets_at: TargetsAt) -> TargetsAt:
-    """The path with its last two samples holding the final pose.
+class HeldPath:
+    """The path of a plan that ends at rest: it holds its final pose over the last two samples.
 
     A plan that ends at rest on the paper's backward differences has ``q_N = q_{N-1} = q_{N-2}``
-    (``v_N = 0`` and ``a_N = 0``), so the three last targets must be one pose. A path that
-    blends into its last pose (the quintic blends of the taught and waypoint paths) is still
-    moving there by a small amount; this holds the final pose over the last two samples instead
-    (on the authors' lift, N = 41: 3 mm and 0.4 mm at the two samples), which keeps every pose
-    equality of the optimizer exact.
+    (``v_N = 0`` and ``a_N = 0``), so its three last targets must be one pose. A path that blends
+    into its last pose (the quintic blends of the taught and waypoint paths) may still be moving at
+    ``t_{N-2}``: the authors' lift on its 41 samples is 6.2 mm short of its final pose there. The
+    targets are the path up to ``t_{N-2}`` and its final pose (at its end ``t_e``) from then on:
+
+        ``T(t) = path(t)`` for ``t < t_{N-2}``, ``T(t) = path(t_e)`` from ``t_{N-2}`` on,
+
+    at the samples exactly the held targets that keep the optimizer's pose equalities exact, and
+    between them what the verdict's tracking judges the executed motion against, so the planner and
+    the verdict agree on the path, the final hold included. :func:`ending_at_rest` keeps what the
+    hold cuts within :data:`HOLD_TOLERANCE`, moving the two hold samples after the path's end when it
+    would cut more (then ``t_e <= t_{N-2}``: nothing is cut). :meth:`on` moves the hold to another
+    grid (a resampled task).
     """
-    def at(ts: FloatArray) -> FloatArray:
-        targets = targets_at(ts)
-        if len(targets) >= 3:
-            targets[-3:-1] = targets[-1]
-        return targets
-    return at
+
+    def __init__(self, path: TargetsAt, t: FloatArray, end: float | None = None) -> None:
+        self.path = path
+        self.t = np.asarray(t, dtype=float)
+        self.end = float(self.t[-1] if end is None else end)
+
+    def on(self, t: FloatArray) -> HeldPath:
+        """The same path holding its final pose on the grid ``t``."""
+        return HeldPath(self.path, t, self.end)
+
+    def __call__(self, ts: FloatArray) -> FloatArray:
+        times = np.minimum(np.array(ts, dtype=float), self.end)
+        if self.t.size >= 3:
+            times[times >= self.t[-3]] = self.end
+        return self.path(times)
+
+
+#: How much of the path (m, rad) a hold over the last two samples may cut before the hold samples
+#: move after the path's end (:func:`ending_at_rest`): the verdict's tracking tolerances
+#: (:data:`forte.planning.requirements.TRACKING_POSITION_TOL`, ``TRACKING_ORIENTATION_TOL``; a test
+#: checks they agree). The paper's lift on its 41 samples cuts 6.2 mm and keeps its grid.
+HOLD_TOLERANCE = (0.01, 0.05)
+
+
+def hold_cut(path: TargetsAt, t: FloatArray) -> tuple[float, float]:
+    """How far (m, rad) the path still is from its final pose at ``t_{N-2}``: what a hold over the
+    last two samples of ``t`` cuts (a path that comes to rest monotonically in its last segment)."""
+    if len(t) < 3:
+        return 0.0, 0.0
+    at_hold, final = path(np.array([t[-3], t[-1]]))
+    gap = float(np.linalg.norm(at_hold[:3, 3] - final[:3, 3]))
+    return gap, float(np.linalg.norm(pin.log3(final[:3, :3].T @ at_hold[:3, :3])))
+
+
+def ending_at_rest(path: TargetsAt, t: FloatArray) -> tuple[FloatArray, HeldPath]:
+    """The grid and the path of a plan that ends at rest (:class:`HeldPath`).
+
+    The hold takes the last two samples of ``t`` where it cuts at most :data:`HOLD_TOLERANCE` of the
+    path; otherwise the same number of samples is spread over the path (``N - 2`` equal steps
+    ``h`` up to its end) and two more hold its final pose, ``h`` and ``2 h`` after the end: the
+    path and its timing are kept exactly and the plan ends ``2 h`` later, at rest.
+    """
+    t = np.asarray(t, dtype=float)
+    if len(t) < 4:
+        return t, HeldPath(path, t)
+    cut = hold_cut(path, t)
+    if cut[0] <= HOLD_TOLERANCE[0] and cut[1] <= HOLD_TOLERANCE[1]:
+        return t, HeldPath(path, t)
+    end = float(t[-1])
+    on_path = np.linspace(float(t[0]), end, len(t) - 2)
+    h = float(on_path[1] - on_path[0])
+    grid = np.r_[on_path, end + h, end + 2 * h]
+    return grid, HeldPath(path, grid, end)

@@ -30,7 +30,7 @@ from forte.planning.scene_guess import clear_start
 from forte.planning.scene_solve import blocked_path, solve_in_scene
 from forte.planning.tasks import Task
 from forte.planning.terms_section import term_settings, term_values, with_task_terms
-from forte.planning.verdict import SOLVER_FAILED, Verdict, arm_acceleration_ratios, capacity_shortfall, judge_plan
+from forte.planning.verdict import SOLVER_FAILED, Verdict, capacity_shortfall, judge_plan, limit_ratios
 from forte.planning.wrench_terms import for_requirement, uses_capability
 from forte.validation import FloatArray
 
@@ -256,6 +256,15 @@ def _upright(task: Task, q: FloatArray) -> bool:
 
 #: What a refinement round adds to the shortfall it covers (N).
 REFINE_SLACK_N = 0.5
+#: How far below the executed peak a refinement round sets a velocity or acceleration bound.
+REFINE_MARGIN = 1.05
+
+
+def _tightened(limits: FloatArray, peaks: FloatArray, ratios: FloatArray) -> FloatArray:
+    """The NLP's bound of every coordinate whose executed motion exceeds its limit by ``x``
+    (``ratios``): ``min(limit, largest waypoint value) / (1.05 x)``, so the tighter bound binds."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(ratios > 1.0, np.minimum(limits, peaks) / (REFINE_MARGIN * ratios), limits)
 
 
 def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info: dict[str, Any],
@@ -263,44 +272,51 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
     """Re-solve a converged plan whose verdict fails only where the NLP's discrete view of the
     motion falls short of the executed one.
 
-    The NLP checks the force ball and the joint accelerations at the waypoints, on backward
-    differences; the verdict also checks the executed spline between them, whose torques and
-    accelerations differ (forte's 0.35 kg lift on the moca-like robot: arm accelerations within
-    the limits at every waypoint, 1.45 x a limit on the spline). Each round, solved again from the
-    current plan:
+    The NLP checks the force ball, the joint velocities and accelerations at the waypoints, on
+    backward differences; the verdict also checks the executed spline between them, whose torques,
+    velocities and accelerations differ (forte's 0.35 kg lift on the moca-like robot: arm
+    accelerations within the limits at every waypoint, 1.45 x a limit on the spline; a Kinova
+    riding its 0.628 rad/s joint limits at the waypoints: 1.014 x on the spline). Each round,
+    solved again from the current plan:
 
     - ``capacity`` (methods whose objective uses the ball, the ``capability`` term): ``r_k`` grows
       at the waypoints next to every failing sample by the shortfall there plus
       :data:`REFINE_SLACK_N`;
-    - ``acceleration``: the NLP's limit of each arm joint that exceeds its limit on the spline by
-      the ratio ``x`` becomes ``min(limit, largest waypoint acceleration) / (1.05 x)``.
+    - ``velocity``, ``acceleration``: the NLP's limit of each coordinate (base and arm velocities,
+      arm accelerations) that exceeds its limit on the spline by the ratio ``x`` becomes
+      ``min(limit, largest waypoint value) / (1.05 x)``.
 
     The metrics, the cost terms and the verdict keep the task's own radii and limits. At most
     ``task.solver.refine_rounds`` rounds (0: none); the first feasible plan is kept, else the original.
     ``info["refinement"]`` records the rounds.
     """
-    fixable = {"capacity", "acceleration"} if uses_capability(spec) else {"acceleration"}
+    fixable = {"velocity", "acceleration"} | ({"capacity"} if uses_capability(spec) else set())
     if not sol.success or not verdict.failed or not set(verdict.failed) <= fixable or not task.solver.refine_rounds:
         return sol, info, verdict
-    radius, acc = force.r.copy(), task.limits.resolve(task.robot)[1][N_BASE:].copy()
+    radius = force.r.copy()
+    vel, acc = (limit.copy() for limit in task.limits.resolve(task.robot))
+    acc = acc[N_BASE:]
     rounds, current, current_verdict = [], sol, verdict
     for _ in range(task.solver.refine_rounds):
         if "capacity" in current_verdict.failed:
             short = capacity_shortfall(task, current.q, force)
             radius = radius + np.where(short > 0, short + REFINE_SLACK_N, 0.0)
-        if "acceleration" in current_verdict.failed:
-            ratio = arm_acceleration_ratios(task, current.q)
-            # scale the joint's largest waypoint acceleration, so the tighter bound binds
-            arm_start = None if task.start_motion is None else task.start_motion.columns(slice(N_BASE, None))
-            peak = np.max(np.abs(backward_differences(current.q[:, N_BASE:], task.t, start=arm_start)[1]), axis=0)
-            acc = np.where(ratio > 1.0, np.minimum(acc, peak) / (1.05 * ratio), acc)
-        trial_task = replace(task, limits=replace(task.limits, arm_acceleration=tuple(acc)))
+        if {"velocity", "acceleration"} & set(current_verdict.failed):
+            v_ratio, a_ratio = limit_ratios(task, current.q)
+            v_peak, a_peak = (np.max(np.abs(x), axis=0) for x in backward_differences(
+                np.asarray(current.q), task.t, start=task.start_motion))
+            vel = _tightened(vel, v_peak, v_ratio)
+            acc = _tightened(acc, a_peak[N_BASE:], a_ratio)
+        trial_task = replace(task, limits=replace(task.limits, arm_acceleration=tuple(acc),
+                                                  arm_velocity=tuple(vel[N_BASE:]),
+                                                  base_velocity=tuple(vel[:N_BASE])))
         trial, trial_info = _optimize(trial_task, spec, replace(force, r=radius), current.q,
                                       reported=force)
         trial_verdict = judge_plan(task, trial.q, force, trial_info)
         rounds.append({"max_added_radius_n": float(np.max(radius - force.r)), "arm_acceleration": acc.tolist(),
-                       "verdict": trial_verdict.label, "failed": list(trial_verdict.failed),
-                       "iterations": trial.iterations, "solve_time_s": trial.solve_time})
+                       "velocity": vel.tolist(), "verdict": trial_verdict.label,
+                       "failed": list(trial_verdict.failed), "iterations": trial.iterations,
+                       "solve_time_s": trial.solve_time})
         if trial_verdict.feasible:
             trial_info["refinement"] = {"rounds": rounds, "radius": radius.tolist()}
             return trial, trial_info, trial_verdict

@@ -258,19 +258,14 @@ class Replanner:
 def _shifted_path(task: Task, steps: int) -> Callable[[FloatArray], FloatArray] | None:
     """The task's path moved ``steps`` waypoints forward in time, holding its end: what the shifted
     targets sample (:func:`~forte.planning.layout.shift_rows`), so the verdict judges a shifted
-    plan against the path it follows. A path that ends at rest holds its final pose from the
-    third-last sample time on (:func:`forte.planning.paths.ending_at_rest`), here too."""
+    plan against the path it follows. A path that ends at rest holds its final pose over the
+    original grid's last samples (:class:`forte.planning.paths.HeldPath`), here too."""
     path = task.targets_at
     if path is None:
         return None
-    t, delta, end = task.t, float(task.t[steps] - task.t[0]), float(task.t[-1])
-    final = task.targets[-1]
-    hold_from = float(t[-3]) if len(t) >= 3 and np.allclose(task.targets[-3], final) else np.inf
+    delta, end = float(task.t[steps] - task.t[0]), float(task.t[-1])
 
     def at(ts: FloatArray) -> FloatArray:
-        shifted = np.minimum(np.asarray(ts, dtype=float) + delta, end)
-        out = path(shifted)
-        out[shifted >= hold_from - 1e-9] = final  # 1 ns: t_i + delta is t_{i+steps} up to rounding
-        return out
+        return path(np.minimum(np.asarray(ts, dtype=float) + delta, end))
 
     return at

@@ -3,6 +3,7 @@ sampled measure, the requirement's base class and the violation it reports."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, NamedTuple
 
@@ -71,8 +72,10 @@ class Context(NamedTuple):
     distances: Clearances | None = None
 
 
-def exceeded(ctx: Context, name: str, value: FloatArray, limit: float, units: str, what: str) -> Violation | None:
-    """The violation where ``value`` (one per sample) exceeds ``limit``, else ``None``."""
+def exceeded(ctx: Context, name: str, value: FloatArray, limit: float, units: str, what: str,
+             which: Sequence[str] | None = None) -> Violation | None:
+    """The violation where ``value`` (one per sample) exceeds ``limit``, else ``None``; ``which``
+    names, per sample, the part that gives the value there (a joint), named at the worst sample."""
     bad = value > limit
     if not np.any(bad):
         return None
@@ -82,18 +85,29 @@ def exceeded(ctx: Context, name: str, value: FloatArray, limit: float, units: st
     first = float(s.t[np.flatnonzero(bad)[0]])
     where = (f"at {len(at_waypoints)} of {len(s.waypoint)} waypoints" if at_waypoints
              else "between waypoints only")
-    detail = (f"{what} {where}, first at t = {first:.3g} s; worst {value[worst]:.4g} {units} "
-              f"(limit {limit:.4g}) at t = {s.t[worst]:.3g} s")
+    part = f" ({which[worst]})" if which is not None else ""
+    detail = (f"{what} {where}, first at t = {first:.3g} s; worst {value[worst]:.4g} {units}{part} "
+              f"(limit {limit:.4g}) at t = {s.t[worst]:.3g} s{_near(s, worst)}")
     return Violation(name, detail, float(value[worst]), float(limit), units, at_waypoints, first)
 
 
+def _near(samples: MotionSamples, i: int) -> str:
+    """Where sample ``i`` lies: ``(waypoint k)`` on a waypoint, else ``(between waypoints k and k+1)``."""
+    k = samples.segment_of(i)
+    if samples.t[i] == samples.t[samples.waypoint[k]]:
+        return f" (waypoint {k})"
+    return f" (between waypoints {k} and {k + 1})"
+
+
 class Measure(NamedTuple):
-    """One sampled quantity a requirement bounds: it fails where ``value > limit``."""
+    """One sampled quantity a requirement bounds: it fails where ``value > limit``; ``which``
+    (optional) names the part that gives the value at each sample (a joint's name)."""
 
     value: FloatArray
     limit: float
     units: str
     what: str
+    which: Sequence[str] | None = None
 
 
 @dataclass(frozen=True)
@@ -109,7 +123,7 @@ class Requirement:
 
     def check(self, ctx: Context) -> Violation | None:
         for m in self.measures(ctx):
-            found = exceeded(ctx, self.name, m.value, m.limit, m.units, m.what)
+            found = exceeded(ctx, self.name, m.value, m.limit, m.units, m.what, m.which)
             if found is not None:
                 return found
         return None

@@ -25,6 +25,7 @@ much. :func:`forte.planning.verdict.judge` runs the list :data:`REQUIREMENTS`.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -35,7 +36,7 @@ from forte.capability.polytope import directional_capacity
 from forte.capability.wrench import requirement_measures
 from forte.force.taskforce import force_directions
 from forte.model.clearance import Clearances, clearances
-from forte.model.robot import N_BASE
+from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.self_collision import arm_geometry
 from forte.planning.base_requirements import (
     FIXED_BASE_TOL,
@@ -89,8 +90,9 @@ class TorqueWithForce(Requirement):
     def measures(self, ctx: Context) -> list[Measure]:
         s = ctx.samples
         tau = s.tau_nom + np.einsum("kij,ki->kj", s.task_jacobian, ctx.force.requirement)
-        ratio = np.max(np.abs(tau) / ctx.robot.torque_limits, axis=1)
-        return [Measure(ratio, 1.0 + LIMIT_SLACK, "x limit", "a joint torque with the task force exceeds its limit")]
+        ratio, which = _ratio(tau, ctx.robot.torque_limits, joint_names(ctx.robot)[N_BASE:])
+        return [Measure(ratio, 1.0 + LIMIT_SLACK, "x limit", "a joint torque with the task force exceeds its limit",
+                        which)]
 
 
 @dataclass(frozen=True)
@@ -101,15 +103,31 @@ class JointPositions(Requirement):
 
     def measures(self, ctx: Context) -> list[Measure]:
         qa, r = ctx.samples.q[:, N_BASE:], ctx.robot
-        outside = np.max(np.maximum(qa - r.upper, r.lower - qa), axis=1)
-        return [Measure(outside, POSITION_SLACK, "rad", "an arm joint leaves its range")]
+        beyond = np.maximum(qa - r.upper, r.lower - qa)
+        worst = np.argmax(beyond, axis=1)
+        names = joint_names(r)[N_BASE:]
+        return [Measure(beyond[np.arange(len(qa)), worst], POSITION_SLACK, "rad", "an arm joint leaves its range",
+                        [names[i] for i in worst])]
 
 
-def _ratio(values: FloatArray, limits: FloatArray) -> FloatArray:
-    finite = np.isfinite(limits)
-    if not np.any(finite):
-        return np.zeros(len(values))
-    return np.max(np.abs(values[:, finite]) / limits[finite], axis=1)
+#: The names of the base's coordinates, before the arm's joints in whole-body vectors.
+BASE_COORDINATES = ("base x", "base y", "base yaw")
+
+
+def joint_names(robot: MobileManipulator) -> tuple[str, ...]:
+    """Whole-body coordinate names: :data:`BASE_COORDINATES`, then the arm's joints."""
+    return BASE_COORDINATES + tuple(robot.arm_joints or ())
+
+
+def _ratio(values: FloatArray, limits: FloatArray, names: Sequence[str]) -> tuple[FloatArray, list[str]]:
+    """Per sample: the worst ``|value_i| / limit_i`` over the coordinates with a finite limit, and
+    the name of the coordinate that gives it."""
+    finite = np.flatnonzero(np.isfinite(limits))
+    if finite.size == 0:
+        return np.zeros(len(values)), [""] * len(values)
+    ratios = np.abs(values[:, finite]) / limits[finite]
+    worst = np.argmax(ratios, axis=1)
+    return ratios[np.arange(len(values)), worst], [names[i] for i in finite[worst]]
 
 
 @dataclass(frozen=True)
@@ -119,8 +137,13 @@ class JointVelocities(Requirement):
     name: ClassVar[str] = "velocity"
 
     def measures(self, ctx: Context) -> list[Measure]:
-        ratio = _ratio(ctx.samples.dq, ctx.velocity_limits)
-        return [Measure(ratio, 1.0 + LIMIT_SLACK, "x limit", "a joint or base velocity exceeds its limit")]
+        ratio, which = _ratio(ctx.samples.dq, ctx.velocity_limits, joint_names(ctx.robot))
+        return [Measure(ratio, 1.0 + LIMIT_SLACK, "x limit", "a joint or base velocity exceeds its limit", which)]
+
+    @staticmethod
+    def ratios(samples: MotionSamples, velocity_limits: FloatArray) -> FloatArray:
+        """Per whole-body coordinate: the worst ``|dq_i| / v_max,i`` over the samples (0 where unlimited)."""
+        return np.max(np.abs(samples.dq) / velocity_limits, axis=0)
 
 
 @dataclass(frozen=True)
@@ -133,8 +156,9 @@ class JointAccelerations(Requirement):
     name: ClassVar[str] = "acceleration"
 
     def measures(self, ctx: Context) -> list[Measure]:
-        ratio = _ratio(ctx.samples.ddq[:, N_BASE:], ctx.acceleration_limits[N_BASE:])
-        return [Measure(ratio, 1.0 + LIMIT_SLACK, "x limit", "an arm joint acceleration exceeds its limit")]
+        ratio, which = _ratio(ctx.samples.ddq[:, N_BASE:], ctx.acceleration_limits[N_BASE:],
+                              joint_names(ctx.robot)[N_BASE:])
+        return [Measure(ratio, 1.0 + LIMIT_SLACK, "x limit", "an arm joint acceleration exceeds its limit", which)]
 
     @staticmethod
     def ratios(samples: MotionSamples, acceleration_limits: FloatArray) -> FloatArray:

@@ -38,6 +38,7 @@ from forte.model.trajectory import StartMotion, quintic_path, start_through
 from forte.planning.contact_section import read_contact
 from forte.planning.paths import (
     ForceAt,
+    HeldPath,
     TargetsAt,
     build_path,
     ending_at_rest,
@@ -144,8 +145,8 @@ class Task:
         guess and "quintic" baseline); a hold task: its teaching configuration (else the IK
         solution); a path of poses: damped least-squares IK along it.
         """
-        if self.knots is not None:
-            return quintic_path(self.knots[0], self.knots[1], self.t)
+        if self.knots is not None:  # held after the last knot (a final hold after the path's end)
+            return quintic_path(self.knots[0], self.knots[1], np.minimum(self.t, self.knots[0][-1]))
         if self.mode == "hold" and self.teaching is not None:
             return self.teaching[None].copy()
         from forte.planning.ik import initial_guess
@@ -160,7 +161,8 @@ class Task:
             raise TaskFileError(f"waypoints: expected 2 to {MAX_WAYPOINTS} for a trajectory, got {n}")
         t = np.linspace(self.t[0], self.t[-1], n)
         profile = self.force_at(t) if self.force_at is not None else None
-        return replace(self, t=t, targets=self.targets_at(t), force_profile=profile)
+        path = self.targets_at.on(t) if isinstance(self.targets_at, HeldPath) else self.targets_at
+        return replace(self, t=t, targets=path(t), targets_at=path, force_profile=profile)
 
     def with_payload(self, payload: Payload) -> Task:
         """The same task carrying ``payload``."""
@@ -244,6 +246,18 @@ def _force_profile(reader: Reader, t: FloatArray, radius: float) -> ForceAt | No
         vector = r.vector("vector", 3)
         return lambda ts: given_force(ts, np.tile(vector, (len(ts), 1)), radius)
     raise r.error("kind", f"expected 'windowed-sine' or 'constant', got {kind!r}")
+
+
+def _held_force(force_at: ForceAt, end: float) -> ForceAt:
+    """A force profile that holds its value at ``end`` after it (the final hold of the path)."""
+    def at(ts: FloatArray) -> TaskForce:
+        ts = np.asarray(ts, dtype=float)
+        on_path = ts[ts < end]
+        force = force_at(np.r_[on_path, end])
+        rows = np.minimum(np.arange(ts.size), on_path.size)  # every time from the end on: the end's row
+        m = None if force.m is None else force.m[rows]
+        return replace(force, t=ts, f=force.f[rows], r=force.r[rows], m=m)
+    return at
 
 
 def load_task(
@@ -362,8 +376,10 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     except ForteError as exc:
         raise reader.error("limits", str(exc)) from exc
     if targets_at is not None and limits.end_at_rest:
-        targets_at = ending_at_rest(targets_at)
+        t, targets_at = ending_at_rest(targets_at, t)
         targets = targets_at(t)
+        if force_at is not None and t[-1] > targets_at.end:  # the force holds with the path
+            force_at = _held_force(force_at, targets_at.end)
     require_capacity = reader.get("require_capacity", False)
     if not isinstance(require_capacity, bool):
         raise reader.error("require_capacity", f"expected true or false, got {require_capacity!r}")

@@ -34,6 +34,7 @@ from forte.planning.requirements import (
     Capacity,
     Context,
     JointAccelerations,
+    JointVelocities,
     Requirement,
     Violation,
     scene_distances,
@@ -238,10 +239,12 @@ def capacity_shortfall(task: Any, q: Any, force: TaskForce, per_interval: int = 
     return out
 
 
-def arm_acceleration_ratios(task: Any, q: Any, per_interval: int = SAMPLES_PER_INTERVAL) -> FloatArray:
-    """Per arm joint: the worst ``|ddq_i| / a_max,i`` of the plan's samples (the task's limits)."""
+def limit_ratios(task: Any, q: Any, per_interval: int = SAMPLES_PER_INTERVAL) -> tuple[FloatArray, FloatArray]:
+    """The worst ``|dq_i| / v_max,i`` per whole-body coordinate and ``|ddq_i| / a_max,i`` per arm
+    joint over the plan's samples (the task's limits)."""
     samples = sample_motion(task.robot, task.t, q, per_interval, task.start_motion)
-    return JointAccelerations.ratios(samples, task.limits.resolve(task.robot)[1])
+    vel, acc = task.limits.resolve(task.robot)
+    return JointVelocities.ratios(samples, vel), JointAccelerations.ratios(samples, acc)
 
 
 def judge_plan(task: Any, q: Any, force: TaskForce, solver: dict[str, Any] | None = None,
