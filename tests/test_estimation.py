@@ -279,3 +279,24 @@ def test_cli_estimate_mass_refusal(capsys: pytest.CaptureFixture[str]) -> None:
     assert err.startswith("forte: error: no mass or volume stated") and "--mass" in err
     assert main(["estimate-mass"]) == 2
     assert "give --image, --description" in capsys.readouterr().err
+
+
+def test_an_estimate_that_fails_names_the_file_and_field(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A payload the offline estimator cannot use: one line naming the task file's field, or the
+    image given to estimate-mass, exit 2."""
+    task = tmp_path / "desc.yaml"
+    task.write_text("name: desc\nmode: hold\npose: {position: [0, 0, 0], relative: true}\n"
+                    "payload: {description: a thing of unknown kind}\n")
+    assert main(["plan", str(task), "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"forte: error: {task}: payload.description: no mass or volume stated")
+    assert err.count("\n") == 1 and "Traceback" not in err
+    task.write_text(f"name: img\nmode: hold\npose: {{position: [0, 0, 0], relative: true}}\n"
+                    f"payload: {{image: {IMAGE}}}\n")
+    assert main(["plan", str(task), "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"forte: error: {task}: payload.image ({IMAGE}): the offline estimator reads no image")
+    assert main(["estimate-mass", "--image", str(IMAGE)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"forte: error: --image {IMAGE}: the offline estimator reads no image; it needs a task")
+    assert err.count("\n") == 1

@@ -104,6 +104,37 @@ def test_unreachable_waypoint_is_named(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+def _tiago_reach(tmp_path: Path, end: list[float]) -> Path:
+    """The TIAGo from its URDF on its differential base, a 0.3 m reach in 5 s from the user's posture."""
+    doc = {"name": "tiago-reach", "payload": {"mass": 1.0},
+           "robot": {"urdf": "erd:tiago_description/robots/tiago.urdf", "base": "differential",
+                     "ee_frame": "arm_tool_link",
+                     "arm_joints": ["torso_lift_joint", *(f"arm_{i}_joint" for i in range(1, 8))]},
+           "initial_configuration": [0, 0, 0, 0.15, 0.2, -1.34, -0.2, 1.94, -1.57, 1.37, 0.0],
+           "path": {"kind": "waypoints", "relative": True, "samples": 31,
+                    "waypoints": [{"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 5.0, "position": end}]}}
+    path = tmp_path / "tiago.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    return path
+
+
+def test_millimetres_of_ik_residual_are_a_start_not_an_unreachable_pose(tmp_path, capsys):
+    from forte.planning.ik import REACH_POSITION_M, initial_guess, pose_error, solve_pose
+
+    task = load_task(_tiago_reach(tmp_path, [0.2, 0.0, -0.2]))
+    guess = initial_guess(task)  # the tracking IK alone stalls 5.9 mm short at waypoint 21 (exit 2 before)
+    stalled = solve_pose(task.robot, task.targets[21], guess[20])[1]
+    assert 1e-4 < np.linalg.norm(stalled[:3]) < REACH_POSITION_M
+    residual = max(np.linalg.norm(pose_error(task.robot, q, T)[:3]) for q, T in zip(guess, task.targets, strict=True))
+    assert residual < REACH_POSITION_M
+    # farther down no IK start comes within 5 cm (100 random whole-body starts: 7.7 cm at best)
+    far = _tiago_reach(tmp_path, [0.0, 0.0, -0.3])
+    assert main(["plan", str(far), "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "end-effector pose unreachable, position error 0.05" in err and "the best of 9 IK starts" in err
+    assert err.count("\n") == 1 and "Traceback" not in err
+
+
 def test_compare_hold_runs_every_method(tmp_path):
     out = tmp_path / "cmp"
     # at 2.7 kg only forte's posture holds the ball: the others are infeasible, so the command exits 1

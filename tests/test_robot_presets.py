@@ -98,3 +98,31 @@ def test_per_joint_fields_by_joint_name(tmp_path):
     assert data["weights"]["joint_dof_weights"] == {"shoulder_lift_joint": 2.0, "base_y": 0.5}
     with pytest.raises(TaskFileError, match="weights.joint_dof_weights: no joint named 'panda_joint2'"):
         task_from_dict(_reach("ur5", weights={"joint_dof_weights": {"panda_joint2": 1.0}}), tmp_path / "t.yaml")
+
+
+def _own_posture(centre: str | None = None) -> dict:
+    """The Kinova preset from the user's own start posture, a 0.3 m reach to the side with 1 kg."""
+    task = {"name": "kinova-own-posture", "robot": {"preset": "kinova"},
+            "initial_configuration": [0, 0, 0, 0.0, 3.6, 1.2, 0.0, 1.5, 0.0],
+            "path": {"kind": "waypoints", "relative": True, "samples": 31,
+                     "waypoints": [{"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 5.0, "position": [0.0, 0.3, 0.0]}]},
+            "payload": {"mass": 1.0}}
+    return task | ({"terms": {"joint_limits": {"centre": centre}}} if centre else {})
+
+
+@pytest.mark.slow
+def test_a_preset_plans_from_the_users_own_start_posture(tmp_path):
+    """J3's quadratic centres on the task's nominal (its own posture) where the weight set's list is
+    the Panda's, not the Kinova's: from [0, 3.6, 1.2, 0, 1.5, 0] joint 3 stays near its start; pulled to the middle
+    of its range (3.14 rad, the elbow straight) the plan swings it there from the first step and
+    breaks the velocity limit at any duration (the reported failure)."""
+    from forte.planning.capability_terms import JointLimits
+
+    task = task_from_dict(_own_posture(), tmp_path / "task.yaml")
+    assert JointLimits.from_settings(task.settings).centre_for(task.robot.n_arm) == "nominal"
+    plan = forte.plan(task)
+    assert plan.feasible, plan.verdict
+    assert np.max(np.abs(plan.q[:, 5] - 1.2)) < 0.5  # joint 3 (index 3 + 2) near its start (measured: 0.22)
+    ranged = forte.plan(task_from_dict(_own_posture("range"), tmp_path / "task.yaml"))
+    assert not ranged.feasible
+    assert np.max(ranged.q[:, 5]) > 2.0  # towards the range's middle, (0.33 + 5.95) / 2 = 3.14 rad (measured: 2.20)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -281,3 +282,26 @@ def test_a_bad_term_setting_is_one_line_naming_the_field(tmp_path, section, mess
         load_task(path)
     text = str(err.value)
     assert message in text and str(path) in text and "\n" not in text
+
+
+@pytest.mark.parametrize(("edit", "line"), [
+    (lambda d: d.update(initial_configuraton=d.pop("initial_configuration")),
+     r"initial_configuraton: unknown field; expected one of .*; did you mean 'initial_configuration'\?$"),
+    (lambda d: d.update(weights={"capabilty": 1}),
+     r"weights\.capabilty: unknown field; .*did you mean 'capability'\?$"),
+    (lambda d: d.update(terms={"manipulabilty": {}}), r"terms\.manipulabilty: not a registered cost term; .*"
+     r"did you mean 'manipulability'\?$"),
+    (lambda d: d.update(colour="red"), r"colour: unknown field; expected one of [a-z_, ]+$"),  # nothing close
+])
+def test_an_unknown_field_suggests_the_nearest_valid_name(tmp_path, capsys, edit, line):
+    from forte.cli.main import main
+
+    data = yaml.safe_load((EXAMPLES / "hold.yaml").read_text())
+    edit(data)
+    path = tmp_path / "typo.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert main(["plan", str(path), "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith(f"forte: error: {path}: ")
+    assert re.search(line, err.strip()), err

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
@@ -25,6 +27,18 @@ MAX_MASS_KG = 10_000.0
 MAX_FILE_BYTES = 64 * 2**20
 #: Pixels of an image array.
 MAX_IMAGE_PIXELS = 50_000_000
+
+
+def unknown_field(name: str, allowed: Iterable[str]) -> str:
+    """``unknown field; expected one of A, B; did you mean 'X'?`` (the closest of ``allowed`` to
+    ``name`` by :func:`difflib.get_close_matches`, left out when none is close)."""
+    return f"unknown field; expected one of {', '.join(str(a) for a in allowed)}" + did_you_mean(name, allowed)
+
+
+def did_you_mean(name: Any, allowed: Iterable[Any]) -> str:
+    """``; did you mean 'X'?`` with the closest of ``allowed`` to ``name``, or ``""``."""
+    close = difflib.get_close_matches(str(name), [str(a) for a in allowed], n=1)
+    return f"; did you mean '{close[0]}'?" if close else ""
 
 
 def reject_bools(value: Any, name: str, _depth: int = 0) -> None:

@@ -12,7 +12,7 @@ import json
 import sys
 from pathlib import Path
 
-from forte.exceptions import InvalidInputError
+from forte.exceptions import EstimationError, InvalidInputError
 from forte.force.estimate import DEFAULT_R_MIN, MassEstimator, estimate_payload, radius_from_estimate
 from forte.force.massbench import load_dataset, markdown_table, run_benchmark, summarize_results, write_per_item_csv
 from forte.force.offline import OfflineEstimator
@@ -145,7 +145,12 @@ def run_estimate_mass(args: argparse.Namespace) -> int:
         image_bytes(args.image, option="--image")
     vlm = _vlm_config(args)
     cache = args.cache_dir if args.cache_dir is not None else (default_cache_dir() if vlm else None)
-    estimate = estimate_payload(args.description, args.image, mass=args.mass, vlm=vlm, cache_dir=cache)
+    try:
+        estimate = estimate_payload(args.description, args.image, mass=args.mass, vlm=vlm, cache_dir=cache)
+    except EstimationError as exc:
+        if args.description or args.image is None:  # the message quotes the description
+            raise
+        raise EstimationError(f"--image {args.image}: {exc}") from None
     # at rest |a - g| = 9.81 m/s^2; informative only: the planner keeps r = 10 N unless told otherwise
     radius = float(radius_from_estimate([[0.0, 0.0, 0.0]], estimate, args.r_min)[0])
     print(json.dumps({**estimate.to_dict(), "radius_at_rest_n": radius}, indent=2))

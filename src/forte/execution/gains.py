@@ -54,7 +54,7 @@ from forte.exceptions import InvalidInputError
 from forte.execution.control import DEFAULT_D_A, DEFAULT_K_A, ControlGains, sampled_loop_spectral_radius
 from forte.execution.model import ARM_ARMATURE, armature_vector
 from forte.model.robot import N_BASE, PANDA_ARM_JOINTS, MobileManipulator
-from forte.validation import FloatArray, as_vector
+from forte.validation import FloatArray, as_vector, unknown_field
 
 #: Default bandwidth of the gain rule (Hz): about Franka's gains on the Panda (3-6 Hz per joint).
 DEFAULT_BANDWIDTH_HZ = 4.0
@@ -159,7 +159,7 @@ def _check_mapping(mapping: Mapping[str, Any] | None, prefix: str) -> Mapping[st
     for key in mapping:
         if key not in CONTROLLER_FIELDS:
             raise InvalidInputError(
-                f"{prefix}{key}: unknown field; expected one of {', '.join(CONTROLLER_FIELDS)}")
+                f"{prefix}{key}: {unknown_field(key, CONTROLLER_FIELDS)}")
     return mapping
 
 

@@ -32,7 +32,8 @@ class OfflineEstimator:
     def estimate(self, description: str | None, image: ImageInput | None = None) -> MassEstimate:
         if not description or not description.strip():
             raise EstimationError(
-                "the offline estimator needs a task description with a stated quantity "
+                ("the offline estimator reads no image; it " if image is not None else "the offline estimator ")
+                + "needs a task description with a stated quantity "
                 "(e.g. 'two 1.5 L bottles'); give the mass with --mass or configure a VLM"
             )
         quantities = parse_quantities(description, stated_masses=self.stated_masses)

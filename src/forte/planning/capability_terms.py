@@ -31,6 +31,8 @@ from forte.settings import CapabilityParameters
 from forte.validation import FloatArray
 
 _GT0 = "a finite number > 0"
+#: Where J3's quadratic pulls each arm joint (:class:`JointLimits`).
+CENTRES = ("range", "nominal")
 #: The capability metric's parameters (:class:`~forte.settings.CapabilityParameters`) as the
 #: ``capability`` term's settings; every capability-type term (J1, its wrench variant, the
 #: baselines') uses them (``settings_of = "capability"``); the legacy key is
@@ -242,11 +244,20 @@ AUTHORS_DOF = (0.0, 0.2, 0.1, 1.0, 0.0, 0.1, 0.2, 0.1, 0.0, 0.0)
 class JointLimits(CostTerm):
     """J3: ``sum_i w_i (e_i^2 + v_i^4)`` over the arm, ``+ sum_b w_b (q_b - q_nom,b)^2`` over the base.
 
-    ``e_i = (q_i - mid_i)/h_i``, ``v_i = max(0, (|q_i - mid_i| - h_i)/delta_i)``,
+    ``e_i = (q_i - c_i)/h_i``, ``v_i = max(0, (|q_i - mid_i| - h_i)/delta_i)``,
     ``h_i = max(eps_h, range_i/2 - delta_i)``; ``delta_i = margin_fraction * range_i`` (the
     authors: 5 %) or ``margin`` for every joint; ``w`` the per-DoF weights over
     (x, y, yaw, q1..q7) (the authors': [0,2,1,10,0,1,2,1,0,0]/10), default 1 per arm joint and
     0 for the base. The base has no limits: its entries pull it toward the nominal trajectory.
+
+    The quadratic's centre ``c_i`` (``centre``): ``range``, the paper's ``mid_i``; ``nominal``,
+    the task's nominal trajectory ``q_nom,k`` (its own start posture carried along the path, or
+    its taught configurations); ``null`` (default): ``range`` where the per-DoF list is made for
+    the arm (the authors' Panda list on the Panda, or no list), ``nominal`` where it is not.
+    Why: the list and the centres are the authors' tuning for their Panda; on another arm a
+    range's middle need not be a posture at all (the Kinova's joints 2-3 at mid: the arm
+    straight up, elbow straight, singular), and pulling there from the user's start posture
+    makes the plan race across the range. The barrier ``v_i`` always keeps the range's limits.
     """
 
     name: ClassVar[str] = "joint_limits"
@@ -262,6 +273,10 @@ class JointLimits(CostTerm):
         AUTHORS_DOF, "1", "per-DoF weights over (x, y, yaw, arm joints); null: 1 per arm joint, 0 base",
         kind="vector | None", expected="finite numbers >= 0", valid=nonnegative_vector(None),
         legacy="joint_dof_weights")
+    centre: str | None = setting(
+        None, "", "the quadratic's centre: range (the paper's mid), nominal (the task's own posture); "
+        "null: range where dof_weights fits the arm, else nominal", kind="str | None",
+        expected=f"one of {', '.join(CENTRES)} or null", valid=lambda v: v in CENTRES)
 
     def weights_for(self, n_arm: int) -> FloatArray:
         """Per-DoF weights (base 3, then arm). A list made for an arm of another size (the weight
@@ -275,13 +290,21 @@ class JointLimits(CostTerm):
             return np.r_[w[:N_BASE], np.ones(n_arm)]
         return w
 
+    def centre_for(self, n_arm: int) -> str:
+        """The quadratic's centre on an arm of ``n_arm`` joints (``centre``, resolved when null)."""
+        if self.centre is not None:
+            return self.centre
+        fits = self.dof_weights is None or len(self.dof_weights) == N_BASE + n_arm
+        return "range" if fits else "nominal"
+
     def stage(self, s: Stage) -> ca.SX:
         robot = s.robot
         delta = self.margins(robot.lower, robot.upper)
         mid, half = joint_limit_geometry(robot.lower, robot.upper, delta, self.eps)
         w = self.weights_for(robot.n_arm)
         dev = s.q0[N_BASE:] - ca.DM(mid)
-        e = dev / ca.DM(half)
+        centre = self.centre_for(robot.n_arm)
+        e = (dev if centre == "range" or s.nominal is None else s.q0[N_BASE:] - s.nominal[N_BASE:]) / ca.DM(half)
         v = ca.fmax(0, (ca.fabs(dev) - ca.DM(half)) / ca.DM(delta))
         cost = ca.dot(ca.DM(w[N_BASE:]), e**2 + v**4)
         if np.any(w[:N_BASE]) and s.nominal is not None:

@@ -57,7 +57,7 @@ from forte.exceptions import InvalidInputError
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.twin import CasadiTwin, rot_z
 from forte.settings import CostWeights
-from forte.validation import FloatArray
+from forte.validation import FloatArray, did_you_mean
 
 
 class LiftedQuadratic(NamedTuple):
@@ -228,7 +228,8 @@ class CostTerm:
         unknown = sorted(set(given) - {s.name for s in cls.settings})
         if unknown and cls.settings_of is None:
             raise InvalidInputError(f"{cls.name}: no setting '{unknown[0]}'; expected one of "
-                                    f"{', '.join(s.name for s in cls.settings) or 'none'}")
+                                    f"{', '.join(s.name for s in cls.settings) or 'none'}"
+                                    + did_you_mean(unknown[0], (s.name for s in cls.settings)))
         return {s.name: s.check(given[s.name]) if s.name in given else s.default for s in cls.settings}
 
     @classmethod

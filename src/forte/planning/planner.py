@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from forte.exceptions import InvalidInputError, TaskFileError
+from forte.exceptions import EstimationError, InvalidInputError, TaskFileError
 from forte.force.contact import Contact
 from forte.force.payload import Payload
 from forte.force.taskforce import TaskForce
@@ -118,7 +118,11 @@ def resolve_payload(task: Task, estimator_options: dict[str, Any] | None = None)
         raise TaskFileError(f"{task.source}: payload: give a mass, a description or an image")
     from forte.force.estimate import estimate_payload
 
-    estimate = estimate_payload(task.payload.description, task.payload.image, **(estimator_options or {}))
+    try:
+        estimate = estimate_payload(task.payload.description, task.payload.image, **(estimator_options or {}))
+    except EstimationError as exc:  # named by the field the estimator was given
+        field = "payload.description" if task.payload.description else f"payload.image ({task.payload.image})"
+        raise EstimationError(f"{task._where(field)}: {exc}") from None
     return task.with_payload(task.payload.with_estimate(estimate))
 
 

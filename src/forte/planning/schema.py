@@ -22,7 +22,7 @@ from forte.model.robot import (
     robot_from_description,
 )
 from forte.settings import CapabilityParameters
-from forte.validation import MAX_MASS_KG, FloatArray, _short
+from forte.validation import MAX_MASS_KG, FloatArray, _short, unknown_field
 
 
 class Reader:
@@ -123,7 +123,7 @@ class Reader:
     def unknown(self, allowed: set[str]) -> None:
         extra = sorted(set(self.data) - allowed)
         if extra:
-            raise self.error(extra[0], f"unknown field; expected one of {', '.join(sorted(allowed))}")
+            raise self.error(extra[0], unknown_field(extra[0], sorted(allowed)))
 
 
 def rotation(reader: Reader, name: str, default: FloatArray) -> FloatArray:

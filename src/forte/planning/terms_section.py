@@ -28,7 +28,7 @@ from forte.exceptions import InvalidInputError
 from forte.planning.costs import COST_TERMS, TermSetting
 from forte.planning.schema import Reader
 from forte.planning.wrench_terms import term_values as wrench_values
-from forte.validation import FloatArray
+from forte.validation import FloatArray, did_you_mean
 
 #: The key of a term's weight in its ``terms:`` entry.
 WEIGHT_KEY = "weight"
@@ -43,7 +43,8 @@ def terms_section(reader: Reader) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
     for name, value in section.data.items():
         if name not in COST_TERMS:
-            raise section.error(str(name), f"not a registered cost term; expected one of {', '.join(COST_TERMS)}")
+            raise section.error(str(name), f"not a registered cost term; expected one of {', '.join(COST_TERMS)}"
+                                + did_you_mean(name, COST_TERMS))
         entry = section.sub(name) if value is not None else Reader({}, reader.path, f"{section.key(name)}.")
         declared = {s.name: s for s in COST_TERMS[name].settings} if COST_TERMS[name].settings_of is None else {}
         entry.unknown({WEIGHT_KEY} | set(declared))
