@@ -5,11 +5,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from forte.cli.main import main
 from forte.exceptions import InvalidInputError
-from forte.execution.closed_loop import ReplanOptions
+from forte.execution.closed_loop import ON_INFEASIBLE, ReplanOptions
 from forte.execution.run import simulate_plan
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift-path.yaml"  # moca-like robot
@@ -53,6 +54,8 @@ def test_mass_added_mid_motion_is_identified(light_plan):
 def test_bad_replan_options():
     with pytest.raises(InvalidInputError, match="add_mass"):
         ReplanOptions(add_mass=(1.0, -2.0))
+    with pytest.raises(InvalidInputError, match="^on_infeasible: expected one of splice, keep, stop"):
+        ReplanOptions(on_infeasible="slow")
     assert main(["simulate", "x", "--add-mass", "soon"]) == 2  # argparse: one line, exit 2
 
 
@@ -65,3 +68,30 @@ def test_replan_experiment_writes_its_summary(tmp_path):
     assert not misjudged["without"]["success"] and misjudged["with"]["success"]
     assert (tmp_path / "replan" / "replan.png").is_file() and doc["generator"] == "forte"
     assert "| scenario |" in (tmp_path / "replan" / "summary.md").read_text()
+
+
+@pytest.mark.parametrize("rule", ON_INFEASIBLE)
+def test_an_infeasible_replan_gets_the_loops_rule(light_plan, rule):
+    """The first re-plan for the identified 2.7 kg converges but its verdict (waypoints and 8
+    samples per interval) is infeasible. ``splice`` (the default) follows it anyway; ``keep``
+    leaves the 0.35 kg plan in force, so the next re-plan still starts from 0.35 kg; ``stop``
+    holds the plan in force at the re-plan's first waypoint: no more re-plans, the robot ends there."""
+    from forte.io.plandir import read_plan_dir
+
+    assert ReplanOptions().on_infeasible == "splice"
+    result = simulate_plan(light_plan, mass=2.7, write=False, replan=ReplanOptions(on_infeasible=rule))
+    r = result.summary["replanning"]
+    first = r["log"][0]
+    assert first["success"] and first["verdict"] == "infeasible" and first["failed"] and r["replans_infeasible"] >= 1
+    assert first["applied"] == {"splice": "spliced", "keep": "kept", "stop": "stopped"}[rule]
+    assert r["on_infeasible"] == rule
+    if rule == "splice":
+        assert all(e["planned_mass"] != 0.35 for e in r["log"][1:])  # the plan in force is 2.7 kg's
+    if rule == "keep":
+        assert len(r["log"]) >= 2 and r["log"][1]["planned_mass"] == 0.35
+    if rule == "stop":
+        j = first["waypoint"]
+        assert len(r["log"]) == 1 and r["stopped_at_waypoint"] == j
+        final = np.array([result.log[c][-1] for c in ("x_b", "y_b", "yaw")] +
+                         [result.log[f"q{i}"][-1] for i in range(1, 8)])
+        assert np.abs(final - read_plan_dir(light_plan).q[j]).max() < 0.02  # held at waypoint j

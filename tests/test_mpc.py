@@ -51,7 +51,7 @@ def _mpc(plan_dir: Path, **options) -> tuple[object, dict]:
     ({"rate_hz": 2000}, "rate_hz"), ({"deadline_s": 0}, "deadline_s"), ({"on_miss": "later"}, "on_miss"),
     ({"threshold": -1}, "threshold"), ({"add_mass": (1.0, -2.0)}, "add_mass"),
     ({"estimates": ((0.8, 0.0),)}, "estimates"), ({"estimates": ((-1, 2.7),)}, "estimates"),
-    ({"source": 3}, "source"), ({"start": "planned"}, "start"),
+    ({"source": 3}, "source"), ({"start": "planned"}, "start"), ({"on_infeasible": "slow"}, "on_infeasible"),
 ])
 def test_bad_options_are_one_line_errors(options, field):
     with pytest.raises(InvalidInputError, match=f"^{field}: expected") as info:
@@ -68,6 +68,8 @@ def test_bad_rate_exits_2_through_the_cli(short_plan, capsys):
     assert main(["simulate", str(short_plan), "--mpc-start", "rest"]) == 2  # without --mpc
     assert main(["simulate", str(short_plan), "--mpc", "100", "--estimate-at", "soon"]) == 2
     assert "--mpc" in capsys.readouterr().err
+    assert main(["simulate", str(short_plan), "--on-infeasible", "keep"]) == 2  # without --replan or --mpc
+    assert capsys.readouterr().err.strip() == "forte: error: --on-infeasible: applies to --replan and --mpc runs only"
 
 
 def test_an_async_estimate_is_applied_at_the_first_tick_at_or_after_its_time(short_plan):
@@ -174,24 +176,46 @@ def test_real_time_iterations_carry_a_misjudged_payload_and_never_publish_an_uns
     assert result.success, result.detail
 
 
-def test_a_shift_starts_moving_as_the_reference_does(short_plan, monkeypatch):
-    """Each shift hands the re-planner the measured configuration and the motion of the reference
-    there (not at rest): the new horizon's first waypoint moves as the spliced reference does (the
-    step itself runs unchanged)."""
+@pytest.mark.parametrize("start", ["reference", "measured"])
+def test_a_shift_starts_moving_as_the_reference_does(short_plan, monkeypatch, start):
+    """Each shift hands the re-planner the measured configuration ``q_j`` and the motion the
+    reference executes there: the backward differences of the waypoints it passes through, the
+    plan in force's ``q_{j-2}, q_{j-1}`` then ``q_j`` (``v = (q_j - q_{j-1}) / dt``,
+    ``a = (v - (q_{j-1} - q_{j-2}) / dt) / dt``; the plan starts at rest), computed here from the
+    loop's plan in force. ``start="measured"`` hands the measured velocity instead, which is not
+    that motion (the step itself runs unchanged)."""
+    from forte.execution.mpc import MpcLoop
     from forte.planning.realtime import RealTimeIteration
 
-    seen = []
-    real_step = RealTimeIteration.step
+    loops, seen = [], []
+    real_init, real_step = MpcLoop.__post_init__, RealTimeIteration.step
+
+    def recording_init(self):
+        real_init(self)
+        loops.append(self)
 
     def recording_step(self, *args, **kwargs):
-        out = real_step(self, *args, **kwargs)
         if kwargs.get("steps"):
-            seen.append((kwargs["v_now"], self.replanner.task.start_motion.velocity))
-        return out
+            loop = loops[-1]
+            j = loop.horizon + kwargs["steps"]  # the waypoint the horizon shifts to
+            q, t = loop.plan_q, loop.plan_t  # the plan in force, before the splice
+            v = (kwargs["q_now"] - q[j - 1]) / (t[j] - t[j - 1])
+            v_before = (q[j - 1] - q[j - 2]) / (t[j - 1] - t[j - 2]) if j >= 2 else np.zeros_like(v)
+            out = real_step(self, *args, **kwargs)
+            used = self.replanner.task.start_motion
+            seen.append((v, (v - v_before) / (t[j] - t[j - 1]), used.velocity, used.acceleration))
+            return out
+        return real_step(self, *args, **kwargs)
 
+    monkeypatch.setattr(MpcLoop, "__post_init__", recording_init)
     monkeypatch.setattr(RealTimeIteration, "step", recording_step)
-    result, mpc = _mpc(short_plan, deadline_s=10.0)
+    result, mpc = _mpc(short_plan, deadline_s=10.0, start=start)
     assert result.success and len(seen) == 19  # every waypoint but the last
-    for measured, used in seen:
-        np.testing.assert_array_equal(used, measured)
-    assert max(np.abs(v[3:]).max() for v, _ in seen) > 0.05  # mid-motion: the arm moves
+    assert max(np.abs(v[3:]).max() for v, *_ in seen) > 0.05  # mid-motion: the arm moves
+    velocity_gap = max(np.abs(used_v - v).max() for v, _, used_v, _ in seen)
+    if start == "reference":
+        assert velocity_gap < 1e-9
+        for _, a, _, used_a in seen:
+            np.testing.assert_allclose(used_a, a, atol=1e-9)
+    else:
+        assert velocity_gap > 1e-3, velocity_gap  # the measured velocity is not the reference's motion

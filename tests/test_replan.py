@@ -89,14 +89,17 @@ def test_shift_moves_the_horizon_and_holds_the_last_target(task):
 def test_a_shifted_plan_is_judged_against_the_shifted_path(task):
     """The shifted task's path (the verdict's tracking reference) samples exactly the shifted
     targets, twice over; before, it stayed the original path and every shifted plan failed
-    tracking (0.45 m on the crate task)."""
+    tracking (0.45 m on the crate task). Tracking holds at every waypoint; on this coarse grid
+    (15 waypoints, 0.71 s apart) the spline between them leaves the path (0.10 m), which the
+    re-plan's verdict, judged along the motion as a plan's, reports as such."""
     planner = Replanner(task)
     for steps in (3, 2):
         result = planner.shift(steps)
         assert result.plan.solved
         path = planner.task.targets_at(planner.task.t)
         np.testing.assert_allclose(path, planner.task.targets, atol=1e-12)
-        assert "tracking" not in result.plan.verdict.failed
+        tracking = [v for v in result.plan.verdict.violations if v.requirement == "tracking"]
+        assert all(v.waypoints == () and "between waypoints only" in v.detail for v in tracking)
 
 
 def test_a_replan_that_does_not_converge_is_never_a_success(task):
@@ -186,3 +189,39 @@ def test_new_targets_of_a_pose_path_task_re_derive_its_nominal():
     cold = plan(replace(path_task, targets=targets), "forte")
     assert result.plan.solved and cold.solved
     np.testing.assert_allclose(result.plan.q, cold.q, atol=1e-5)
+
+
+def test_a_replan_is_judged_along_the_motion_as_a_plan_is(task):
+    """The re-planner's verdict is ``forte plan``'s: the waypoints and the executed spline at 8
+    samples per interval. An arm velocity limit set between the re-plan's fastest waypoint/knot
+    velocity and its fastest velocity along the spline (above every waypoint's, so the NLP's
+    velocity rows stay inactive and the re-plan is the same) fails only between waypoints: the
+    waypoint-only verdict the re-planner gave before misses it."""
+    from dataclasses import replace
+
+    from forte.model.robot import N_BASE
+    from forte.planning.motion_samples import SAMPLES_PER_INTERVAL, sample_motion
+    from forte.planning.verdict import judge_plan
+
+    mass = task.payload.mass * 1.5
+    free = Replanner(task).replan(mass=mass).plan
+
+    def fastest(per_interval: int) -> np.ndarray:  # per arm joint, |dq| over the samples
+        s = sample_motion(task.robot, free.task.t, free.q, per_interval, free.task.start_motion)
+        return np.abs(s.dq[:, N_BASE:]).max(axis=0)
+
+    at_knots, along = fastest(1), fastest(SAMPLES_PER_INTERVAL)
+    joint = int(np.argmax(along / at_knots))
+    assert along[joint] > 1.05 * at_knots[joint]  # the spline is faster between its knots
+    limits = task.limits.resolve(task.robot)[0][N_BASE:].copy()
+    limits[joint] = float(np.sqrt(at_knots[joint] * along[joint]))
+    limited = replace(task, limits=replace(task.limits, arm_velocity=tuple(limits)))
+    result = Replanner(limited).replan(mass=mass)
+    p = result.plan
+    assert p.solved and np.abs(p.q - free.q).max() < 1e-5  # the same motion
+    assert p.verdict.samples_per_interval == SAMPLES_PER_INTERVAL and not p.feasible
+    assert "velocity" in p.verdict.failed
+    assert "velocity" not in judge_plan(p.task, p.q, p.force, p.solver, per_interval=1).failed
+    violation = next(v for v in p.verdict.violations if v.requirement == "velocity")
+    assert "between waypoints only" in violation.detail
+    assert result.verdict_s > 0 and p.solver["verdict_s"] == result.verdict_s  # after the latency, not in it

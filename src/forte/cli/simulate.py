@@ -94,6 +94,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mpc-start", choices=("reference", "measured", "rest"), default=None,
                    help="--mpc: the motion a shifted horizon starts with: the controller reference's at the "
                    "splice (default), the measured velocity, or at rest")
+    p.add_argument("--on-infeasible", choices=("splice", "keep", "stop"), default=None,
+                   help="--replan, --mpc: a converged re-plan whose verdict is not feasible is spliced anyway "
+                   "(default: measured best), the plan in force kept, or the robot stopped at the next waypoint")
     p.add_argument("--no-identify", action="store_true",
                    help="--mpc: no identification from the joint torques: only --estimate-at changes the mass")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
@@ -111,12 +114,15 @@ def _time_and_mass(text: str) -> tuple[float, float]:
 
 
 def _replan_options(args: argparse.Namespace) -> object | None:
+    if args.on_infeasible is not None and not args.replan and args.mpc is None:
+        raise InvalidInputError("--on-infeasible: applies to --replan and --mpc runs only")
     if not args.replan and args.add_mass is None:
         return None
     from forte.execution.closed_loop import ReplanOptions
 
     # without --replan a mass change is simulated (and identified) but never re-planned for
-    return ReplanOptions(rate_hz=args.replan_rate, add_mass=args.add_mass, enabled=args.replan)
+    return ReplanOptions(rate_hz=args.replan_rate, add_mass=args.add_mass, enabled=args.replan,
+                         on_infeasible=args.on_infeasible or "splice")
 
 
 def _mpc_options(args: argparse.Namespace) -> object | None:
@@ -138,7 +144,7 @@ def _mpc_options(args: argparse.Namespace) -> object | None:
                           estimates=tuple(args.estimate_at or ()),
                           solver="rti" if args.mpc_solver in (None, "rti") else "converged",
                           backend=args.mpc_solver if args.mpc_solver in ("stagewise", "ipopt") else "stagewise",
-                          start=args.mpc_start or "reference")
+                          start=args.mpc_start or "reference", on_infeasible=args.on_infeasible or "splice")
     except InvalidInputError as exc:  # name the flag, not the field
         field, _, rest = str(exc).partition(": ")
         flag = {"rate_hz": "--mpc", "deadline_s": "--deadline"}.get(field, field)
@@ -191,7 +197,8 @@ def run(args: argparse.Namespace) -> int:
         latency = (f"; latency median {1000 * r['latency_median_s']:.0f} ms, p95 {1000 * r['latency_p95_s']:.0f} ms, "
                    f"max {1000 * r['latency_max_s']:.0f} ms" if r["replans"] else "")
         print(f"payload estimate {r['final_mass_estimate']:.3f} kg (sigma {r['final_sigma']:.4f}); "
-              f"{r['replans']} re-plans ({r['replans_failed']} not converged){latency}", file=sys.stderr)
+              f"{r['replans']} re-plans ({r['replans_failed']} not converged, {r['replans_infeasible']} not "
+              f"feasible: {r['on_infeasible']}){latency}", file=sys.stderr)
     if "mpc" in s and not args.quiet:
         print(_mpc_line(s["mpc"]), file=sys.stderr)
     if result.success:

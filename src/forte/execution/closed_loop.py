@@ -11,7 +11,16 @@ While the controllers of :mod:`forte.execution.run` track the plan at 1 kHz, a
    to the next waypoint (its planned configuration is the new start) and solved for the new
    mass;
 3. splices the new plan into the reference from that waypoint on (configurations, their
-   derivatives and the task-force feed-forward ``J^T f`` for the new mass).
+   derivatives and the task-force feed-forward ``J^T f`` for the new mass). Every re-plan has
+   ``forte plan``'s verdict (waypoints and 8 samples per interval, computed after its latency);
+   a converged re-plan that is not feasible gets ``ReplanOptions.on_infeasible``: ``"splice"``
+   it anyway (default), ``"keep"`` the plan in force (the next tick re-plans again), or
+   ``"stop"``: the reference holds the plan in force's next waypoint (the robot stops there, no
+   more re-plans). The default is measured (``python benchmarks/replan_on_infeasible.py``: on
+   the re-planning and MPC experiments' cases ``splice`` kept the most MuJoCo runs successful):
+   an infeasible re-plan for the identified mass usually fails by a little over its first
+   waypoints, the plan in force was made for the wrong mass, and a stop under a heavy payload
+   saturates or sags.
 
 Simulated time stands still while the planner solves; the measured wall-clock latency of every
 re-plan is reported. A payload that grows during the motion (``add_mass``) is modelled by
@@ -36,6 +45,8 @@ from forte.validation import FloatArray
 
 #: Smallest payload mass a re-plan is made for (kg).
 MIN_PAYLOAD = 0.01
+#: What a loop does with a converged re-plan that is not feasible (the first is the default).
+ON_INFEASIBLE = ("splice", "keep", "stop")
 
 
 @dataclass(frozen=True)
@@ -48,6 +59,8 @@ class ReplanOptions:
         min_change: absolute mass change (kg) below which no re-plan starts.
         add_mass: ``(t, kg)``: the payload gains ``kg`` at time ``t`` (s), or ``None``.
         enabled: re-plan (``False``: only identify, e.g. to show what happens without).
+        on_infeasible: a converged re-plan whose verdict is not feasible: ``"keep"`` the plan in
+            force, ``"splice"`` it anyway, or ``"stop"`` at the next waypoint (:data:`ON_INFEASIBLE`).
     """
 
     enabled: bool = True
@@ -55,8 +68,10 @@ class ReplanOptions:
     threshold: float = 0.1
     min_change: float = 0.05
     add_mass: tuple[float, float] | None = None
+    on_infeasible: str = ON_INFEASIBLE[0]
 
     def __post_init__(self) -> None:
+        check_on_infeasible(self.on_infeasible)
         if not self.rate_hz > 0:
             raise InvalidInputError(f"rate_hz: expected a rate > 0 Hz, got {self.rate_hz}")
         if self.add_mass is not None and (self.add_mass[0] < 0 or self.add_mass[1] <= 0):
@@ -86,6 +101,7 @@ class PayloadLoop:
         self.plan_q = self.replanner.last.q.copy()
         self.estimates: list[tuple[float, float, float | None]] = []  # (t, payload kg, sigma) every 100 steps
         self.mass_added = False
+        self.stopped_at: int | None = None  # the waypoint the reference holds after a "stop"
 
     def _identify(self, k: int, q: FloatArray, dq: FloatArray) -> float:
         """Feed step ``k`` (state ``q, dq`` before it) to the identifier; the payload estimate (kg)."""
@@ -122,6 +138,21 @@ class PayloadLoop:
             getattr(self.reference, name)[future] = getattr(ref, name)[future]
         self.plan_q = combined
 
+    def _apply(self, k: int, j: int, plan: Any, rule: str) -> str:
+        """A converged re-plan whose first waypoint is waypoint ``j``, after step ``k``: spliced when
+        feasible, else as ``rule`` says (:data:`ON_INFEASIBLE`). Returns what was done:
+        ``"spliced"``, ``"kept"`` or ``"stopped"``."""
+        if plan.feasible or rule == "splice":
+            self._splice(k, j, plan.q, plan.force.f)
+            return "spliced"
+        if rule == "keep":
+            return "kept"
+        # stop: the plan in force up to waypoint j, held there; the force of the new plan at rest (its end)
+        n = self.plan_t.size
+        self._splice(k, j, np.repeat(self.plan_q[j:j + 1], n - j, axis=0), np.repeat(plan.force.f[-1:], n - j, axis=0))
+        self.stopped_at = j
+        return "stopped"
+
     def _estimate_summary(self) -> dict[str, Any]:
         """The final payload estimate and the estimates every 100 steps."""
         _, m, s = self.estimates[-1] if self.estimates else (0.0, float("nan"), float("nan"))
@@ -139,18 +170,19 @@ class ReplanLoop(PayloadLoop):
     def __post_init__(self) -> None:
         super().__post_init__()
         self.offset = 0  # waypoints the planner's horizon has moved
+        self.in_force = float(self.replanner.task.payload.mass or 0.0)  # the mass of the plan in force
         self.every = max(1, int(round(1.0 / (self.options.rate_hz * self.sim.timestep))))
 
     def __call__(self, k: int, q: FloatArray, dq: FloatArray) -> None:
         """After step ``k`` (state ``q, dq`` before it): identify, maybe re-plan, maybe add mass."""
         m = self._identify(k, q, dq)
         self._maybe_add_mass(k * self.sim.timestep, self.options.add_mass)
-        if self.options.enabled and k % self.every == 0 and k > 0:
+        if self.options.enabled and k % self.every == 0 and k > 0 and self.stopped_at is None:
             self._maybe_replan(k, m)
 
     def _maybe_replan(self, k: int, m: float) -> None:
         m = max(m, MIN_PAYLOAD)  # a transient estimate below zero means "(almost) nothing"
-        planned = float(self.replanner.task.payload.mass or 0.0)
+        planned = self.in_force
         change = abs(m - planned)
         if change < max(self.options.threshold * planned, 3 * self.identifier.sigma, self.options.min_change):
             return
@@ -161,24 +193,34 @@ class ReplanLoop(PayloadLoop):
         result = self.replanner.shift(j - self.offset, mass=m) if j > self.offset else self.replanner.replan(mass=m)
         entry = {"t": t, "mass": m, "planned_mass": planned, "waypoint": j, "latency_s": result.latency_s,
                  "iterations": result.iterations, "warm": result.warm, "success": result.plan.solved,
-                 "verdict": result.plan.label,
-                 "min_d": float(np.min(result.plan.metrics["d"]))}
+                 "verdict": result.plan.label, "failed": list(result.plan.verdict.failed),
+                 "verdict_s": result.verdict_s, "min_d": float(np.min(result.plan.metrics["d"])), "applied": "none"}
         self.log.append(entry)
         if not result.plan.solved:
             return  # keep following the last good plan
-        self.offset = j
-        self._splice(k, j, result.plan.q, result.plan.force.f)
+        self.offset = j  # the planner's horizon moved (its warm start too), spliced or not
+        entry["applied"] = self._apply(k, j, result.plan, self.options.on_infeasible)
+        if entry["applied"] == "spliced":
+            self.in_force = m
 
     def summary(self) -> dict[str, Any]:
         """Re-plan count and latency statistics, final estimate."""
         lat = np.array([e["latency_s"] for e in self.log]) if self.log else np.zeros(0)
         return {
             "replans": len(self.log), "replans_failed": sum(not e["success"] for e in self.log),
+            "replans_infeasible": sum(e["success"] and e["verdict"] != "feasible" for e in self.log),
+            "on_infeasible": self.options.on_infeasible, "stopped_at_waypoint": self.stopped_at,
             "latency_median_s": float(np.median(lat)) if lat.size else None,
             "latency_p95_s": float(np.percentile(lat, 95)) if lat.size else None,
             "latency_max_s": float(lat.max()) if lat.size else None,
             "log": self.log, **self._estimate_summary(),
         }
+
+
+def check_on_infeasible(rule: str) -> None:
+    """``rule`` is one of :data:`ON_INFEASIBLE` (else one line)."""
+    if rule not in ON_INFEASIBLE:
+        raise InvalidInputError(f"on_infeasible: expected one of {', '.join(ON_INFEASIBLE)}, got {rule!r}")
 
 
 def _force_at(reference: Reference, times: FloatArray) -> FloatArray:

@@ -24,7 +24,8 @@ of simulated time (100 Hz: every 10th 1 ms control step) and at each tick
 3. publishes a solve that converged within its deadline (``deadline_s``, default
    ``1 / rate_hz``; measured: the wall-clock latency of the re-plan call, its metrics and verdict
    excluded)
-   by splicing it into the controller's reference from the horizon's first waypoint on. A
+   by splicing it into the controller's reference from the horizon's first waypoint on (one
+   that is not feasible as ``MpcOptions.on_infeasible`` says). A
    solve that does not converge is never published (the plan in force stays; counted as
    *failed*; no solve is tried again before the next waypoint unless the mass departs from the
    failed one). A solve over its deadline is a
@@ -53,7 +54,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from forte.exceptions import InvalidInputError
-from forte.execution.closed_loop import MIN_PAYLOAD, PayloadLoop, replanner_of_plan
+from forte.execution.closed_loop import MIN_PAYLOAD, ON_INFEASIBLE, PayloadLoop, check_on_infeasible, replanner_of_plan
 from forte.execution.control import Reference
 from forte.execution.model import SimModel
 from forte.force.taskforce import TaskForce
@@ -99,6 +100,12 @@ class MpcOptions:
             configuration), so the new plan's dynamics are those the spliced reference executes;
             ``"measured"``, the measured velocity (the plan's acceleration there); ``"rest"``, at
             rest (what a shift did before: the ablation).
+        on_infeasible: a converged solve whose verdict (``forte plan``'s) is not feasible:
+            ``"splice"`` it anyway (default, measured: :mod:`forte.execution.closed_loop`),
+            ``"keep"`` the plan in force (not solved again before the next waypoint unless the
+            mass departs), or ``"stop"`` at the next waypoint; these two wait for the verdict,
+            whose time then counts against the deadline. Real-time iterations have no verdict (a
+            step is published when sound: :mod:`forte.planning.realtime`).
     """
 
     rate_hz: float = 100.0
@@ -113,8 +120,10 @@ class MpcOptions:
     solver: str = "rti"
     backend: str = "stagewise"
     start: str = "reference"
+    on_infeasible: str = ON_INFEASIBLE[0]
 
     def __post_init__(self) -> None:
+        check_on_infeasible(self.on_infeasible)
         if self.start not in START_MOTIONS:
             raise InvalidInputError(f"start: expected one of {', '.join(START_MOTIONS)}, got {self.start!r}")
         if self.solver not in MPC_SOLVERS:
@@ -221,7 +230,7 @@ class MpcLoop(PayloadLoop):
         entry: dict[str, Any] = {"t": t, "mass": self.mass, "kind": None, "solve_s": None, "missed": False,
                                  "published": False}
         if self.pending is not None and t >= self.pending.ready_t - TIME_EPS:
-            entry["published"] = self._publish(k, self.pending)
+            entry["published"] = self._publish(k, self.pending, entry)
             self.pending = None
         if self.pending is not None:
             self.busy_ticks += 1
@@ -249,8 +258,8 @@ class MpcLoop(PayloadLoop):
 
     def _maybe_solve(self, k: int, t: float, q: FloatArray, dq: FloatArray, entry: dict[str, Any]) -> None:
         i = int(np.searchsorted(self.plan_t, t + TIME_EPS, side="right")) - 1  # the waypoint just passed
-        if i >= self.plan_t.size - 1:
-            return  # the motion is over: nothing left to solve
+        if i >= self.plan_t.size - 1 or self.stopped_at is not None:
+            return  # the motion is over (or stopped): nothing left to solve
         target = self._target_mass()
         if i > self.horizon:
             kind, steps = "shift", i - self.horizon
@@ -264,16 +273,19 @@ class MpcLoop(PayloadLoop):
         if self.failed is not None and self.failed[0] == i and not self._departs(target, self.failed[1]):
             return  # failed at this waypoint for this mass already: the plan in force stays until the next
         result = self._solve_tick(kind, steps, state, target)
-        missed = result.latency_s > self.options.deadline
+        # a rule other than "splice" publishes after the verdict: its time counts then
+        ready = result.latency_s + (result.verdict_s if self.options.on_infeasible != "splice" else 0.0)
+        missed = ready > self.options.deadline
         entry.update(kind=kind, solve_s=result.latency_s, iterations=result.iterations, missed=missed,
                      solved=result.plan.solved, verdict=result.plan.label)
         if not result.plan.solved:
             self.failed = (i, target)
             return
         self.horizon += steps
-        done = Pending(t + result.latency_s, self.horizon, target, result)
+        entry.update(failed=list(result.plan.verdict.failed), verdict_s=result.verdict_s)
+        done = Pending(t + ready, self.horizon, target, result)
         if not missed:
-            entry["published"] = self._publish(k, done)
+            entry["published"] = self._publish(k, done, entry)
         elif self.options.on_miss == "delay":
             self.pending = done
 
@@ -305,7 +317,7 @@ class MpcLoop(PayloadLoop):
             return  # unsound (or failed): the plan in force stays, the next tick steps again
         done = Pending(t + step.latency_s, self.horizon, target, _RealTimePlan(step))
         if not missed:
-            entry["published"] = self._publish(k, done)
+            entry["published"] = self._publish(k, done, entry)
         elif self.options.on_miss == "delay":
             self.pending = done
 
@@ -330,11 +342,21 @@ class MpcLoop(PayloadLoop):
         sigma = self.identifier.sigma if self.options.identify else 0.0
         return abs(m - ref) >= max(self.options.threshold * ref, 3 * sigma, self.options.min_change)
 
-    def _publish(self, k: int, done: Pending) -> bool:
-        """Splice a converged solve into the reference after step ``k``."""
+    def _publish(self, k: int, done: Pending, entry: dict[str, Any]) -> bool:
+        """Splice a converged solve (or a sound real-time step) into the reference after step ``k``;
+        a converged solve that is not feasible as ``on_infeasible`` says (``entry["applied"]``)."""
         plan = done.result.plan
-        self._splice(k, done.start, plan.q, plan.force.f)
-        self.plan_d = self._executed_margin(done.start, plan)
+        if isinstance(done.result, _RealTimePlan):
+            self._splice(k, done.start, plan.q, plan.force.f)
+            applied = "spliced"
+        else:
+            applied = self._apply(k, done.start, plan, self.options.on_infeasible)
+        entry["applied"] = applied
+        if applied == "kept":  # not solved again at this waypoint for this mass
+            self.failed = (done.start, done.mass)
+            return False
+        if applied == "spliced":
+            self.plan_d = self._executed_margin(done.start, plan)
         self.published = (done.start, done.mass)
         return True
 
@@ -369,6 +391,8 @@ class MpcLoop(PayloadLoop):
             "deadline_s": self.options.deadline, "on_miss": self.options.on_miss,
             "identify": self.options.identify, "ticks": len(self.log), "solves": len(solves),
             "published": sum(e["published"] for e in self.log), "misses": sum(e["missed"] for e in solves),
+            "on_infeasible": self.options.on_infeasible, "stopped_at_waypoint": self.stopped_at,
+            "kept": sum(e.get("applied") == "kept" for e in self.log),
             "failed": sum(not e["solved"] for e in solves), "busy_ticks": self.busy_ticks,
             "solve_median_s": stat(np.median), "solve_p95_s": stat(lambda x: np.percentile(x, 95)),
             "solve_max_s": stat(np.max), "min_d": min((e["min_d"] for e in self.log), default=None),

@@ -13,8 +13,10 @@ Topics (names relative to the node's namespace; the defaults are absolute):
   ``base_x``, ``base_y``, ``base_yaw`` and the arm's joints; positions, velocities (backward
   differences, the plan's own) and ``time_from_start`` per waypoint;
 - publishes ``/forte/status`` (``std_msgs/String``, JSON): ``seq`` (0 for the first plan, +1 per
-  re-plan), ``mass_kg``, ``verdict`` (``feasible`` | ``infeasible`` | ``solver-failed``),
-  ``failed`` (the requirements that failed), ``solved``, ``iterations``, ``latency_s`` (the
+  re-plan), ``mass_kg``, ``verdict`` (``feasible`` | ``infeasible`` | ``solver-failed``: the
+  re-planner's, ``forte plan``'s verdict at the waypoints and 8 samples per interval; the
+  trajectory and the status are published together, after it), ``failed`` (the requirements
+  that failed), ``solved``, ``iterations``, ``latency_s`` (the
   re-plan call), ``warm``.
 
 Both publishers are reliable and transient-local (depth 1): a subscriber that joins late gets the
