@@ -156,6 +156,7 @@ class ClearanceChecker:
                                0.0))
             poses.append(np.eye(4))
         self.bodies = tuple(bodies)
+        self._scene_radii = np.array([b.radius for b in bodies[:len(scene.objects)]])
         self._body_transforms = [coal.Transform3s(T[:3, :3].copy(), T[:3, 3].copy()) for T in poses]
         self._request = coal.DistanceRequest()
         if self._arm is not None:
@@ -200,7 +201,7 @@ class ClearanceChecker:
         rigid with the base against the floor (not a pair)."""
         radii = self._part_radii[parts]
         scene = np.linalg.norm(centres[:, None, :] - self._body_centres[None], axis=-1) - radii[:, None] \
-            - np.array([b.radius for b in self.bodies[:len(self._body_centres)]])
+            - self._scene_radii
         if self._floor is None:
             return scene
         floor = np.where(self.grounded[parts], np.inf, centres[:, 2] - self._floor - radii)
