@@ -155,6 +155,13 @@ def test_a_path_into_the_floor_is_infeasible_naming_it_and_mujoco_agrees(tmp_pat
     # the plan's own motion under a floor at 0.4 m: the verdict and MuJoCo both find the payload in it
     raised = write_plan_dir(tmp_path / "raised", plan.robot, plan.t, plan.q, mass=2.7, scene=Scene((), 0.4))
     assert read_plan_dir(raised).scene.floor == 0.4
+    doc = json.loads((raised / "plan.json").read_text())
+    (raised / "plan.json").write_text(json.dumps(doc | {"floor": "high"}))
+    with pytest.raises(TaskFileError, match=r"field 'floor': expected the floor forte wrote"):
+        read_plan_dir(raised)
+    (raised / "plan.json").write_text(json.dumps({k: v for k, v in doc.items() if k != "floor"}))
+    assert read_plan_dir(raised).scene.floor == 0.0  # written before the floor: z = 0, MuJoCo's
+    (raised / "plan.json").write_text(json.dumps(doc))
     assert "payload vs floor" in read_plan_dir(raised).verdict.reason()
     sim = simulate_plan(raised, hold=0.2, write=False, stop_on_failure=True)
     assert not sim.success and ("payload", "floor") in {(c["robot"], c["world"]) for c in sim.summary["contacts"]}

@@ -281,7 +281,8 @@ def _read_scene(plan_path: Path, entries: Any, floor: Any) -> Scene:
     try:
         return scene_from_json(entries, floor)
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
-        raise TaskFileError(f"{plan_path}: field 'scene': expected the scene forte wrote ({exc})") from None
+        field = "floor" if str(exc).startswith("floor:") else "scene"
+        raise TaskFileError(f"{plan_path}: field '{field}': expected the {field} forte wrote ({exc})") from None
 
 
 def _read_verdict(plan_path: Path, doc: Any, clearance: Any = None) -> Verdict | None:
