@@ -24,7 +24,8 @@ LIFT = ROOT / "examples" / "tasks" / "lift.yaml"
 
 
 def _scene(*objects: tuple[str, object, list[float]]) -> Scene:
-    return Scene(tuple(SceneObject(name, shape, pose_matrix(pose)) for name, shape, pose in objects))
+    """The bodies alone, without the floor (tests/test_floor.py checks it)."""
+    return Scene(tuple(SceneObject(name, shape, pose_matrix(pose)) for name, shape, pose in objects), None)
 
 
 def _box_sdf(p: np.ndarray, half: np.ndarray) -> float:
@@ -166,15 +167,15 @@ def test_between_waypoints_only_is_caught(robot):
     assert v.waypoints == () and "between waypoints only" in v.detail and v.detail.startswith("base vs post ")
 
 
-def test_an_empty_scene_adds_nothing_and_computes_nothing(robot, monkeypatch):
+def test_a_world_without_bodies_or_floor_adds_nothing_and_computes_nothing(robot, monkeypatch):
     def refuse(*_args, **_kw):
-        raise AssertionError("clearance computed for an empty scene")
+        raise AssertionError("clearance computed without bodies or floor")
 
     monkeypatch.setattr("forte.planning.verdict.clearances", refuse)
     monkeypatch.setattr("forte.planning.requirements.clearances", refuse)
     monkeypatch.setattr("forte.model.clearance.ClearanceChecker._closest", refuse)
     t, q = _drive(robot, 1.0)
-    verdict = judge(robot, t, q, given_force(t, np.zeros((len(t), 3)), 0.0), 0.9, scene=Scene())
+    verdict = judge(robot, t, q, given_force(t, np.zeros((len(t), 3)), 0.0), 0.9, scene=Scene((), None))
     assert "clearance" not in verdict.failed and verdict.clearance is None
 
 
@@ -201,10 +202,10 @@ def test_outputs_record_the_clearance_and_read_back(robot, tmp_path):
     assert list(metrics) == [*METRIC_COLUMNS, "tipover_margin"]  # the MOCA base states its support polygon
     assert np.min(metrics["clearance"]) >= block["min_m"] - 1e-12  # the waypoints are among the samples
     assert read_plan_dir(out).verdict.clearance == block
-    # without a scene: the column holds inf (the distance to no body) and plan.json has no block
+    # without a scene: the column holds the distance to the floor, and so does plan.json's block
     plain = write_plan(forte.plan(forte.load_task(LIFT), "quintic"), tmp_path / "plain", figures=False)
-    assert np.all(np.isinf(read_metrics(plain)["clearance"]))
-    assert "clearance" not in json.loads((plain / "plan.json").read_text())
+    floor = json.loads((plain / "plan.json").read_text())["clearance"]
+    assert floor["body"] == "floor" and np.min(read_metrics(plain)["clearance"]) >= floor["min_m"] - 1e-12 > 0.3
     # a metrics.csv written before the clearance column is still read
     lines = (plain / "metrics.csv").read_text().splitlines()
     keep = len(LEGACY_METRIC_COLUMNS)  # the columns before clearance (and the tip-over margin after it)

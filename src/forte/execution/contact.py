@@ -10,13 +10,15 @@ so ``mj_inverse`` still equals ``robot.rnea``). MuJoCo makes a contact pair of t
 | geom | contype | conaffinity |
 |---|---|---|
 | arm, payload | `ARM` | 0 |
-| base box | `BASE` | 0 |
-| floor | 0 | `ARM` |
+| base box, the arm's links rigid with the base | `BASE` | 0 |
+| floor | 0 | `ARM` (0 with ``floor: none``) |
 | scene body | 0 | `ARM` and `BASE` |
 
 the only pairs are arm-vs-scene, base-vs-scene and arm-vs-floor: never the arm against itself
 (the plan's verdict judges self-collision) nor the base against the floor it rides on (its slide
-joints hold it).
+joints hold it). The arm's links with no joint between them and the base (its root link, a whole
+mobile base's wheels) belong to the base, as in the exact clearance check. The floor plane is at
+the scene's floor height (:attr:`forte.model.scene.Scene.floor`).
 
 MuJoCo collides a mesh as its convex hull: a concave scene mesh (an open shelf) touches
 wherever its hull does; give such a body as boxes or convex pieces.
@@ -87,18 +89,30 @@ def _add_mesh(spec: mujoco.MjSpec, name: str, mesh: Mesh) -> str:
     return SCENE_PREFIX + name
 
 
-def enable_robot_contacts(spec: mujoco.MjSpec, base: mujoco.MjsBody) -> None:
-    """Give every robot geom its contact bit (the base's box ``BASE``, the rest ``ARM``) and the
-    floor (the world's plane) ``conaffinity = ARM``; all robot geoms stay massless."""
+def enable_robot_contacts(spec: mujoco.MjSpec, base: mujoco.MjsBody, floor: float | None = 0.0) -> None:
+    """Give every robot geom its contact bit (``BASE`` for the base's box and every geom with no
+    joint between it and the base, the rest ``ARM``) and the floor (the world's plane, moved to
+    height ``floor``) ``conaffinity = ARM``, or none without a floor (``None``); all robot geoms
+    stay massless."""
     for geom in spec.worldbody.geoms:
         if geom.type == mujoco.mjtGeom.mjGEOM_PLANE:
-            geom.conaffinity = ARM
+            geom.conaffinity = 0 if floor is None else ARM
+            geom.pos = [0.0, 0.0, 0.0 if floor is None else float(floor)]
     for geom in spec.geoms:
         if geom.parent.name.startswith(SCENE_PREFIX) or geom.parent == spec.worldbody:
             continue
-        geom.contype = BASE if geom.parent == base else ARM
+        geom.contype = BASE if _rigid_with(geom.parent, base) else ARM
         geom.conaffinity = 0
         geom.mass, geom.density = 0.0, 0.0
+
+
+def _rigid_with(body: mujoco.MjsBody, base: mujoco.MjsBody) -> bool:
+    """Whether ``body`` is ``base`` or hangs from it with no joint on the way."""
+    while body != base:
+        if body.joints or body.parent is None or body.parent == body:
+            return False
+        body = body.parent
+    return True
 
 
 class Touch(NamedTuple):

@@ -33,8 +33,9 @@ agreement ~1e-12 Nm):
 
 * with a ``scene`` (:class:`forte.model.scene.Scene`, possibly empty): the scene's static
   bodies, and contacts on between the robot (the arm's URDF collision geometry, the base box,
-  the payload sphere; all massless) and the scene, and between the arm and the floor
-  (:mod:`forte.execution.contact`). Without one (None) the robot touches nothing.
+  the payload sphere; all massless) and the scene, and between the arm (its links that move
+  relative to the base) and the payload and the floor at the scene's floor height (none with
+  ``floor: none``; :mod:`forte.execution.contact`). Without one (None) the robot touches nothing.
 
 Gravity is ``[0, 0, -robot.gravity]``; the time step defaults to 1 ms (1 kHz control).
 """
@@ -247,7 +248,7 @@ def build_sim_spec(
     _add_actuators(spec, robot, base_kv)
     if scene is not None:
         add_scene(spec, scene)
-        enable_robot_contacts(spec, base)
+        enable_robot_contacts(spec, base, scene.floor)
     return spec
 
 

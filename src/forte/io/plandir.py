@@ -44,7 +44,7 @@ from forte.io.outputs import (
 )
 from forte.io.robot_file import store_robot, stored_description
 from forte.model.robot import MobileManipulator, robot_from_description
-from forte.model.scene import Scene, scene_from_json
+from forte.model.scene import DEFAULT_FLOOR, Scene, scene_from_json
 from forte.model.trajectory import trajectory_header
 from forte.planning.planner import Plan
 from forte.planning.verdict import Verdict, judge
@@ -154,10 +154,11 @@ def write_plan_dir(plan_dir: str | Path, robot: MobileManipulator, t: Any, q: An
         f = np.zeros((times.size, 3)) if force is None else as_array(force, "force", (times.size, 3))
         tf = TaskForce(times, f, np.array(np.broadcast_to(np.asarray(radius, dtype=float), (times.size,))))
     payload = Payload(mass=float(mass), source="given") if mass else Payload(source="none")
-    verdict = judge(robot, times, Q, tf, CapabilityParameters().alpha)
+    scene = Scene() if scene is None else scene  # the floor at least: every world has one
+    verdict = judge(robot, times, Q, tf, CapabilityParameters().alpha, scene=scene)
     plan = Plan(method=method, robot=robot, t=times, q=Q, force=tf, payload=payload,
                 solved=status == "success", status=status, solver=dict(extra or {}), verdict=verdict,
-                scene=scene or Scene())
+                scene=scene)
     replace_directory(lambda d: fill_plan_dir(plan, d, figures=False), Path(plan_dir))
     return Path(plan_dir)
 
@@ -196,8 +197,9 @@ def plan_document(plan: Plan) -> dict[str, Any]:
     doc |= {"robot": plan.robot.describe(), "payload": plan.payload.to_dict()}
     if plan.scene:
         doc["scene"] = plan.scene.describe()
-        if plan.verdict is not None and plan.verdict.clearance is not None:
-            doc["clearance"] = plan.verdict.clearance  # the closest approach over the judged samples
+    doc["floor"] = plan.scene.floor  # the floor's height (m), None: no floor (forte simulate builds it)
+    if plan.verdict is not None and plan.verdict.clearance is not None:
+        doc["clearance"] = plan.verdict.clearance  # the closest approach over the judged samples
     if plan.contact is not None:  # a contact task (forte.force.contact): forte simulate builds the object
         doc["contact"] = contact_to_dict(plan.contact)
     if plan.force is not None:
@@ -259,7 +261,8 @@ def read_plan_dir(plan_dir: str | Path) -> Plan:
     return Plan(method=str(meta.get("method", "unknown")), robot=robot, t=t, q=q, force=force, payload=payload,
                 solved=True, status=str(meta.get("solver_status", meta.get("status", "unknown"))),
                 verdict=_read_verdict(plan_path, meta.get("verdict"), meta.get("clearance")),
-                scene=_read_scene(plan_path, meta.get("scene")), contact=_read_contact(plan_path, meta.get("contact")))
+                scene=_read_scene(plan_path, meta.get("scene"), meta.get("floor", DEFAULT_FLOOR)),
+                contact=_read_contact(plan_path, meta.get("contact")))
 
 
 def _read_contact(plan_path: Path, doc: Any) -> Contact | None:
@@ -272,12 +275,14 @@ def _read_contact(plan_path: Path, doc: Any) -> Contact | None:
                             f"{str(exc).partition(': ')[2] or exc}") from None
 
 
-def _read_scene(plan_path: Path, entries: Any) -> Scene:
-    """The scene recorded in plan.json (empty when none)."""
+def _read_scene(plan_path: Path, entries: Any, floor: Any) -> Scene:
+    """The scene recorded in plan.json (empty when none) and its floor (a plan.json written before
+    the floor was recorded: z = 0, where MuJoCo always had it)."""
     try:
-        return scene_from_json(entries)
+        return scene_from_json(entries, floor)
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
-        raise TaskFileError(f"{plan_path}: field 'scene': expected the scene forte wrote ({exc})") from None
+        field = "floor" if str(exc).startswith("floor:") else "scene"
+        raise TaskFileError(f"{plan_path}: field '{field}': expected the {field} forte wrote ({exc})") from None
 
 
 def _read_verdict(plan_path: Path, doc: Any, clearance: Any = None) -> Verdict | None:

@@ -14,6 +14,12 @@
 - the payload, a sphere of :data:`~forte.model.description.PAYLOAD_RADIUS` at the end effector
   (the body MuJoCo's hand holds), named ``payload``.
 
+**The floor** (:attr:`~forte.model.scene.Scene.floor`) is coal's half-space ``z <= floor``, named
+``floor``; the parts rigid with the base (the base box and the arm's geometry with no joint
+between it and the base, :attr:`ClearanceChecker.grounded`) rest on it and are not checked
+against it: the base moves in the plane, so their height never changes
+(:func:`floor_violation` checks it once, for the task).
+
 **Signed distances.** Convex pairs (every robot part against a box, cylinder, sphere or capsule)
 get coal's GJK distance, and when they overlap its EPA penetration depth, negated: the true
 signed distance. A scene *mesh* stays a triangle mesh (shelves are concave): coal's distance is
@@ -23,9 +29,10 @@ wholly inside a closed mesh that touches none of its triangles (a mesh has no in
 
 **Broad phase.** Every part and body has a bounding sphere (coal's local AABB: its centre and
 the radius that contains the box), so ``|c_a - c_b| - r_a - r_b`` bounds the pair's signed
-distance from below. Per configuration, the pairs are tried in the order of that bound and the
-narrow phase stops when the next bound is no smaller than the best distance found: the exact
-minimum over all pairs, after typically one to three coal calls, whatever the number of bodies.
+distance from below (for the floor: the centre's height above it minus the radius). Per
+configuration, the pairs are tried in the order of that bound and the narrow phase stops when
+the next bound is no smaller than the best distance found: the exact minimum over all pairs,
+after typically one to three coal calls, whatever the number of bodies.
 """
 
 from __future__ import annotations
@@ -39,7 +46,7 @@ import pinocchio as pin
 
 from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT, PAYLOAD_RADIUS
 from forte.model.robot import N_BASE, MobileManipulator
-from forte.model.scene import Scene
+from forte.model.scene import FLOOR, Scene
 from forte.model.self_collision import ArmGeometry
 from forte.validation import FloatArray
 
@@ -94,6 +101,7 @@ class _Arm(NamedTuple):
     geom: pin.GeometryModel
     parts: tuple[Part, ...]
     hull_excess: dict[str, float]
+    grounded: tuple[bool, ...]
 
 
 @lru_cache(maxsize=8)
@@ -108,7 +116,8 @@ def _arm(urdf: str, arm_joints: tuple[str, ...]) -> _Arm | None:
         name = arm.model.frames[obj.parentFrame].name
         parts.append(_part(name, geometry))
         excess[obj.name] = extra
-    return _Arm(arm.model, arm.geom, tuple(parts), excess)
+    grounded = tuple(obj.parentJoint == 0 for obj in arm.geom.geometryObjects)  # no joint up to the base
+    return _Arm(arm.model, arm.geom, tuple(parts), excess, grounded)
 
 
 def base_box(robot: MobileManipulator) -> tuple[Any, FloatArray]:
@@ -133,15 +142,23 @@ class ClearanceChecker:
 
         self.parts: tuple[Part, ...] = (*(self._arm.parts if self._arm else ()), _part(BASE_PART, box),
                                         _part(PAYLOAD_PART, coal.Sphere(PAYLOAD_RADIUS)))
+        #: Per part: rigid with the base (never checked against the floor).
+        self.grounded = np.array([*(self._arm.grounded if self._arm else ()), True, False])
         self._part_centres = np.array([p.centre for p in self.parts])
-        self.bodies = tuple(_part(o.name, o.collision_geometry()) for o in scene.objects)
-        import coal
-
+        self._part_radii = np.array([p.radius for p in self.parts])
+        bodies = [_part(o.name, o.collision_geometry()) for o in scene.objects]
         poses = [o.pose for o in scene.objects]
+        self._body_centres = np.array([T[:3, :3] @ b.centre + T[:3, 3] for T, b in zip(poses, bodies,
+                                                                                       strict=True)]).reshape(-1, 3)
+        self._floor = scene.floor
+        if scene.floor is not None:  # the last body: the half-space z <= floor
+            bodies.append(Part(FLOOR, coal.Halfspace(np.array([0.0, 0.0, 1.0]), float(scene.floor)), np.zeros(3),
+                               0.0))
+            poses.append(np.eye(4))
+        self.bodies = tuple(bodies)
+        self._scene_radii = np.array([b.radius for b in bodies[:len(scene.objects)]])
         self._body_transforms = [coal.Transform3s(T[:3, :3].copy(), T[:3, 3].copy()) for T in poses]
         self._request = coal.DistanceRequest()
-        self._body_centres = np.array([T[:3, :3] @ b.centre + T[:3, 3] for T, b in zip(poses, self.bodies,
-                                                                                       strict=True)]).reshape(-1, 3)
         if self._arm is not None:
             self._data, self._geom_data = self._arm.model.createData(), self._arm.geom.createData()
 
@@ -171,20 +188,31 @@ class ClearanceChecker:
         distance, robot, body = np.full(k, np.inf), [""] * k, [""] * k
         wr, wb = np.full((k, 3), np.nan), np.full((k, 3), np.nan)
         if self.bodies:
-            radii = np.array([p.radius for p in self.parts])[:, None] + np.array([b.radius for b in self.bodies])
-            hint = 0
+            hint = 0 if self.scene.objects else int(np.flatnonzero(~self.grounded)[0]) * len(self.bodies)
             for i, q in enumerate(Q):
-                hint, distance[i], wr[i], wb[i] = self._closest(self.placements(q), radii, hint)
+                hint, distance[i], wr[i], wb[i] = self._closest(self.placements(q), hint)
                 g, b = divmod(hint, len(self.bodies))
                 robot[i], body[i] = self.parts[g].name, self.bodies[b].name
         return Clearances(distance, tuple(robot), tuple(body), wr, wb)
 
-    def _closest(self, T: FloatArray, radii: FloatArray, hint: int) -> tuple[int, float, FloatArray, FloatArray]:
+    def bounds(self, centres: FloatArray, parts: FloatArray) -> FloatArray:
+        """Lower bounds (len(parts) x bodies) on the signed distance of each of ``parts`` (indices)
+        whose bounding spheres are centred at ``centres`` (world) to each body; ``inf`` for a part
+        rigid with the base against the floor (not a pair)."""
+        radii = self._part_radii[parts]
+        scene = np.linalg.norm(centres[:, None, :] - self._body_centres[None], axis=-1) - radii[:, None] \
+            - self._scene_radii
+        if self._floor is None:
+            return scene
+        floor = np.where(self.grounded[parts], np.inf, centres[:, 2] - self._floor - radii)
+        return np.column_stack([scene, floor])
+
+    def _closest(self, T: FloatArray, hint: int) -> tuple[int, float, FloatArray, FloatArray]:
         """Branch and bound over the pairs of one configuration (module docstring), starting with
         pair ``hint`` (the previous sample's closest: usually close again, so few bounds pass).
         Returns the closest pair's flat index (part x body), its distance and witness points."""
         centres = np.einsum("gij,gj->gi", T[:, :3, :3], self._part_centres) + T[:, :3, 3]
-        bound = (np.linalg.norm(centres[:, None, :] - self._body_centres[None], axis=-1) - radii).ravel()
+        bound = self.bounds(centres, np.arange(len(self.parts))).ravel()
         best = (hint, *self._distance(T, hint))
         candidates = np.flatnonzero(bound < best[1])
         for idx in candidates[np.argsort(bound[candidates])]:
@@ -209,7 +237,8 @@ class ClearanceChecker:
 
 def path_clearances(robot: MobileManipulator, scene: Scene, targets: Any) -> Clearances:
     """The clearance of the parts rigid with the end effector (the hand, the fingers: every part
-    on the end effector's joint; the payload) with the end effector at each target pose (K x 4 x 4). The rest
+    on the end effector's joint; the payload) with the end effector at each target pose (K x 4 x 4),
+    to the scene's bodies and the floor. The rest
     of the robot cannot change it: where it is below the task's clearance, no plan of the path is
     clear. Parts elsewhere and the base count as infinitely far; so does a body more than 1 m
     away (bounding spheres), which no clearance forte accepts reaches."""
@@ -228,12 +257,11 @@ def path_clearances(robot: MobileManipulator, scene: Scene, targets: Any) -> Cle
     rigid.append(len(checker.parts) - 1)  # the payload, at the end effector
     distance, robot_names, body_names = out.distance.copy(), list(out.robot), list(out.body)
     wr, wb = out.witness_robot.copy(), out.witness_body.copy()
-    radii = np.array([checker.parts[i].radius for i in rigid])[:, None] + [b.radius for b in checker.bodies]
     for k_, T_ee in enumerate(targets):
         T = np.repeat(np.eye(4)[None], len(checker.parts), axis=0)
         T[rigid] = T_ee @ joint_from_ee @ local
         centres = np.einsum("gij,gj->gi", T[rigid, :3, :3], checker._part_centres[rigid]) + T[rigid, :3, 3]
-        bound = np.linalg.norm(centres[:, None] - checker._body_centres[None], axis=-1) - radii
+        bound = checker.bounds(centres, np.array(rigid))
         for r, b in zip(*np.nonzero(bound < min(distance[k_], 1.0)), strict=True):  # bounding spheres first
             if bound[r, b] < distance[k_]:
                 i = rigid[r]
@@ -247,3 +275,37 @@ def path_clearances(robot: MobileManipulator, scene: Scene, targets: Any) -> Cle
 def clearances(robot: MobileManipulator, scene: Scene, Q: Any) -> Clearances:
     """The clearance of every configuration ``Q`` (K x nq) of ``robot`` in ``scene``."""
     return ClearanceChecker(robot, scene).evaluate(Q)
+
+
+#: How far (m) a part rigid with the base may reach below the floor: it rests on it (TIAGo's
+#: wheels and casters touch it, to round-off), it does not stand in it.
+FLOOR_TOLERANCE = 1e-3
+
+
+class FloorContact(NamedTuple):
+    """A part of the robot where it may not be against the floor: its ``name``, its signed
+    distance (m) to the floor and whether it is rigid with the base (``grounded``)."""
+
+    name: str
+    distance: float
+    grounded: bool
+
+
+def floor_contact(robot: MobileManipulator, floor: float, q: Any, clearance: float,
+                  moving: bool = True) -> FloorContact | None:
+    """The worst part at whole-body configuration ``q`` (exact geometry) that breaks the floor's
+    rules, or ``None``: a part rigid with the base (the arm's root link: an arm mounted at or below
+    the floor) reaching more than :data:`FLOOR_TOLERANCE` below the floor, anywhere the base goes;
+    with ``moving``, an arm link or the payload closer to the floor than ``clearance``."""
+    checker = ClearanceChecker(robot, Scene((), float(floor)))
+    T = checker.placements(q)
+    found = []
+    for i, part in enumerate(checker.parts):
+        grounded = bool(checker.grounded[i])
+        if part.name == BASE_PART or (not grounded and not moving):
+            continue
+        d = checker._distance(T, i)[0]
+        if d < (-FLOOR_TOLERANCE if grounded else clearance):
+            found.append(FloorContact(part.name, d, grounded))
+    # a mount in the floor first (no plan helps), then the lowest moving part
+    return min(found, key=lambda c: (not c.grounded, c.distance), default=None)

@@ -1,7 +1,7 @@
 """The world around the robot: static bodies of simple shapes or meshes, posed in the world frame.
 
-The world frame is the robot's start base frame (z up, the floor at z = 0); lengths are metres,
-angles radians, and a pose ``[x, y, z, roll, pitch, yaw]`` places a body's centre with the
+The world frame is the robot's start base frame (z up, the floor at z = 0 unless the task moves
+it); lengths are metres, angles radians, and a pose ``[x, y, z, roll, pitch, yaw]`` places a body's centre with the
 rotation ``Rz(yaw) Ry(pitch) Rx(roll)`` (URDF's convention).
 
 Shapes (each centred on its pose; a cylinder's and a capsule's axis is the body's z axis):
@@ -21,6 +21,15 @@ Two views of every body serve two consumers:
   radius ``sigma``, whose signed distance has a closed form (:func:`proxy_distance`). Box, cylinder,
   sphere and capsule are proxies exactly; a mesh's proxy is its bounding box in its own axes,
   which contains it, so a distance to the proxy never exceeds the distance to the mesh.
+
+**The floor** is part of every world: the half-space ``z <= floor`` (:attr:`Scene.floor`, the
+height in the world frame, default 0, the plane MuJoCo's robot rides on; ``None``: no floor). It
+is not one of the scene's ``objects``: the exact check takes it as coal's half-space, MuJoCo as
+its plane, and the optimizer as :func:`floor_proxy`, a box of half extent :data:`FLOOR_HALF`
+whose top face is the floor (for a point above the floor and within the box's sides the rounded
+box distance is ``z - floor`` exactly, below it ``z - floor`` too: the top face is the nearest).
+The parts rigid with the base (the base box, the arm's links with no joint between them and the
+base) rest on it and are never checked against it.
 """
 
 from __future__ import annotations
@@ -160,13 +169,37 @@ class SceneObject(NamedTuple):
         return _load_mesh(s)
 
 
+#: What the floor is called in clearances, violations and contacts.
+FLOOR = "floor"
+#: The floor's height (m, world z) when the task does not say.
+DEFAULT_FLOOR = 0.0
+#: Half extent (m) of the optimizer's floor box (:func:`floor_proxy`): far beyond any task's reach.
+FLOOR_HALF = 1000.0
+
+
+def floor_proxy(height: float) -> Proxy:
+    """The optimizer's floor: a box of half extent :data:`FLOOR_HALF` whose top face is ``z = height``."""
+    pose = np.eye(4)
+    pose[2, 3] = height - FLOOR_HALF
+    return Proxy(pose, np.full(3, FLOOR_HALF), 0.0, 0.0)
+
+
 class Scene(NamedTuple):
-    """Static bodies around the robot (empty: planning in free space, as the paper does)."""
+    """Static bodies around the robot (empty: planning in free space, as the paper does) and the
+    floor's height (m; ``None``: no floor). ``bool(scene)`` says whether there are bodies: the
+    floor alone does not send a plan through the scene's solve (the planner gives it rows only
+    when the robot comes near it, :mod:`forte.planning.scene_solve`)."""
 
     objects: tuple[SceneObject, ...] = ()
+    floor: float | None = DEFAULT_FLOOR
 
     def __bool__(self) -> bool:
         return bool(self.objects)
+
+    @property
+    def solid(self) -> bool:
+        """Whether there is anything to keep clear of: a body or the floor."""
+        return bool(self.objects) or self.floor is not None
 
     @property
     def names(self) -> list[str]:
@@ -212,10 +245,15 @@ def _load_mesh(mesh: Mesh) -> Any:
     return geometry
 
 
-def scene_from_json(entries: Any) -> Scene:
-    """The scene :meth:`Scene.describe` wrote (plan.json); ``ValueError`` when malformed."""
+def scene_from_json(entries: Any, floor: Any = DEFAULT_FLOOR) -> Scene:
+    """The scene :meth:`Scene.describe` wrote (plan.json) with the ``floor`` height (``None``: no
+    floor); ``ValueError`` when malformed."""
+    if floor is not None:
+        if isinstance(floor, bool) or not isinstance(floor, int | float) or not np.isfinite(floor):
+            raise ValueError(f"floor: expected a height (m) or null, got {floor!r}")
+        floor = float(floor)
     if entries is None:
-        return Scene()
+        return Scene((), floor)
     if not isinstance(entries, list):
         raise ValueError("expected a list of bodies")
     objects = []
@@ -234,5 +272,5 @@ def scene_from_json(entries: Any) -> Scene:
         if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
             raise ValueError(f"body {entry.get('name')!r}: pose is not a 4x4 matrix")
         objects.append(SceneObject(str(entry["name"]), SHAPE_KINDS[kind](**params), pose))
-    return Scene(tuple(objects))
+    return Scene(tuple(objects), floor)
 

@@ -9,6 +9,10 @@ solution brought a pair close that had no row (:func:`missing_pairs`).
 
 Proxies of tilted bodies: the kernels take a proxy turned about z only (a yaw); a body whose z
 axis is not vertical is replaced by the world-axis box around its proxy, which contains it.
+
+The floor (:attr:`forte.model.scene.Scene.floor`) is the last body, its proxy
+:func:`forte.model.scene.floor_proxy`; the primitives on the base frame (the base's capsules, the
+arm's root link) rest on it and never pair with it (their distance is ``inf``).
 """
 
 from __future__ import annotations
@@ -17,8 +21,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from forte.model.body_spheres import Primitive, primitive_centres, robot_primitives
-from forte.model.scene import Proxy, Scene, rounded_box_distance
+from forte.model.body_spheres import BASE_FRAME, Primitive, primitive_centres, robot_primitives
+from forte.model.scene import Proxy, Scene, floor_proxy, rounded_box_distance
 from forte.planning.collision_kernels import SELF_FIELDS, SELF_SIZE, SLOT_BUCKETS, SLOT_FIELDS, SLOT_SIZE, bucket
 from forte.planning.self_pairs import SELF_ACTIVATION, SELF_MARGIN, self_distances, self_pairs
 from forte.validation import FloatArray
@@ -118,13 +122,27 @@ def _box_gap(centres: FloatArray, primitives: tuple[Primitive, ...], proxies: li
     return np.linalg.norm(np.maximum(np.maximum(lo - origin, origin - hi), 0), axis=1) - size
 
 
+def body_proxies(scene: Scene) -> list[Proxy]:
+    """The optimizer's bodies: the scene's upright proxies, then the floor's (when it has one)."""
+    return [upright(p) for p in scene.proxies()] + ([] if scene.floor is None else [floor_proxy(scene.floor)])
+
+
+def scene_distances(centres: FloatArray, primitives: tuple[Primitive, ...], scene: Scene,
+                    cutoff: float = np.inf) -> FloatArray:
+    """:func:`pair_distances` to :func:`body_proxies`, ``inf`` for the base frame's primitives
+    against the floor (they rest on it)."""
+    D = pair_distances(centres, primitives, body_proxies(scene), cutoff)
+    if scene.floor is not None:
+        D[..., [p.frame == BASE_FRAME for p in primitives], -1] = np.inf
+    return D
+
+
 def trajectory_distances(robot: object, q: FloatArray, scene: Scene, cutoff: float = np.inf
                          ) -> tuple[FloatArray, tuple[Primitive, ...]]:
-    """Cover distances (N x P x M) along a trajectory (N x nq) and the primitives (``cutoff``: see
-    :func:`pair_distances`)."""
+    """Cover distances (N x P x M) along a trajectory (N x nq) to the scene's bodies and floor, and
+    the primitives (``cutoff``: see :func:`pair_distances`)."""
     primitives = robot_primitives(robot)
-    proxies = [upright(p) for p in scene.proxies()]
-    return pair_distances(_centres(robot, q, primitives), primitives, proxies, cutoff), primitives
+    return scene_distances(_centres(robot, q, primitives), primitives, scene, cutoff), primitives
 
 
 def _centres(robot: object, q: FloatArray, primitives: tuple[Primitive, ...]) -> FloatArray:
@@ -140,7 +158,7 @@ def assign_slots(robot: object, q: FloatArray, scene: Scene, clearance: float, f
     ``-1 - primitive``)."""
     primitives = robot_primitives(robot)
     centres = _centres(robot, q, primitives)
-    D = pair_distances(centres, primitives, [upright(p) for p in scene.proxies()], clearance + 2 * ACTIVATION)
+    D = scene_distances(centres, primitives, scene, clearance + 2 * ACTIVATION)
     pairs_self = self_pairs(robot)
     S = self_distances(centres, primitives, pairs_self)
     n = D.shape[0]
@@ -163,7 +181,7 @@ def assign_slots(robot: object, q: FloatArray, scene: Scene, clearance: float, f
             key = (primitives[p].frame + 1, -1 if m >= 0 else primitives[-1 - m].frame + 1)
             groups.setdefault(key, []).append((score(k, int(p), int(m)), int(p), int(m)))
         chosen.append(groups)
-    proxies = [upright(p) for p in scene.proxies()]
+    proxies = body_proxies(scene)
     frames = []
     for key in sorted({key for groups in chosen for key in groups}):
         size = min(bucket(max(len(groups.get(key, ())) for groups in chosen)), SLOT_BUCKETS[-1])
@@ -199,7 +217,7 @@ def missing_pairs(robot: object, q: FloatArray, scene: Scene, clearance: float, 
     scene's: the clearance; the robot's own pairs: :data:`~forte.planning.self_pairs.SELF_MARGIN`)."""
     primitives = robot_primitives(robot)
     centres = _centres(robot, q, primitives)
-    D = pair_distances(centres, primitives, [upright(p) for p in scene.proxies()], clearance + ACTIVATION)
+    D = scene_distances(centres, primitives, scene, clearance + ACTIVATION)
     pairs_self = np.asarray(self_pairs(robot), dtype=int).reshape(-1, 2)
     S = self_distances(centres, primitives, self_pairs(robot))
     have = slots.triples()

@@ -24,8 +24,9 @@ def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: Task
 
     ``d`` uses the metric's ``alpha``; the directional capacity (along the desired force) and
     the inscribed radius are those of the paper's RFP ``P_r,k`` itself (``alpha = 1``);
-    ``clearance`` is the robot's exact signed distance (m) to the nearest body of ``scene``
-    (:mod:`forte.model.clearance`), ``inf`` without a scene. With a moment (a wrench requirement)
+    ``clearance`` is the robot's exact signed distance (m) to the nearest body of ``scene`` or its
+    floor (:mod:`forte.model.clearance`), ``inf`` without either (no scene given, or ``floor: none``
+    and no bodies). With a moment (a wrench requirement)
     ``d``, the capacity and the torque follow it, plus ``mx, my, mz`` (:func:`~forte.capability.wrench.wrench_metrics`).
     A robot that states its base support gets ``tipover_margin`` (m, the ZMP's distance to the
     support polygon's edge, positive inside; :func:`~forte.model.stability.trajectory_tipover_margin`).
@@ -47,7 +48,8 @@ def evaluate(robot: MobileManipulator, q: FloatArray, t: FloatArray, force: Task
         # nominal torque plus the torque that applies the desired force, tau_nom + J^T f
         "max_torque_ratio_with_force": np.max(
             np.abs(rfp.tau_nom + np.einsum("kij,ki->kj", rfp.J, force.f)) / robot.torque_limits, axis=1),
-        "clearance": clearances(robot, scene, q).distance if scene else np.full(len(rfp.J), np.inf),
+        "clearance": clearances(robot, scene, q).distance if scene is not None and scene.solid
+        else np.full(len(rfp.J), np.inf),
     } | (wrench_metrics(robot, q, t, force, alpha, start) if force.has_moment else {}) | (
         {} if robot.base_support is None else {"tipover_margin": trajectory_tipover_margin(robot, q, t, force,
                                                                                             start)})

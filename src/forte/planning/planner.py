@@ -27,7 +27,7 @@ from forte.planning.methods import METHODS, Method, get_method, method_names
 from forte.planning.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
 from forte.planning.requirements import TRACKING_ORIENTATION_TOL, orientation_errors
 from forte.planning.scene_guess import clear_start
-from forte.planning.scene_solve import blocked_path, solve_in_scene
+from forte.planning.scene_solve import blocked_path, floor_near, needs_rows, solve_in_scene
 from forte.planning.tasks import Task
 from forte.planning.terms_section import term_settings, term_values, with_task_terms
 from forte.planning.verdict import SOLVER_FAILED, Verdict, capacity_shortfall, judge_plan, limit_ratios
@@ -142,12 +142,8 @@ def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]
     coarse = task.resampled(COARSE_WAYPOINTS)
     force = coarse.force()
     nominal = coarse.nominal()
-    if task.scene:  # clear of the scene already: the fine solve starts outside the bodies
-        sol = solve_in_scene(coarse, method, force, start_guess(coarse, nominal), nominal, task.solver)[1]
-    else:
-        opt = TrajectoryOptimizer(task.robot, coarse.n, method, task.weights, options=task.solver,
-                                  limits=task.limits, settings=task.settings)
-        sol = _solve(opt, coarse, force, start_guess(coarse, nominal), nominal)
+    # with a scene (or near the floor) clear of it already: the fine solve starts outside the bodies
+    sol = _solve_clear(coarse, method, force, start_guess(coarse, nominal), nominal, task.solver)[1]
     if not sol.success:
         return None
     q = np.column_stack([np.interp(task.t, coarse.t, sol.q[:, j]) for j in range(sol.q.shape[1])])
@@ -175,6 +171,23 @@ def _solve(opt: TrajectoryOptimizer, task: Task, force: TaskForce, q: FloatArray
                      term_values=term_values(opt.method_spec, force, task.terms), start=task.start_motion)
 
 
+def _solve_clear(task: Task, method: Method, force: TaskForce, q: FloatArray, nominal: FloatArray, options: Any,
+                 opt: TrajectoryOptimizer | None = None) -> tuple[TrajectoryOptimizer, SolverResult, dict | None]:
+    """Solve from ``q``: with clearance rows when the task has bodies or ``q`` comes near the floor
+    (:func:`~forte.planning.scene_solve.needs_rows`), else in free space (on ``opt`` when given),
+    and again with rows from a free-space solution that comes within the clearance of the floor.
+    Returns the problem, its solution and the rows' facts (``None``: solved without rows)."""
+    if needs_rows(task, q):
+        return solve_in_scene(task, method, force, q, nominal, options)
+    if opt is None:
+        opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
+                                  options=options, limits=task.limits, settings=task.settings)
+    sol = _solve(opt, task, force, q, nominal)
+    if sol.success and floor_near(task, sol.q, task.clearance):
+        return solve_in_scene(task, method, force, sol.q, nominal, options)
+    return opt, sol, None
+
+
 def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None,
               reported: TaskForce | None = None) -> tuple[SolverResult, dict]:
     """Solve the method's NLP (coarse-to-fine unless a guess is given); returns the result and facts
@@ -187,17 +200,15 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         q_guess, info["coarse"] = warm
         # a near-optimal start: begin with a small barrier parameter
         options = replace(options, extra={"mu_strategy": "monotone", "mu_init": 1e-4} | options.extra)
-    if task.scene:
-        opt, sol, info["clearance_rows"] = solve_in_scene(task, method, force, q_guess, nominal, options)
-    else:
-        opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
-                                  options=options, limits=task.limits, settings=task.settings)
-        sol = _solve(opt, task, force, q_guess, nominal)
+    opt, sol, rows = _solve_clear(task, method, force, q_guess, nominal, options)
+    if rows is not None:
+        info["clearance_rows"] = rows
     if task.mode == "hold" and guess is None and options.hold_starts > 1:
+        free = None if rows is not None else opt  # the free-space problem serves every start
+
         def solve_from(q: FloatArray) -> SolverResult:
-            if task.scene:  # each start gets the rows of the pairs near it (and near its solution)
-                return solve_in_scene(task, method, force, q, nominal, options)[1]
-            return _solve(opt, task, force, q, nominal)
+            # each start with rows gets those of the pairs near it (and near its solution)
+            return _solve_clear(task, method, force, q, nominal, options, free)[1]
 
         sol, info["starts"] = _best_of_starts(solve_from, task, sol)
     info |= {

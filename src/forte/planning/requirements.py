@@ -18,8 +18,9 @@ much. :func:`forte.planning.verdict.judge` runs the list :data:`REQUIREMENTS`.
   (:attr:`MobileManipulator.base`): a fixed base stays put, a differential drive has no lateral velocity;
 - :class:`Tracking`: the end effector on the task's path (position and orientation);
 - :class:`SelfCollision`: no collision between the arm's URDF collision meshes;
-- :class:`Clearance`: the whole robot (arm collision meshes, base box) keeps the task's
-  ``clearance`` from every scene body, exactly on coal's geometry (:mod:`forte.model.clearance`);
+- :class:`Clearance`: the whole robot (arm collision meshes, base box, payload) keeps the task's
+  ``clearance`` from every scene body and the floor (but the parts rigid with the base, which rest
+  on it), exactly on coal's geometry (:mod:`forte.model.clearance`);
 - :class:`Solver`: the solver converged (its status) with a small constraint violation.
 """
 
@@ -221,17 +222,19 @@ class SelfCollision(Requirement):
 
 
 def scene_distances(ctx: Context) -> Clearances | None:
-    """The exact clearance at every sample (``None`` for an empty scene: nothing to compute)."""
-    if not ctx.scene:
+    """The exact clearance at every sample (``None`` without bodies and floor: nothing to compute)."""
+    if not ctx.scene.solid:
         return None
     return ctx.distances if ctx.distances is not None else clearances(ctx.robot, ctx.scene, ctx.samples.q)
 
 
 @dataclass(frozen=True)
 class Clearance(Requirement):
-    """Every robot part at least ``ctx.clearance`` (m) from every scene body, at every sample
+    """Every robot part at least ``ctx.clearance`` (m) from every scene body and from the floor
+    (the arm's links and the payload; the parts rigid with the base rest on it), at every sample
     (signed distance on coal's exact geometry, :mod:`forte.model.clearance`); the violation names
-    the closest pair and its time. An empty scene is not checked."""
+    the closest pair (``payload vs floor``) and its time. A world without bodies and floor is not
+    checked."""
 
     name: ClassVar[str] = "clearance"
 

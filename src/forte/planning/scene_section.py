@@ -1,10 +1,16 @@
-"""The task file's ``scene:``, ``scene_file:`` and ``clearance:`` fields.
+"""The task file's ``scene:``, ``scene_file:``, ``floor:`` and ``clearance:`` fields.
 
 ``scene:`` is a list of bodies, each ``{name, <shape>: {...}, pose: [x, y, z, roll, pitch, yaw]}``
 with one shape of :data:`forte.model.scene.SHAPE_KINDS` (a mesh's ``file`` is relative to the
 task file); ``scene_file:`` adds the static bodies of a URDF or MJCF file
-(:mod:`forte.model.scene_files`); ``clearance:`` is the distance (m) the plan keeps from every
-body. Every error names the entry and the field.
+(:mod:`forte.model.scene_files`); ``floor:`` is ``{height: h}`` (m, world z; default: the floor
+at z = 0 that MuJoCo's robot rides on) or ``none``; ``clearance:`` is the distance (m) the plan
+keeps from every body and from the floor. Every error names the entry and the field.
+
+The floor's rules at the start (:func:`check_floor`): a part rigid with the base (the arm's root
+link) more than 1 mm below the floor is an arm mounted at or below it, and in a task whose start
+is fixed (not ``hold``) an arm link or the payload closer to the floor than the clearance at the
+start configuration leaves no plan that keeps it; either is one line naming the link.
 """
 
 from __future__ import annotations
@@ -15,8 +21,20 @@ from typing import Any
 import numpy as np
 
 from forte.exceptions import ForteError
-from forte.model.scene import SHAPE_KINDS, Box, Capsule, Cylinder, Mesh, Scene, SceneObject, Sphere, pose_matrix
+from forte.model.scene import (
+    DEFAULT_FLOOR,
+    SHAPE_KINDS,
+    Box,
+    Capsule,
+    Cylinder,
+    Mesh,
+    Scene,
+    SceneObject,
+    Sphere,
+    pose_matrix,
+)
 from forte.planning.schema import Reader
+from forte.validation import FloatArray, _short
 
 #: The clearance (m) a plan keeps from every scene body when the task does not say.
 DEFAULT_CLEARANCE = 0.02
@@ -46,8 +64,46 @@ def scene_section(reader: Reader, base: Path) -> Scene:
     for i, name in enumerate(names):
         if name in names[:i]:
             raise reader.error("scene", f"two bodies are named {name!r}; give each a unique name")
-    return Scene(tuple(objects))
+    return Scene(tuple(objects), floor_value(reader))
 
+
+def floor_value(reader: Reader) -> float | None:
+    """The task's ``floor:`` height (m), :data:`~forte.model.scene.DEFAULT_FLOOR` when absent,
+    ``None`` for ``floor: none``."""
+    if "floor" not in reader.data:
+        return DEFAULT_FLOOR
+    value = reader.get("floor")
+    if value == "none":
+        return None
+    if not isinstance(value, dict):
+        raise reader.error("floor", f"expected {{height: h}} (m) or none, got {_short(value)}")
+    r = reader.sub("floor")
+    r.unknown({"height"})
+    height = r.number("height")
+    if abs(height) > MAX_LENGTH_M:
+        raise r.error("height", f"expected a height within {MAX_LENGTH_M:g} m of the robot's start, got {height:g}")
+    return height
+
+
+def check_floor(reader: Reader, robot: Any, q: FloatArray, scene: Scene, clearance: float, fixed_start: bool,
+                start_field: str) -> None:
+    """The floor's rules at the start configuration ``q`` (module docstring); ``start_field``: the
+    field that gives ``q``."""
+    if scene.floor is None:
+        return
+    from forte.model.clearance import floor_contact
+
+    found = floor_contact(robot, scene.floor, q, clearance, moving=fixed_start)
+    if found is None:
+        return
+    where = f"the floor at z = {scene.floor:g} m"
+    if found.grounded:
+        raise reader.error("robot", f"{found.name}, rigid with the base, reaches {-found.distance:.3g} m below "
+                           f"{where}: the arm is mounted at or below the floor; raise robot.mount, or move the "
+                           "floor (floor: {height: h}) or leave it out (floor: none)")
+    raise reader.error(start_field, f"puts {found.name} {found.distance:.3g} m from {where}, closer than the "
+                       f"clearance {clearance:g} m: no plan from it keeps the clearance (lower clearance, move "
+                       "the floor or leave it out: floor: none)")
 
 def clearance_value(reader: Reader) -> float:
     """The task's ``clearance:`` (m), default :data:`DEFAULT_CLEARANCE`."""

@@ -1,5 +1,12 @@
 """Readers of the task-file schema: typed access to YAML mappings with errors that name the file,
 the dotted field and what was expected, and the sections shared by every task (robot, options).
+
+The world around the robot is read by :mod:`forte.planning.scene_section`: ``scene:`` (bodies),
+``scene_file:`` (a URDF's or MJCF's static bodies), ``clearance:`` (m, default 0.02) and
+``floor:``, the floor every world has: ``{height: h}`` (m, world z; default 0, the plane MuJoCo's
+robot rides on) or ``none``. The arm's links and the payload keep the clearance from it; the
+parts rigid with the base rest on it (one more than 1 mm below it is an arm mounted in the floor,
+an error naming the link).
 """
 
 from __future__ import annotations

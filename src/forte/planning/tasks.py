@@ -48,7 +48,7 @@ from forte.planning.paths import (
     windowed_sine,
 )
 from forte.planning.payload_section import payload_section
-from forte.planning.scene_section import DEFAULT_CLEARANCE, clearance_value, scene_section
+from forte.planning.scene_section import DEFAULT_CLEARANCE, check_floor, clearance_value, scene_section
 from forte.planning.schema import (
     Reader,
     check_joint_limits,
@@ -113,9 +113,9 @@ class Task:
     force_model: str = "paper"
     #: Time of the ``authors`` blend already passed at ``t[0]`` (advanced by a horizon shift).
     force_ramp_elapsed: float = 0.0
-    #: Static bodies around the robot (:mod:`forte.model.scene`; empty: free space).
+    #: Static bodies around the robot and the floor (:mod:`forte.model.scene`; no bodies: free space).
     scene: Scene = field(default_factory=Scene)
-    #: Distance (m) the plan keeps from every scene body (:data:`DEFAULT_CLEARANCE`).
+    #: Distance (m) the plan keeps from every scene body and the floor (:data:`DEFAULT_CLEARANCE`).
     clearance: float = DEFAULT_CLEARANCE
     #: Cost terms the task adds to every optimized method, with their weight and settings
     #: (``terms:``, :mod:`forte.planning.terms_section`).
@@ -320,7 +320,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     reader.unknown({"name", "robot", "mode", "initial_configuration", "path", "pose", "payload", "force",
                     "uncertainty_radius", "uncertainty_rule", "force_model", "weights", "torque_limits", "solver",
                     "teaching_configuration", "limits", "controller", "require_capacity", "scene", "scene_file",
-                    "clearance", "terms", "contact"})
+                    "clearance", "terms", "contact", "floor"})
     base = path.parent if path else Path.cwd()
     robot = robot_section(reader, base)
     mode = reader.choice("mode", MODES, "trajectory")
@@ -384,13 +384,17 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     if not isinstance(require_capacity, bool):
         raise reader.error("require_capacity", f"expected true or false, got {require_capacity!r}")
     name = str(reader.get("name", path.stem if path else "task"))
+    scene, clearance = scene_section(reader, base), clearance_value(reader)
+    start_field = "initial_configuration" if reader.has("initial_configuration") else \
+        "path.configurations[0].q" if knots is not None else "robot.home_arm"
+    check_floor(reader, robot, q_init, scene, clearance, mode != "hold", start_field)
     return Task(name=name, source=path, robot=robot, mode=mode, t=t, targets=targets, q_init=q_init,
                 radius=radius, payload=payload or Payload(source="none"),
                 force_profile=None if force_at is None else force_at(t), weights=weights, settings=settings,
                 solver=solver, teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
                 targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots,
-                radius_rule=radius_rule, force_model=force_model, scene=scene_section(reader, base),
-                clearance=clearance_value(reader), terms=terms_section(reader), contact=contact)
+                radius_rule=radius_rule, force_model=force_model, scene=scene,
+                clearance=clearance, terms=terms_section(reader), contact=contact)
 
 
 def _hold_pose(reader: Reader, robot: MobileManipulator, T0: FloatArray, teaching: FloatArray | None) -> FloatArray:

@@ -121,11 +121,12 @@ def context(robot: MobileManipulator, samples: MotionSamples, force: TaskForce, 
             solver: dict[str, Any], optimized: bool, scene: Scene | None = None,
             clearance: float = DEFAULT_CLEARANCE) -> Context:
     """The :class:`~forte.planning.requirements.Context` of a sampled plan (the exact
-    clearance at every sample computed once here when ``scene`` has bodies)."""
+    clearance at every sample computed once here when ``scene`` has bodies or a floor; ``None``:
+    no world to keep clear of, not even a floor)."""
     vel, acc = (limits or KinematicLimits()).resolve(robot)
     targets = None if targets_at is None else np.asarray(targets_at(samples.t), dtype=float)
-    scene = scene or Scene()
-    distances = clearances(robot, scene, samples.q) if scene else None
+    scene = Scene((), None) if scene is None else scene
+    distances = clearances(robot, scene, samples.q) if scene.solid else None
     if force.has_moment:  # the wrench requirement needs the angular Jacobians too
         samples = with_angular(robot, samples)
     return Context(robot, samples, force_at(force, samples.t), float(alpha), targets, vel, acc, solver, optimized,
@@ -167,7 +168,8 @@ def judge(robot: MobileManipulator, t: Any, q: Any, force: TaskForce, alpha: flo
             against it; ``None``: not judged).
         limits: the kinematic limits (velocity, acceleration); default :class:`KinematicLimits`.
         solver: the solver's facts (``status``, ``constraint_violation``) of an optimized plan.
-        scene, clearance: the bodies around the robot and the distance (m) to keep from them.
+        scene, clearance: the bodies around the robot and its floor, and the distance (m) to keep
+            from them (``scene`` ``None``: none, not even a floor).
     """
     samples = sample_motion(robot, t, q, per_interval)
     ctx = context(robot, samples, force, alpha, targets_at, limits, solver or {}, optimized, scene, clearance)
