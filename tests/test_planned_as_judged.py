@@ -1,0 +1,150 @@
+"""The planner plans what the verdict checks (issue 36): the paper's lift at any resolution, a short
+last segment, a user's own URDF riding its velocity limits, and violations that name the joint and
+the waypoint."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+import forte
+from forte.planning.paths import HOLD_TOLERANCE, HeldPath, ending_at_rest, hold_cut
+from forte.planning.requirements import TRACKING_ORIENTATION_TOL, TRACKING_POSITION_TOL
+from forte.planning.tasks import task_from_dict
+from forte.planning.verdict import judge_plan
+from forte.settings import KinematicLimits
+
+LIFT = Path("examples/tasks/lift.yaml")
+
+
+def _simulate(plan: forte.Plan, directory: Path):
+    from forte.execution.run import simulate_plan
+    from forte.io.plandir import write_plan
+
+    return simulate_plan(write_plan(plan, directory, figures=False), hold=0.3, write=False)
+
+
+def _line(x: float) -> np.ndarray:
+    """A toy path: the pose at x(t) = min(t, 1)^2 along the world x axis."""
+    def at(ts):
+        out = np.repeat(np.eye(4)[None], len(ts), axis=0)
+        out[:, 0, 3] = np.minimum(np.asarray(ts), 1.0) ** 2 * x
+        return out
+    return at
+
+
+def test_the_hold_tolerance_is_the_verdicts_tracking_tolerance():
+    assert HOLD_TOLERANCE == (TRACKING_POSITION_TOL, TRACKING_ORIENTATION_TOL)
+
+
+def test_a_small_final_hold_keeps_the_grid_and_holds_from_the_third_last_sample():
+    path, t = _line(0.004), np.linspace(0.0, 1.0, 11)
+    assert hold_cut(path, t)[0] == pytest.approx(0.004 * (1 - 0.8**2))  # what the hold cuts
+    grid, held = ending_at_rest(path, t)
+    np.testing.assert_array_equal(grid, t)
+    ts = np.array([0.0, 0.45, 0.79, 0.8, 0.85, 0.95, 1.0])
+    x = held(ts)[:, 0, 3]
+    np.testing.assert_allclose(x[:3], 0.004 * ts[:3] ** 2)  # the path itself before t_{N-2}
+    np.testing.assert_allclose(x[3:], 0.004)  # its final pose from t_{N-2} on: what q_N = q_{N-1} = q_{N-2} plans
+    # the resampled task holds on its own grid
+    other = held.on(np.linspace(0.0, 1.0, 21))
+    assert other(np.array([0.89]))[0, 0, 3] == pytest.approx(0.004 * 0.89**2)
+    assert other(np.array([0.9]))[0, 0, 3] == pytest.approx(0.004)
+
+
+def test_a_hold_that_would_cut_the_path_moves_after_its_end():
+    path, t = _line(0.1), np.linspace(0.0, 1.0, 11)  # the hold would cut 3.6 cm
+    assert hold_cut(path, t)[0] > TRACKING_POSITION_TOL
+    grid, held = ending_at_rest(path, t)
+    assert isinstance(held, HeldPath) and held.end == 1.0
+    assert grid.size == t.size  # as many samples as asked for
+    np.testing.assert_allclose(grid[:-2], np.linspace(0.0, 1.0, 9))
+    np.testing.assert_allclose(grid[-2:], [1.125, 1.25])  # two hold samples, h and 2 h after the end
+    x = held(grid)[:, 0, 3]
+    np.testing.assert_allclose(x[:-2], 0.1 * grid[:-2] ** 2)  # nothing of the path is cut
+    np.testing.assert_allclose(x[-3:], 0.1)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("waypoints", [11, 21, 31, 61, 81])
+def test_the_papers_lift_is_feasible_and_executes_at_any_resolution(waypoints, tmp_path):
+    task = forte.load_task(LIFT, waypoints=waypoints)
+    assert task.n == waypoints
+    plan = forte.plan(task)
+    assert plan.feasible, plan.verdict.reason()
+    result = _simulate(plan, tmp_path / "lift")
+    assert result.success, result.detail
+
+
+def test_the_default_lift_keeps_its_grid():
+    task = forte.load_task(LIFT)
+    np.testing.assert_array_equal(task.t, np.linspace(0.0, 10.0, 41))  # the paper's 41 samples over 10 s
+
+
+@pytest.mark.slow
+def test_a_short_last_segment_is_feasible(tmp_path):
+    task = task_from_dict({
+        "name": "short-last", "payload": {"mass": 1.0},
+        "path": {"kind": "waypoints", "relative": True, "samples": 49,
+                 "waypoints": [{"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 10.5, "position": [0.1, 0.3, 0.1]},
+                               {"t": 12.0, "position": [0.1, 0.3, 0.0]}]}}, tmp_path / "task.yaml")
+    assert task.t[-3] == pytest.approx(12.0) and task.n == 49  # the hold moved after the path's end
+    plan = forte.plan(task)
+    assert plan.feasible, plan.verdict.reason()
+
+
+def _kinova(rounds: int | None = None) -> dict:
+    task = {"name": "kinova-urdf",
+            "robot": {"urdf": "erd:kinova_description/robots/kinova.urdf", "ee_frame": "j2s6s200_end_effector",
+                      "mount": {"xyz": [0.2575, 0.0, 0.52]}},
+            "initial_configuration": [0, 0, 0, 4.80, 2.92, 1.00, 4.20, 1.44, 1.32],
+            "path": {"kind": "waypoints", "relative": True, "samples": 31,
+                     "waypoints": [{"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 5.0, "position": [0.3, 0.0, 0.0]}]},
+            "payload": {"mass": 1.5}}
+    return task if rounds is None else task | {"solver": {"refine_rounds": rounds}}
+
+
+@pytest.mark.slow
+def test_an_own_urdf_riding_its_velocity_limits_is_refined_until_it_executes(tmp_path):
+    unrefined = forte.plan(task_from_dict(_kinova(rounds=0), tmp_path / "task.yaml"))
+    assert unrefined.verdict.failed == ("velocity",)
+    detail = unrefined.verdict.violations[0].detail
+    assert "between waypoints only" in detail and "(j2s6s200_joint_" in detail and "(between waypoints " in detail
+    plan = forte.plan(task_from_dict(_kinova(), tmp_path / "task.yaml"))
+    assert plan.feasible, plan.verdict.reason()
+    rounds = plan.solver["refinement"]["rounds"]
+    assert rounds and all(r["failed"] in ([], ["velocity"]) for r in rounds)
+    limit = np.asarray(plan.robot.model.velocityLimit)
+    assert np.any(np.asarray(rounds[-1]["velocity"])[3:] < limit)  # an NLP bound below the URDF's
+    result = _simulate(plan, tmp_path / "kinova")
+    assert result.success, result.detail
+
+
+def test_a_limit_violation_names_the_joint_the_waypoint_and_the_time():
+    task = forte.load_task(LIFT)
+    plan = forte.plan(task, "quintic")  # the taught interpolation, not optimized
+    vel = np.max(np.abs(np.diff(plan.q[:, 3:], axis=0) / 0.25), axis=0)
+    j = int(np.argmax(vel))
+    tight = np.full(7, 10.0)
+    tight[j] = 0.5 * vel[j]  # only joint j too fast
+    verdict = judge_plan(task.__class__(**{**task.__dict__, "limits": KinematicLimits(arm_velocity=tuple(tight))}),
+                         plan.q, task.force())
+    found = {v.requirement: v for v in verdict.violations}["velocity"]
+    name = plan.robot.arm_joints[j]
+    assert f"({name})" in found.detail and "at t = " in found.detail
+    assert "(waypoint " in found.detail or "(between waypoints " in found.detail
+    assert found.worst == pytest.approx(2.0, rel=0.3)
+
+
+def test_a_task_file_keeps_its_sample_count_when_the_hold_moves(tmp_path):
+    text = yaml.safe_dump({"name": "x", "payload": {"mass": 1.0},
+                           "path": {"kind": "waypoints", "relative": True, "samples": 9,
+                                    "waypoints": [{"t": 0.0, "position": [0, 0, 0]},
+                                                  {"t": 2.0, "position": [0.1, 0, 0]}]}})
+    (tmp_path / "t.yaml").write_text(text)
+    task = forte.load_task(tmp_path / "t.yaml")
+    assert task.n == 9 and task.t[-1] > 2.0  # 9 samples on a 2 s blend: the hold cuts more than 1 cm
+    np.testing.assert_allclose(task.targets[-3:, :3, 3], np.repeat(task.targets[-1:, :3, 3], 3, axis=0))
