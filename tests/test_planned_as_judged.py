@@ -148,3 +148,12 @@ def test_a_task_file_keeps_its_sample_count_when_the_hold_moves(tmp_path):
     task = forte.load_task(tmp_path / "t.yaml")
     assert task.n == 9 and task.t[-1] > 2.0  # 9 samples on a 2 s blend: the hold cuts more than 1 cm
     np.testing.assert_allclose(task.targets[-3:, :3, 3], np.repeat(task.targets[-1:, :3, 3], 3, axis=0))
+
+
+def test_a_resampled_task_decides_its_hold_as_a_loaded_one():
+    loaded = forte.load_task(LIFT, waypoints=12)
+    assert loaded.t[-1] > 10.0  # 12 samples: the hold would cut 5 cm, so it moves after the path's end
+    resampled = forte.load_task(LIFT).resampled(12)
+    np.testing.assert_allclose(resampled.t, loaded.t, atol=1e-12)
+    np.testing.assert_allclose(resampled.targets, loaded.targets, atol=1e-12)
+    assert forte.load_task(LIFT, waypoints=12).resampled(41).t[-1] == pytest.approx(10.0)

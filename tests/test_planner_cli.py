@@ -20,14 +20,14 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 
 def test_plan_writes_every_output(tmp_path):
     out = tmp_path / "lift"
-    # 14 waypoints over 6 s: the spline between them leaves the path by more than 1 cm (tracking),
+    # 9 waypoints over 6 s: the spline between them leaves the path by more than 1 cm (tracking),
     # so the plan is written for inspection and the command exits 1
-    assert main(["plan", str(EXAMPLES / "lift-path.yaml"), "--waypoints", "14", "--out", str(out), "--quiet"]) == 1
+    assert main(["plan", str(EXAMPLES / "lift-path.yaml"), "--waypoints", "9", "--out", str(out), "--quiet"]) == 1
     names = {p.name for p in out.iterdir()}
     assert {"trajectory.csv", "metrics.csv", "plan.json", "capacity.png", "manipulability.png",
             "rfp_worst.png", "ellipsoid.png"} <= names
     rows = list(csv.reader((out / "trajectory.csv").open()))
-    assert rows[0] == ["t", "x_b", "y_b", "yaw", *[f"q{i}" for i in range(1, 8)]] and len(rows) == 15
+    assert rows[0] == ["t", "x_b", "y_b", "yaw", *[f"q{i}" for i in range(1, 8)]] and len(rows) == 10
     header = next(csv.reader((out / "metrics.csv").open()))
     for col in ("t", "fx", "fy", "fz", "radius", "d", "directional_capacity", "inscribed_radius",
                 "manipulability", "max_torque_ratio"):
@@ -55,7 +55,7 @@ def test_plan_writes_every_output(tmp_path):
     np.testing.assert_array_equal(read_plan_dir(out).q, np.loadtxt(out / "trajectory.csv", delimiter=",",
                                                                     skiprows=1)[:, 1:])
     # the metrics in the CSV are the exact ones, recomputed from the trajectory
-    task = load_task(EXAMPLES / "lift-path.yaml", waypoints=14)
+    task = load_task(EXAMPLES / "lift-path.yaml", waypoints=9)
     q = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)[:, 1:]
     from forte.planning.planner import evaluate
     m = evaluate(task.robot, q, task.t, task.force(), task.settings.capability_params)

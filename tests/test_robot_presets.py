@@ -123,6 +123,8 @@ def test_a_preset_plans_from_the_users_own_start_posture(tmp_path):
     plan = forte.plan(task)
     assert plan.feasible, plan.verdict
     assert np.max(np.abs(plan.q[:, 5] - 1.2)) < 0.5  # joint 3 (index 3 + 2) near its start (measured: 0.22)
-    ranged = forte.plan(task_from_dict(_own_posture("range"), tmp_path / "task.yaml"))
-    assert not ranged.feasible
+    # without the refinement rounds (which bound the executed velocity and can rescue it)
+    ranged = forte.plan(task_from_dict(_own_posture("range") | {"solver": {"refine_rounds": 0}},
+                                       tmp_path / "task.yaml"))
+    assert "velocity" in ranged.verdict.failed
     assert np.max(ranged.q[:, 5]) > 2.0  # towards the range's middle, (0.33 + 5.95) / 2 = 3.14 rad (measured: 2.20)

@@ -159,10 +159,15 @@ class Task:
             raise TaskFileError(f"{self._where('path')}: only a trajectory task can be resampled")
         if n < 2 or n > MAX_WAYPOINTS:
             raise TaskFileError(f"waypoints: expected 2 to {MAX_WAYPOINTS} for a trajectory, got {n}")
-        t = np.linspace(self.t[0], self.t[-1], n)
-        profile = self.force_at(t) if self.force_at is not None else None
-        path = self.targets_at.on(t) if isinstance(self.targets_at, HeldPath) else self.targets_at
-        return replace(self, t=t, targets=path(t), targets_at=path, force_profile=profile)
+        path, force_at = self.targets_at, self.force_at
+        if isinstance(path, HeldPath):  # n samples of the path, the final hold decided again for them
+            t, path = ending_at_rest(path.path, np.linspace(self.t[0], path.end, n))
+            if force_at is not None and t[-1] > path.end:
+                force_at = _held_force(force_at, path.end)
+        else:
+            t = np.linspace(self.t[0], self.t[-1], n)
+        profile = force_at(t) if force_at is not None else None
+        return replace(self, t=t, targets=path(t), targets_at=path, force_at=force_at, force_profile=profile)
 
     def with_payload(self, payload: Payload) -> Task:
         """The same task carrying ``payload``."""
