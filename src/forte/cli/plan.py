@@ -18,6 +18,7 @@ from forte.io.reports import write_comparison
 from forte.planning.bounds import PayloadBound, replanned_bound
 from forte.planning.methods import method_names
 from forte.planning.planner import Plan, compare, methods_for, plan, resolve_payload
+from forte.planning.posture import start_posture
 from forte.planning.sanity import check_force_capacity
 from forte.planning.tasks import Task, load_task
 from forte.planning.verdict import exit_code
@@ -107,20 +108,29 @@ def _with_bound(args: argparse.Namespace, res: Plan) -> Plan:
     _say(args, f"{res.method} is not feasible at {bound['asked_kg']:g} kg: finding the largest payload forte can "
                "carry on this path (--no-bound skips) ...")
     found = replanned_bound(res.task, "forte")
-    bound = bound | {"replanned_kg": found.replanned_kg, "replanned_method": found.method}
+    bound = bound | {"replanned_kg": found.replanned_kg, "replanned_method": found.method,
+                     "unloaded_failed_replanned": list(found.unloaded_failed)}
     return replace(res, verdict=res.verdict._replace(payload_bound=bound))
 
 
 def _bound_text(res: Plan) -> str:
-    bound = res.verdict.payload_bound if res.verdict is not None else None
+    """What was tried about the payload, exactly (:func:`~forte.planning.verdict.judge_plan`'s
+    bound: the plan's own motion at lighter loads; :func:`replanned_bound`: re-plans), and what
+    would fix the plan where the verdict can tell."""
+    verdict = res.verdict
+    fixes = "".join(f"; would fix it: {r}" for r in verdict.remedies()) if verdict is not None else ""
+    bound = verdict.payload_bound if verdict is not None else None
     if not bound:
-        return ""
-    fixed = bound["fixed_motion_kg"]
-    text = (f"; this plan's motion carries at most {fixed:.2f} kg" if fixed is not None
-            else "; this plan's motion fails even without payload")
+        return fixes
+    fixed, also = bound["fixed_motion_kg"], bound.get("also_failed") or []
+    whatever = f" (it fails {', '.join(also)} whatever the payload)" if also else ""
+    text = (f"; this plan's motion carries at most {fixed:.2f} kg{whatever}" if fixed is not None
+            else f"; this plan's motion fails {', '.join(bound.get('unloaded_failed') or ['capacity'])} "
+                 f"even without payload")
     if "replanned_kg" in bound:
-        text += "; " + PayloadBound(bound["replanned_method"], bound["asked_kg"], bound["replanned_kg"]).sentence()
-    return text
+        text += "; " + PayloadBound(bound["replanned_method"], bound["asked_kg"], bound["replanned_kg"],
+                                    tuple(bound.get("unloaded_failed_replanned") or ())).sentence()
+    return text + fixes
 
 
 def _verdict_line(res: Plan, where: Path | None, allowed: bool) -> str:
@@ -148,6 +158,8 @@ def run_plan(args: argparse.Namespace) -> int:
             with figure_format(args.format):
                 where = write_plan(res, out, figures=not args.no_figures)
     _say(args, _describe(res))
+    if (posture := start_posture(res.task)) is not None and posture.poor:  # a warning, never a failure
+        _say(args, f"forte: warning: {posture.warning()}")
     if not res.feasible:
         print(_verdict_line(res, where, args.allow_infeasible), file=sys.stderr)
         return exit_code([res], args.allow_infeasible)

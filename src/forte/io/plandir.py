@@ -47,6 +47,7 @@ from forte.model.robot import MobileManipulator, robot_from_description
 from forte.model.scene import DEFAULT_FLOOR, Scene, scene_from_json
 from forte.model.trajectory import trajectory_header
 from forte.planning.planner import Plan
+from forte.planning.posture import start_posture
 from forte.planning.verdict import Verdict, judge
 from forte.planning.weights_section import settings_record, weights_record
 from forte.settings import CapabilityParameters
@@ -213,6 +214,8 @@ def plan_document(plan: Plan) -> dict[str, Any]:
     if task is not None:
         doc["q_init"] = task.q_init
         doc["controller"] = task.controller
+        if (posture := start_posture(task)) is not None:  # poor (near a limit, singular, self-colliding) or not
+            doc["start_posture"] = posture.to_json()
     if plan.metrics:
         from forte.planning.sanity import negative_margins
 

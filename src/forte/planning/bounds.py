@@ -24,15 +24,19 @@ REPLANNED_RESOLUTION = 0.05
 
 class PayloadBound(NamedTuple):
     """The largest payload (kg) the path carries: ``asked_kg`` the task's mass, ``replanned_kg``
-    with ``method`` re-planning for each mass (``None``: not even without payload)."""
+    with ``method`` re-planning for each mass (``None``: not even without payload, when the
+    re-plan without payload failed on ``unloaded_failed``)."""
 
     method: str
     asked_kg: float
     replanned_kg: float | None
+    unloaded_failed: tuple[str, ...] = ()
 
     def sentence(self) -> str:
+        """What was tried and what came of it, in one clause."""
         if self.replanned_kg is None:
-            return f"the task cannot be planned feasibly with {self.method} even without payload"
+            failed = ", ".join(self.unloaded_failed) or "its verdict"
+            return f"re-planned with {self.method} without payload, the task still fails on {failed}"
         if self.replanned_kg >= self.asked_kg:
             return f"{self.method} plans this task feasibly at the asked {self.asked_kg:g} kg"
         return (f"this path can carry at most {self.replanned_kg:.2f} kg with {self.method} "
@@ -41,12 +45,17 @@ class PayloadBound(NamedTuple):
 
 def replanned_bound(task: Task, method: str = "forte", resolution: float = REPLANNED_RESOLUTION) -> PayloadBound:
     """The largest payload mass for which ``method`` plans ``task`` feasibly (bisection between 0
-    and the task's own mass, to ``resolution``)."""
+    and the task's own mass, to ``resolution``); when even the plan without payload fails, the
+    requirements it fails on."""
     asked = task.payload.mass
     if asked is None:
         raise ValueError("replanned_bound: the task has no payload mass")
+    failed: dict[float, tuple[str, ...]] = {}
 
     def holds(mass: float) -> bool:
-        return plan(task.with_payload(task.payload.with_mass(max(mass, MIN_MASS), "bound")), method).feasible
+        verdict = plan(task.with_payload(task.payload.with_mass(max(mass, MIN_MASS), "bound")), method).verdict
+        failed[mass] = verdict.failed
+        return verdict.feasible
 
-    return PayloadBound(method, float(asked), largest_mass(holds, asked, resolution))
+    found = largest_mass(holds, asked, resolution)
+    return PayloadBound(method, float(asked), found, failed.get(0.0, ()) if found is None else ())

@@ -21,6 +21,7 @@ from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import backward_differences
+from forte.planning.diagnosis import failed_rows
 from forte.planning.evaluation import evaluate
 from forte.planning.ik import initial_guess
 from forte.planning.methods import METHODS, Method, get_method, method_names
@@ -203,6 +204,8 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
     opt, sol, rows = _solve_clear(task, method, force, q_guess, nominal, options)
     if rows is not None:
         info["clearance_rows"] = rows
+    if not sol.success and (failed := failed_rows(opt, sol, task, force)) is not None:
+        info["failed_rows"] = failed.to_json()  # the body in the way, or the pose out of reach
     if task.mode == "hold" and guess is None and options.hold_starts > 1:
         free = None if rows is not None else opt  # the free-space problem serves every start
 

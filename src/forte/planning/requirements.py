@@ -285,6 +285,8 @@ class Solver(Requirement):
             return None
         why = f"IPOPT stopped with {status}" if status not in CONVERGED else "constraints not met"
         detail = f"{why}; constraint violation {violation:.3g} (accepted up to {accepted:g})"
+        if "failed_rows" in ctx.solver:  # what the last iterate could not meet (forte.planning.diagnosis)
+            detail += "; " + ctx.solver["failed_rows"]["sentence"]
         return Violation(self.name, detail, violation, accepted, "", (), None)
 
 

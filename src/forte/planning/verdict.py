@@ -98,9 +98,23 @@ class Verdict(NamedTuple):
             return f"{v.requirement} ({v.worst:.3g} {v.units}{short})".replace(" )", ")")
         return ", ".join(one(v) for v in self.violations)
 
+    def remedies(self) -> list[str]:
+        """What would fix the plan, where the verdict can tell: a slower motion for a velocity
+        (``x`` times the limit: ``x`` times slower, a velocity scales as 1 / duration) or an
+        acceleration (``sqrt(x)`` times slower: 1 / duration^2) that exceeds its limit; the
+        payload's fix is its bound (:attr:`payload_bound`)."""
+        out = []
+        for v in self.violations:
+            slower = {"velocity": v.worst, "acceleration": np.sqrt(max(v.worst, 0.0))}.get(v.requirement)
+            if slower is not None and v.first_time is not None:
+                out.append(f"the motion where {v.requirement} fails (first at t = {v.first_time:.3g} s) at least "
+                           f"{slower:.4g} x slower, e.g. that segment {slower:.4g} x longer")
+        return out
+
     def to_json(self) -> dict[str, Any]:
         return {"label": self.label, "failed": [v.to_json() for v in self.violations], "checked": list(self.checked),
-                "samples_per_interval": self.samples_per_interval, "payload_bound": self.payload_bound}
+                "samples_per_interval": self.samples_per_interval, "payload_bound": self.payload_bound,
+                "remedies": self.remedies()}
 
     @classmethod
     def from_json(cls, doc: dict[str, Any]) -> Verdict:
@@ -252,14 +266,28 @@ def limit_ratios(task: Any, q: Any, per_interval: int = SAMPLES_PER_INTERVAL) ->
 def judge_plan(task: Any, q: Any, force: TaskForce, solver: dict[str, Any] | None = None,
                per_interval: int = SAMPLES_PER_INTERVAL) -> Verdict:
     """The verdict of configurations ``q`` planned for ``task`` (``solver``: the facts of an
-    optimized plan, ``None`` for one that was not optimized), with the payload bound when the
-    capacity or torque requirement fails and the force comes from a payload mass."""
+    optimized plan, ``None`` for one that was not optimized), with the payload bound when a
+    mass-dependent requirement (capacity, torque, tipover) fails, the force comes from a payload
+    mass and the solver did not fail (its rows do not depend on the mass, so the payload is not
+    what stopped it). The bound's record: ``asked_kg``, ``fixed_motion_kg``
+    (:func:`fixed_motion_bound`), ``also_failed`` (the failed requirements no mass changes) and,
+    when the motion fails even with no payload, ``unloaded_failed`` (which requirements then)."""
     samples = sample_motion(task.robot, task.t, q, per_interval, task.start_motion)
     ctx = context(task.robot, samples, force, task.settings.alpha, _task_targets(task), task.limits,
                   solver or {}, solver is not None, task.scene, task.clearance)
     verdict = judge_context(ctx, REQUIREMENTS, per_interval)
-    mass = task.payload.mass
-    if mass is None or not set(verdict.failed) & {r.name for r in REQUIREMENTS if r.mass_dependent}:
+    mass, by_mass = task.payload.mass, {r.name for r in REQUIREMENTS if r.mass_dependent}
+    # a solver failure is not the payload's: no row of the NLP depends on the mass
+    if mass is None or verdict.label == SOLVER_FAILED or not set(verdict.failed) & by_mass:
         return verdict
-    bound = fixed_motion_bound(ctx, lambda m: task.force(mass=max(m, MIN_MASS)), mass)
-    return verdict._replace(payload_bound={"asked_kg": float(mass), "fixed_motion_kg": bound})
+
+    def force_of(m: float) -> TaskForce:
+        return task.force(mass=max(m, MIN_MASS))
+
+    bound = fixed_motion_bound(ctx, force_of, mass)
+    record = {"asked_kg": float(mass), "fixed_motion_kg": bound,
+              "also_failed": [name for name in verdict.failed if name not in by_mass]}
+    if bound is None:  # what the motion still fails with no payload at all
+        unloaded = ctx._replace(force=force_at(force_of(0.0), ctx.samples.t))
+        record["unloaded_failed"] = [r.name for r in REQUIREMENTS if r.mass_dependent and r.check(unloaded)]
+    return verdict._replace(payload_bound=record)
