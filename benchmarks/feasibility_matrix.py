@@ -19,10 +19,11 @@ from the CLI) is a row with verdict ``error``. Prints one row per cell to stderr
 per robot: planned, feasible, infeasible by first failed requirement, simulated, MuJoCo agreement
 and the fraction feasible where the preset version of the same task is feasible. Writes
 ``rows.csv``, ``rows.json`` and ``table.md`` to ``--out`` (a fresh directory, or one this script
-made earlier: it holds ``.feasibility_matrix``).
+made earlier: it holds ``.feasibility_matrix``), and ``rows.jsonl`` row by row as the cells finish.
+``--tables DIR ...`` prints the table of earlier runs together (e.g. the matrix run in halves).
 
     python benchmarks/feasibility_matrix.py --quick --out /tmp/fm-quick   # 20 cells, ~5 min on 2 cores
-    python benchmarks/feasibility_matrix.py --out /tmp/fm-full            # 720 cells (hours)
+    python benchmarks/feasibility_matrix.py --out /tmp/fm-full            # 720 cells
     python benchmarks/feasibility_matrix.py --sizes 0.3 --payloads 1.5 --samples 31 --out /tmp/fm
 """
 
@@ -248,8 +249,12 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--payloads", nargs="+", type=float, default=list(PAYLOADS))
     ap.add_argument("--samples", nargs="+", type=int, default=list(SAMPLES))
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
-    ap.add_argument("--out", type=Path, required=True, help="a fresh directory for rows.csv, rows.json, table.md")
+    ap.add_argument("--out", type=Path, help="a fresh directory for rows.csv, rows.json, table.md")
+    ap.add_argument("--tables", type=Path, nargs="+", metavar="DIR",
+                    help="plan nothing: print the table of the rows.json of earlier runs' --out, together")
     args = ap.parse_args(argv)
+    if (args.out is None) == (args.tables is None):
+        ap.error("give --out (run the matrix) or --tables (print earlier runs' table)")
     if args.quick:
         args.kinds, args.sizes, args.payloads, args.samples = ["forward", "sideways"], [0.3], [1.5], [31]
     return args
@@ -257,13 +262,20 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse(argv)
+    if args.tables:
+        rows = [row for directory in args.tables for row in json.loads((directory / "rows.json").read_text())]
+        print(table(rows))
+        return 0
     out = out_dir(args.out)
+    (out / "rows.jsonl").unlink(missing_ok=True)
     cells = build_matrix(args.robots, args.kinds, args.sizes, args.payloads, args.samples)
     print(f"{len(cells)} cells", file=sys.stderr)
     start, rows = time.perf_counter(), []
 
     def report(row: dict[str, Any]) -> None:
         rows.append(row)
+        with (out / "rows.jsonl").open("a") as handle:  # kept when the run is interrupted
+            handle.write(json.dumps(row) + "\n")
         print(f"[{len(rows)}/{len(cells)} {time.perf_counter() - start:5.0f} s] {row['robot']:11s} "
               f"{row['reach']:12s} {row['distance_m']:.1f} m {row['payload_kg']:.1f} kg N={row['samples']:2d}: "
               f"{row['verdict']:13s} {row['failed'] or '-':22s} sim {row['sim']} {row['sim_reason']} "

@@ -69,26 +69,40 @@ def test_the_zero_payload_is_a_zero_force(tmp_path):
     np.testing.assert_array_equal(task.force().f, 0.0)
 
 
-def test_one_cell_is_planned_judged_simulated_and_written(tmp_path):
-    row = fm.run_cell(fm.Cell("authors", fm.Reach("forward", 0.1, 3.0), 0.5, 11))
-    assert row["verdict"] == "feasible", row["reason"]
-    assert row["sim"] == "success" and row["sim_s"] > 0 and row["plan_s"] > 0
-    assert (row["robot"], row["raw_urdf"], row["preset"], row["reach"]) == ("authors", False, "authors", "forward")
-    assert row["failed"] == row["first_failed"] == row["at_start"] == ""
-    # a raw row of the same arm, its preset's version feasible: the fraction counts it
-    raw = row | {"robot": "panda-urdf", "raw_urdf": True, "preset": "authors", "verdict": "infeasible",
-                 "failed": "capacity", "first_failed": "capacity", "sim": "not run"}
-    assert fm.versus_preset([row, raw]) == (0, 1)
-    assert fm.versus_preset([row, raw | {"verdict": "feasible"}]) == (1, 1)
-    out = fm.out_dir(tmp_path / "out")
-    fm.write_rows([row, raw], out)
+def test_one_cell_is_planned_judged_simulated_and_written(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert fm.main(["--robots", "authors", "--kinds", "forward", "--sizes", "0.1", "--payloads", "0.5",
+                    "--samples", "11", "--out", str(out)]) == 0
     with (out / "rows.csv").open() as handle:
-        read = list(csv.DictReader(handle))
-    assert [r["robot"] for r in read] == ["authors", "panda-urdf"] and read[0]["sim"] == "success"
-    assert json.loads((out / "rows.json").read_text())[1]["first_failed"] == "capacity"
-    table = (out / "table.md").read_text()
-    assert "| panda-urdf | URDF, own start | 1 | 0 | capacity 1 | 0 | 0 | 0 | 0 | 0 of 1 |" in table
-    assert "1 of 2 plans feasible; 0 feasible plans fail in MuJoCo" in table
+        (row,) = list(csv.DictReader(handle))
+    assert row == {k: str(v) for k, v in json.loads((out / "rows.json").read_text())[0].items()}
+    assert json.loads((out / "rows.jsonl").read_text()) == json.loads((out / "rows.json").read_text())[0]
+    assert (row["robot"], row["raw_urdf"], row["preset"], row["reach"], row["samples"]) == \
+        ("authors", "False", "authors", "forward", "11")
+    assert row["verdict"] == "feasible", row["reason"]
+    assert row["sim"] == "success" and float(row["sim_s"]) > 0 and float(row["plan_s"]) > 0
+    assert row["failed"] == row["first_failed"] == row["at_start"] == row["reason"] == ""
+    printed = capsys.readouterr().out
+    assert "| authors | preset | 1 | 1 | - | 0 | 1 | 1 | 0 | (preset) |" in printed
+    assert "1 of 1 plans feasible; 0 feasible plans fail in MuJoCo" in printed
+    assert fm.main(["--tables", str(out)]) == 0 and "| authors | preset | 1 | 1 |" in capsys.readouterr().out
+
+
+def test_a_raw_row_counts_where_its_presets_version_is_feasible(tmp_path):
+    preset = {"robot": "authors", "raw_urdf": False, "preset": "authors", "reach": "forward", "distance_m": 0.1,
+              "duration_s": 3.0, "payload_kg": 0.5, "samples": 11, "verdict": "feasible", "failed": "",
+              "first_failed": "", "at_start": "", "reason": "", "sim": "success", "sim_reason": "",
+              "plan_s": 1.0, "sim_s": 1.0}
+    raw = preset | {"robot": "panda-urdf", "raw_urdf": True, "verdict": "infeasible", "failed": "capacity",
+                    "first_failed": "capacity", "at_start": "capacity", "sim": "not run"}
+    assert fm.versus_preset([preset, raw]) == (0, 1)
+    assert fm.versus_preset([preset, raw | {"verdict": "feasible"}]) == (1, 1)
+    assert fm.versus_preset([preset | {"verdict": "infeasible"}, raw]) == (0, 0)  # not counted
+    assert fm.versus_preset([preset | {"samples": 21}, raw]) == (0, 0)  # another task
+    table = fm.table([preset, raw])
+    assert "| panda-urdf | URDF, own start | 1 | 0 | capacity 1 | 1 | 0 | 0 | 0 | 0 of 1 |" in table
+    assert "1 of 2 plans feasible; 0 feasible plans fail in MuJoCo; raw URDFs feasible where the preset's " \
+        "version is: 0 of 1 (0 %)" in table
 
 
 def test_an_output_directory_it_did_not_make_is_refused(tmp_path):
