@@ -22,7 +22,7 @@ and the fraction feasible where the preset version of the same task is feasible.
 made earlier: it holds ``.feasibility_matrix``), and ``rows.jsonl`` row by row as the cells finish.
 ``--tables DIR ...`` prints the table of earlier runs together (e.g. the matrix run in halves).
 
-    python benchmarks/feasibility_matrix.py --quick --out /tmp/fm-quick   # 20 cells, 51 s on 2 shared cores
+    python benchmarks/feasibility_matrix.py --quick --out /tmp/fm-quick   # 20 cells, 19-51 s on 2 shared cores
     python benchmarks/feasibility_matrix.py --out /tmp/fm-full            # 720 cells, ~15 min (348 s + 543 s
                                                                           # as its 21- and 41-sample halves)
     python benchmarks/feasibility_matrix.py --sizes 0.3 --payloads 1.5 --samples 31 --out /tmp/fm
