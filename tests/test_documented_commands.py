@@ -64,6 +64,14 @@ REDUCED: list[tuple[str, str, str]] = [
      "78 plans and runs, ~2.5 min on 2 cores; one case of the table here"),
     ("python benchmarks/scene_vs_mujoco.py", "--tasks around-the-crate --methods forte quintic --workers 1",
      "42 plans and runs, ~2 min on 2 cores; four rows of the table here"),
+    ("python benchmarks/feasibility_matrix.py --quick --out runs/feasibility-quick", "--robots ur5 ur5-urdf",
+     "20 plans and runs, ~1 min on 2 cores; a preset and its raw URDF here"),
+    ("python benchmarks/feasibility_matrix.py --samples 21 --out runs/feasibility-n21",
+     "--robots ur5 ur5-urdf --kinds forward --sizes 0.1 --payloads 0.5",
+     "360 plans and runs, ~6 min on 2 cores; one task on a preset and its raw URDF here"),
+    ("python benchmarks/feasibility_matrix.py --samples 41 --out runs/feasibility-n41",
+     "--robots ur5 ur5-urdf --kinds forward --sizes 0.1 --payloads 0.5",
+     "360 plans and runs, ~10 min on 2 cores; one task on a preset and its raw URDF here"),
 ]
 
 #: Blocks the default run leaves to ``-m docs_full``: (document, text of one of its commands, reason).
