@@ -73,9 +73,9 @@ def run_robot_export(args: argparse.Namespace) -> int:
 
         robot = default_robot()
     if suffix == ".urdf":
-        from forte.io.export import whole_body_urdf
+        from forte.io.export import portable_urdf
 
-        text = whole_body_urdf(robot, mesh_uris="package")  # package:// meshes: the file travels
+        text = portable_urdf(robot)  # package:// meshes: the file travels
         scene_note = f"; the scene's {len(scene.objects)} bodies are in the MJCF (.xml) only" if scene else ""
     else:
         from forte.execution.model import whole_body_mjcf

@@ -10,8 +10,9 @@ Plans (:func:`export_plan`, format from the file suffix):
   every column;
 - ``.mcap``: ROS 2 topics (CDR, ``ros2msg`` schemas), written with ``mcap-ros2-support``; ``ros2 bag``
   (rosbag2's MCAP storage) and Foxglove read it: the ``trajectory_msgs/JointTrajectory``, the
-  robot description, ``/tf_static`` and ``/tf``, ``/joint_states`` and the force and RFP markers
-  (:mod:`forte.io.mcap_export`).
+  robot description (``package://`` meshes, as ``forte robot export`` writes it), ``/tf_static`` and
+  ``/tf``, ``/joint_states``, the force and RFP markers and the scene's bodies, each topic with the
+  QoS ``ros2 bag play`` offers it with (:mod:`forte.io.mcap_export`).
 
 Velocities and accelerations are the plan's own: the backward differences from rest the planner
 optimizes (:func:`forte.model.trajectory.backward_differences`), ``v_k = (q_k - q_{k-1}) / dt``,
@@ -40,6 +41,7 @@ from forte.exceptions import InvalidInputError, OutputError, RobotModelError
 from forte.io.plandir import read_metrics, read_plan_dir
 from forte.model.description import BASE_INERTIA, BASE_MASS, ERD_PACKAGE_PREFIX, set_urdf_link_mass
 from forte.model.robot import EE_FRAME_NAME, MobileManipulator, example_robot_data_dir
+from forte.model.scene import Scene
 from forte.model.trajectory import backward_differences
 from forte.validation import FloatArray
 
@@ -66,6 +68,7 @@ class ExportedPlan:
     force: dict[str, FloatArray] = field(default_factory=dict)  # t, f, r
     metrics: dict[str, FloatArray] = field(default_factory=dict)
     robot: MobileManipulator | None = None  # the plan's robot (the MCAP's description and transforms)
+    scene: Scene = field(default_factory=Scene)  # the bodies the plan avoided (the MCAP's scene markers)
 
     @property
     def velocity_units(self) -> tuple[str, ...]:
@@ -97,7 +100,7 @@ def plan_data(plan_dir: str | Path) -> ExportedPlan:
     force = {} if plan.force is None else {"t": plan.force.t, "f": plan.force.f, "r": plan.force.r}
     return ExportedPlan(method=plan.method, status=plan.status, t=plan.t, q=plan.q, qd=qd, qdd=qdd,
                         joint_names=joint_names(plan.robot), units=joint_units(plan.robot), force=force,
-                        metrics=read_metrics(plan_dir), robot=plan.robot)
+                        metrics=read_metrics(plan_dir), robot=plan.robot, scene=plan.scene)
 
 
 def export_plan(plan_dir: str | Path, path: str | Path) -> Path:
@@ -214,6 +217,12 @@ def _fixed_link(name: str, parent: str, T: FloatArray | None = None) -> tuple[ET
     if T is not None:
         _origin(joint, T)
     return link, joint
+
+
+def portable_urdf(robot: MobileManipulator) -> str:
+    """:func:`whole_body_urdf` for a file that leaves this machine (``forte robot export``, the MCAP's
+    ``/robot_description``): example-robot-data's meshes stay ``package://`` URIs."""
+    return whole_body_urdf(robot, mesh_uris="package")
 
 
 def whole_body_urdf(robot: MobileManipulator, mesh_uris: str = "file") -> str:

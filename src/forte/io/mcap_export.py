@@ -8,8 +8,8 @@ from the plan's start; every frame is a link of the whole-body URDF, the fixed f
   (every waypoint: positions, the plan's backward-difference velocities and accelerations,
   ``time_from_start``);
 - ``/robot_description`` ``std_msgs/String``: one message at 0, the whole-body URDF the plan was
-  planned with (:func:`forte.io.export.whole_body_urdf`, as ``forte robot export --plan`` writes it);
-  rosbag2 has no latching, so the single message at the start stands in for it;
+  planned with, its meshes ``package://`` URIs (:func:`forte.io.export.portable_urdf`, as
+  ``forte robot export --plan`` writes it);
 - ``/tf_static`` ``tf2_msgs/TFMessage``: one message at 0, every fixed joint of the URDF (parent
   link to child link), as ``robot_state_publisher`` publishes them;
 - ``/tf`` ``tf2_msgs/TFMessage`` and ``/joint_states`` ``sensor_msgs/JointState``: one message
@@ -25,7 +25,20 @@ from the plan's start; every frame is a link of the whole-body URDF, the fixed f
   ``forte/force_ball`` a SPHERE of diameter ``2 s r_k`` at the arrow's tip (the uncertainty ball)
   and ``forte/rfp`` the residual force polytope of the waypoint
   (:func:`forte.capability.polytope.trajectory_rfp`) as a TRIANGLE_LIST of its hull, outward
-  faces (a DELETE when it is empty). Each message replaces the previous one (same ns and id).
+  faces (a DELETE when it is empty). Each message replaces the previous one (same ns and id);
+- :data:`SCENE_TOPIC` ``visualization_msgs/MarkerArray`` (only for a plan with a scene): one message
+  at 0, a marker ``forte/scene/<name>`` per body at its pose in ``mobile_world``: a CUBE of the box's
+  edges, a SPHERE or a CYLINDER of their diameter (and length), and a TRIANGLE_LIST in the body's
+  axes for a capsule (the hull of :data:`CAPSULE_POINTS` points on its surface) or a mesh (its triangles).
+
+QoS: every channel carries rosbag2's ``offered_qos_profiles`` (:func:`offered_qos`), what
+``ros2 bag play`` offers the topic with: :data:`LATCHED` topics, written once at the start, are
+transient local (RViz, ``robot_state_publisher``'s listeners and tf2's static listener ask for it:
+a volatile replay never reaches them), the others volatile; all reliable, keep last. The profiles
+use rosbag2's numeric encoding (the ``rmw`` enum values), with a ``rosbag2`` metadata record holding
+only ``ROS_DISTRO``, as rosbag2's MCAP storage of Humble writes them: rosbag2 of Jazzy and later
+reads a file with that record and no ``serialized_metadata`` as metadata version 8 (numbers), and
+Humble's reads only numbers; the string form (version 9) would need the whole serialized bag metadata.
 """
 
 from __future__ import annotations
@@ -36,11 +49,14 @@ from typing import Any
 
 import numpy as np
 import pinocchio as pin
+import yaml
+from scipy.spatial import ConvexHull
 
 from forte.capability.polytope import trajectory_rfp
 from forte.exceptions import InvalidInputError
 from forte.io import ros_messages as ros
 from forte.model.robot import MobileManipulator
+from forte.model.scene import Box, Capsule, Cylinder, Scene, SceneObject, Sphere
 from forte.model.trajectory import clamped_spline
 from forte.validation import FloatArray
 
@@ -50,10 +66,20 @@ TF_TOPIC = "/tf"
 TF_STATIC_TOPIC = "/tf_static"
 JOINT_STATES_TOPIC = "/joint_states"
 MARKERS_TOPIC = "/forte/markers"
+SCENE_TOPIC = "/forte/scene"
 #: Message type of each topic.
 TOPICS = {TRAJECTORY_TOPIC: "trajectory_msgs/JointTrajectory", DESCRIPTION_TOPIC: "std_msgs/String",
           TF_STATIC_TOPIC: "tf2_msgs/TFMessage", TF_TOPIC: "tf2_msgs/TFMessage",
-          JOINT_STATES_TOPIC: "sensor_msgs/JointState", MARKERS_TOPIC: "visualization_msgs/MarkerArray"}
+          JOINT_STATES_TOPIC: "sensor_msgs/JointState", MARKERS_TOPIC: "visualization_msgs/MarkerArray",
+          SCENE_TOPIC: "visualization_msgs/MarkerArray"}
+#: Topics published once at the start: transient local, as their live publishers offer them.
+LATCHED = frozenset({DESCRIPTION_TOPIC, TF_STATIC_TOPIC, SCENE_TOPIC})
+#: ``rmw`` enum values of rosbag2's numeric QoS encoding.
+KEEP_LAST, RELIABLE, TRANSIENT_LOCAL, VOLATILE, AUTOMATIC = 1, 1, 1, 2, 1
+#: ``ROS_DISTRO`` of the ``rosbag2`` metadata record (the distro of :mod:`forte.io.ros_messages`).
+ROS_DISTRO = "kilted"
+#: Points on a capsule's surface whose hull draws it.
+CAPSULE_POINTS = 400
 #: Rate of ``/tf`` and ``/joint_states`` (Hz); the waypoint times are added.
 RATE_HZ = 50.0
 #: Length of a force in the markers (m per N).
@@ -163,6 +189,52 @@ def marker_arrays(robot: MobileManipulator, t: FloatArray, q: FloatArray,
     return out
 
 
+def offered_qos(topic: str) -> str:
+    """rosbag2's ``offered_qos_profiles`` of ``topic``: a YAML list of one profile (see the module
+    docstring); durations ``0 s 0 ns`` are ``rmw``'s "unspecified" (the default, no limit)."""
+    unspecified = {"sec": 0, "nsec": 0}
+    profile = {"history": KEEP_LAST, "depth": 1 if topic in LATCHED else 10, "reliability": RELIABLE,
+               "durability": TRANSIENT_LOCAL if topic in LATCHED else VOLATILE, "deadline": unspecified,
+               "lifespan": unspecified, "liveliness": AUTOMATIC, "liveliness_lease_duration": unspecified,
+               "avoid_ros_namespace_conventions": False}
+    return yaml.safe_dump([profile], sort_keys=False)
+
+
+def capsule_points(capsule: Capsule, n: int = CAPSULE_POINTS) -> FloatArray:
+    """``n`` points on the capsule's surface: a Fibonacci lattice on the sphere of its radius, each
+    hemisphere moved by half the length along the axis (z)."""
+    i = np.arange(n) + 0.5
+    z = 1 - 2 * i / n  # never 0 for even n: each point belongs to one hemisphere
+    rho, phi = np.sqrt(1 - z**2), np.pi * (3 - np.sqrt(5)) * i
+    unit = np.column_stack([rho * np.cos(phi), rho * np.sin(phi), z])
+    return capsule.radius * unit + np.outer(np.sign(z) * capsule.length / 2, [0.0, 0.0, 1.0])
+
+
+def _body_marker(obj: SceneObject) -> dict:
+    """The marker of one scene body (see the module docstring)."""
+    s, kind, scale, points = obj.shape, ros.TRIANGLE_LIST, (1.0, 1.0, 1.0), None
+    if isinstance(s, Box):
+        kind, scale = ros.CUBE, tuple(map(float, s.size))
+    elif isinstance(s, Sphere):
+        kind, scale = ros.SPHERE, (2 * s.radius,) * 3
+    elif isinstance(s, Cylinder):
+        kind, scale = ros.CYLINDER, (2 * s.radius, 2 * s.radius, s.length)
+    elif isinstance(s, Capsule):
+        V = capsule_points(s)
+        points = V[_outward(V, ConvexHull(V).simplices)].reshape(-1, 3)
+    else:  # a mesh: its own triangles, as coal loads them (scaled)
+        g = obj.collision_geometry()
+        V = np.array(g.vertices(), dtype=float).reshape(-1, 3)
+        points = V[[[g.tri_indices(i)[j] for j in range(3)] for i in range(g.num_tris)]].reshape(-1, 3)
+    return ros.marker(0.0, FIXED_FRAME, f"forte/scene/{obj.name}", kind, position=obj.pose[:3, 3],
+                      rotation=obj.pose[:3, :3], scale=scale, rgba=ros.color(0.59, 0.47, 0.35, 0.8), points=points)
+
+
+def scene_markers(scene: Scene) -> dict:
+    """The ``MarkerArray`` of :data:`SCENE_TOPIC`: one marker per body."""
+    return {"markers": [_body_marker(obj) for obj in scene.objects]}
+
+
 def write_mcap(data: Any, path: Path) -> None:
     """Write the topics of the module docstring for ``data`` (a :class:`forte.io.export.ExportedPlan`)."""
     try:
@@ -170,11 +242,11 @@ def write_mcap(data: Any, path: Path) -> None:
     except ImportError as exc:
         raise InvalidInputError("MCAP export needs the 'mcap-ros2-support' package: "
                                 "pip install 'forte[export]'") from exc
-    from forte.io.export import whole_body_urdf
+    from forte.io.export import portable_urdf
 
     robot: MobileManipulator = data.robot
     t0 = float(data.t[0])
-    urdf = whole_body_urdf(robot)
+    urdf = portable_urdf(robot)
     links = UrdfTransforms(urdf, data.joint_names)
     names = list(data.joint_names)
     points = [{"positions": data.q[k].tolist(), "velocities": data.qd[k].tolist(),
@@ -185,6 +257,8 @@ def write_mcap(data: Any, path: Path) -> None:
         (0.0, TF_STATIC_TOPIC, _tf_message(0.0, links.transforms(data.q[0], fixed=True))),
         (0.0, TRAJECTORY_TOPIC, {"header": ros.header(0.0, FIXED_FRAME), "joint_names": names, "points": points}),
     ]
+    if data.scene:
+        messages.append((0.0, SCENE_TOPIC, scene_markers(data.scene)))
     times, Q, V, _ = stream(data.t, data.q)
     for ts, qs, vs in zip(times - t0, Q, V, strict=True):
         messages.append((ts, TF_TOPIC, _tf_message(ts, links.transforms(qs, fixed=False))))
@@ -194,10 +268,20 @@ def write_mcap(data: Any, path: Path) -> None:
     messages.sort(key=lambda m: m[0])  # stable: at equal times, in the order above
     with open(path, "wb") as fh:
         writer = Writer(fh)
+        writer.add_metadata("rosbag2", {"ROS_DISTRO": ROS_DISTRO})
         schemas = {name: writer.register_msgdef(ros.schema_name(name), ros.msgdef(name))
                    for name in sorted(set(TOPICS.values()))}
+        for topic in dict.fromkeys(topic for _, topic, _ in messages):
+            _register_channel(writer, topic, schemas[TOPICS[topic]])
         for ts, topic, message in messages:
             ns = ros.nanoseconds(ts)
             writer.write_message(topic=topic, schema=schemas[TOPICS[topic]], message=message, log_time=ns,
                                  publish_time=ns)
         writer.finish()
+
+
+def _register_channel(writer: Any, topic: str, schema: Any) -> None:
+    """Register ``topic``'s channel with its :func:`offered_qos`: mcap-ros2-support's writer registers
+    a channel without metadata on a topic's first message unless its table already holds one."""
+    writer._channel_ids[topic] = writer._writer.register_channel(
+        topic=topic, message_encoding="cdr", schema_id=schema.id, metadata={"offered_qos_profiles": offered_qos(topic)})

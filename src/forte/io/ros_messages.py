@@ -81,7 +81,7 @@ bool mesh_use_embedded_materials
 }
 
 #: ``visualization_msgs/Marker`` constants the export uses.
-ARROW, SPHERE, TRIANGLE_LIST = 0, 2, 11
+ARROW, CUBE, SPHERE, CYLINDER, TRIANGLE_LIST = 0, 1, 2, 3, 11
 ADD, DELETE = 0, 2
 
 _SEPARATOR = "=" * 80
@@ -160,12 +160,15 @@ def color(r: float, g: float, b: float, a: float = 1.0) -> dict[str, float]:
 
 
 def marker(seconds: float, frame_id: str, ns: str, kind: int, *, action: int = ADD,
-           position: FloatArray | None = None, scale: tuple[float, float, float] = (1.0, 1.0, 1.0),
-           rgba: dict[str, float] | None = None, points: FloatArray | None = None) -> dict:
-    """A ``visualization_msgs/Marker`` (id 0 in ``ns``; identity orientation, shown until replaced)."""
+           position: FloatArray | None = None, rotation: FloatArray | None = None,
+           scale: tuple[float, float, float] = (1.0, 1.0, 1.0), rgba: dict[str, float] | None = None,
+           points: FloatArray | None = None) -> dict:
+    """A ``visualization_msgs/Marker`` (id 0 in ``ns``, shown until replaced) at ``position`` with
+    the orientation of ``rotation`` (3x3; default identity)."""
     p = np.zeros(3) if position is None else position
+    R = np.eye(3) if rotation is None else rotation
     return {"header": header(seconds, frame_id), "ns": ns, "id": 0, "type": kind, "action": action,
-            "pose": {"position": vector(p), "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}},
+            "pose": {"position": vector(p), "orientation": quaternion(R)},
             "scale": vector(scale), "color": rgba or color(1.0, 1.0, 1.0), "lifetime": time(0.0),
             "frame_locked": False, "points": [] if points is None else [vector(v) for v in points],
             "colors": [], "texture_resource": "", "texture": {"header": header(0.0, ""), "format": "", "data": b""},
