@@ -2,10 +2,24 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 import pytest
 
 from forte.model.robot import MobileManipulator, default_robot, example_robot_data_dir
+
+
+@pytest.fixture(autouse=True)
+def _no_progress_leak(request: pytest.FixtureRequest) -> Iterator[None]:
+    """Every test starts and ends with progress off (the library's default): a test that leaves a
+    reporter active fails itself, and the next test starts clean whatever happened."""
+    from forte import progress
+
+    with progress.activate(None):  # restores the state before the test on the way out
+        yield
+        leaked = progress.active()
+    assert leaked is None, f"{request.node.nodeid} left a progress reporter active"
 
 
 @pytest.fixture(scope="session")
