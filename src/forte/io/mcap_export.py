@@ -38,7 +38,8 @@ a volatile replay never reaches them), the others volatile; all reliable, keep l
 use rosbag2's numeric encoding (the ``rmw`` enum values), with a ``rosbag2`` metadata record holding
 only ``ROS_DISTRO``, as rosbag2's MCAP storage of Humble writes them: rosbag2 of Jazzy and later
 reads a file with that record and no ``serialized_metadata`` as metadata version 8 (numbers), and
-Humble's reads only numbers; the string form (version 9) would need the whole serialized bag metadata.
+Humble's reads only numbers; the string form (version 9) is not read by Humble, and newer rosbag2
+reads it only with version-9 ``serialized_metadata`` (the whole bag's) or with none of the record.
 """
 
 from __future__ import annotations
