@@ -157,3 +157,27 @@ def test_a_resampled_task_decides_its_hold_as_a_loaded_one():
     np.testing.assert_allclose(resampled.t, loaded.t, atol=1e-12)
     np.testing.assert_allclose(resampled.targets, loaded.targets, atol=1e-12)
     assert forte.load_task(LIFT, waypoints=12).resampled(41).t[-1] == pytest.approx(10.0)
+
+
+@pytest.mark.slow
+def test_an_arm_that_would_pass_through_the_torso_gets_self_collision_rows_and_goes_around(tmp_path):
+    """TIAGo from its own URDF (with its hand and the hand's safety box) and a start posture of the
+    user's: the plan without rows brings the hand's box through the torso column; solved again with
+    the robot's own pairs as rows (those whose covers overlap at the start keep their start
+    distance) it goes around, and executes."""
+    task = task_from_dict({
+        "name": "tiago-urdf",
+        "robot": {"urdf": "erd:tiago_description/robots/tiago.urdf", "ee_frame": "arm_tool_link",
+                  "base": "differential",
+                  "arm_joints": ["torso_lift_joint", *(f"arm_{i}_joint" for i in range(1, 8))]},
+        "initial_configuration": [0, 0, 0, 0.15, 0.2, -1.34, -0.2, 1.94, -1.57, 1.37, 0.0],
+        "path": {"kind": "waypoints", "relative": True, "samples": 31,
+                 "waypoints": [{"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 5.0, "position": [0.3, 0.0, 0.0]}]},
+        "payload": {"mass": 0.5}}, tmp_path / "task.yaml")
+    plan = forte.plan(task)
+    assert plan.feasible, plan.verdict.reason()
+    record = plan.solver["self_rows"]
+    assert record["kept"] and record["verdict"] == "feasible"
+    assert "clearance_rows" in plan.solver  # the kept plan is the one solved with rows
+    result = _simulate(plan, tmp_path / "tiago")
+    assert result.success, result.detail

@@ -161,6 +161,7 @@ def assign_slots(robot: object, q: FloatArray, scene: Scene, clearance: float, f
     D = scene_distances(centres, primitives, scene, clearance + 2 * ACTIVATION)
     pairs_self = self_pairs(robot)
     S = self_distances(centres, primitives, pairs_self)
+    margins = self_margins(S, fix_initial)
     n = D.shape[0]
     index_self = {pair: i for i, pair in enumerate(pairs_self)}
     near = [set(zip(*np.nonzero(D[k] < clearance + ACTIVATION), strict=True))
@@ -192,7 +193,7 @@ def assign_slots(robot: object, q: FloatArray, scene: Scene, clearance: float, f
         for k, groups in enumerate(chosen):
             for j, (_, p, m) in enumerate(sorted(groups.get(key, ()))[:size]):
                 values[k, j * width:(j + 1) * width] = _slot(primitives[p], proxies[m], clearance) if m >= 0 \
-                    else _self_slot(primitives[p], primitives[-1 - m])
+                    else _self_slot(primitives[p], primitives[-1 - m], margins[index_self[(p, -1 - m)]])
                 keep[k, 2 * j] = True
                 keep[k, 2 * j + 1] = n > 1  # one waypoint (holding): no interval, one row
                 pairs[(k, j)] = (p, m)
@@ -211,10 +212,28 @@ def _slot(primitive: Primitive, proxy: Proxy, clearance: float) -> FloatArray:
     return v
 
 
+#: A pair of the robot's own covers that overlaps at a fixed start keeps, as its margin, its start
+#: distance less this (m): it may not come much closer than it starts.
+START_OVERLAP_SLACK = 0.002
+
+
+def self_margins(S: FloatArray, fix_initial: bool) -> FloatArray:
+    """Per self pair: the cover distance it keeps, :data:`~forte.planning.self_pairs.SELF_MARGIN`,
+    or, for a pair whose covers already overlap at the fixed start (``S[0]``: its distance there;
+    a cover is up to ~12 % thicker than the mesh, so the meshes may well be apart), its start
+    distance less :data:`START_OVERLAP_SLACK`, so the plan does not push the two further into
+    each other. ``S``: N x pairs."""
+    margins = np.full(S.shape[1], SELF_MARGIN)
+    if fix_initial and len(S):
+        margins = np.minimum(margins, S[0] - START_OVERLAP_SLACK)
+    return margins
+
+
 def missing_pairs(robot: object, q: FloatArray, scene: Scene, clearance: float, slots: Slots,
-                  tol: float = 1e-4) -> set[tuple[int, int, int]]:
+                  tol: float = 1e-4, fix_initial: bool = True) -> set[tuple[int, int, int]]:
     """``(k, primitive, body)`` triples closer than their margin at ``q`` without a row (the
-    scene's: the clearance; the robot's own pairs: :data:`~forte.planning.self_pairs.SELF_MARGIN`)."""
+    scene's: the clearance; the robot's own pairs: :func:`self_margins`, as :func:`assign_slots`
+    gives them for the same ``fix_initial``)."""
     primitives = robot_primitives(robot)
     centres = _centres(robot, q, primitives)
     D = scene_distances(centres, primitives, scene, clearance + ACTIVATION)
@@ -223,14 +242,14 @@ def missing_pairs(robot: object, q: FloatArray, scene: Scene, clearance: float, 
     have = slots.triples()
     found = {(int(k), int(p), int(m)) for k, p, m in zip(*np.nonzero(D < clearance - tol), strict=True)}
     found |= {(int(k), int(pairs_self[i, 0]), -1 - int(pairs_self[i, 1]))
-              for k, i in zip(*np.nonzero(S < SELF_MARGIN - tol), strict=True)}
+              for k, i in zip(*np.nonzero(S < self_margins(S, fix_initial) - tol), strict=True)}
     return found - have
 
 
-def _self_slot(a: Primitive, b: Primitive) -> FloatArray:
+def _self_slot(a: Primitive, b: Primitive, margin: float = SELF_MARGIN) -> FloatArray:
     v = np.zeros(SELF_SIZE)
     fields = {"centre_a": a.centre, "radius_a": [a.radius], "centre_b": b.centre, "half_b": [b.half_height],
-              "radius_b": [b.radius], "margin": [SELF_MARGIN], "active": [1.0]}
+              "radius_b": [b.radius], "margin": [margin], "active": [1.0]}
     for name, value in fields.items():
         offset, size = SELF_FIELDS[name]
         v[offset:offset + size] = value

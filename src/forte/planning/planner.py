@@ -173,12 +173,14 @@ def _solve(opt: TrajectoryOptimizer, task: Task, force: TaskForce, q: FloatArray
 
 
 def _solve_clear(task: Task, method: Method, force: TaskForce, q: FloatArray, nominal: FloatArray, options: Any,
-                 opt: TrajectoryOptimizer | None = None) -> tuple[TrajectoryOptimizer, SolverResult, dict | None]:
+                 opt: TrajectoryOptimizer | None = None, self_rows: bool = False
+                 ) -> tuple[TrajectoryOptimizer, SolverResult, dict | None]:
     """Solve from ``q``: with clearance rows when the task has bodies or ``q`` comes near the floor
-    (:func:`~forte.planning.scene_solve.needs_rows`), else in free space (on ``opt`` when given),
-    and again with rows from a free-space solution that comes within the clearance of the floor.
-    Returns the problem, its solution and the rows' facts (``None``: solved without rows)."""
-    if needs_rows(task, q):
+    (:func:`~forte.planning.scene_solve.needs_rows`) or ``self_rows`` (the robot's own pairs, see
+    :func:`_apart`), else in free space (on ``opt`` when given), and again with rows from a
+    free-space solution that comes within the clearance of the floor. Returns the problem, its
+    solution and the rows' facts (``None``: solved without rows)."""
+    if self_rows or needs_rows(task, q):
         return solve_in_scene(task, method, force, q, nominal, options)
     if opt is None:
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
@@ -190,9 +192,10 @@ def _solve_clear(task: Task, method: Method, force: TaskForce, q: FloatArray, no
 
 
 def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None,
-              reported: TaskForce | None = None) -> tuple[SolverResult, dict]:
+              reported: TaskForce | None = None, self_rows: bool = False) -> tuple[SolverResult, dict]:
     """Solve the method's NLP (coarse-to-fine unless a guess is given); returns the result and facts
-    (the cost terms evaluated with the ``reported`` force, default ``force``)."""
+    (the cost terms evaluated with the ``reported`` force, default ``force``); ``self_rows``: with
+    rows for the robot's own pairs near the solve (:func:`_apart`)."""
     nominal = task.nominal()
     q_guess = start_guess(task, nominal) if guess is None else guess
     options, info = task.solver, {}
@@ -201,7 +204,7 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         q_guess, info["coarse"] = warm
         # a near-optimal start: begin with a small barrier parameter
         options = replace(options, extra={"mu_strategy": "monotone", "mu_init": 1e-4} | options.extra)
-    opt, sol, rows = _solve_clear(task, method, force, q_guess, nominal, options)
+    opt, sol, rows = _solve_clear(task, method, force, q_guess, nominal, options, self_rows=self_rows)
     if rows is not None:
         info["clearance_rows"] = rows
     if not sol.success and (failed := failed_rows(opt, sol, task, force)) is not None:
@@ -345,6 +348,29 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
     return sol, info, verdict
 
 
+def _apart(task: Task, spec: Method, force: TaskForce, guess: FloatArray | None, sol: SolverResult,
+           info: dict[str, Any], verdict: Verdict) -> tuple[SolverResult, dict[str, Any], Verdict]:
+    """Solve again with self-collision rows a plan without clearance rows whose arm runs into the robot.
+
+    A task without scene bodies near the robot has no rows for the robot's own pairs (most tasks
+    never bring two parts close, and rows cost time); a plan the verdict finds in self-collision
+    (exact meshes) is solved again, from the same guess, with rows for the robot's pairs near it
+    (:func:`~forte.planning.scene_solve.solve_in_scene`; a pair whose covers already overlap at
+    the start keeps its start distance, :func:`~forte.planning.collision_slots.self_margins`).
+    The new plan is kept when it no longer collides; ``info["self_rows"]`` records the try.
+    """
+    if "clearance_rows" in info or "self_collision" not in verdict.failed:
+        return sol, info, verdict
+    trial, trial_info = _optimize(task, spec, force, guess, self_rows=True)
+    trial_verdict = judge_plan(task, trial.q, force, trial_info)
+    kept = "self_collision" not in trial_verdict.failed
+    record = {"verdict": trial_verdict.label, "failed": list(trial_verdict.failed), "kept": kept,
+              "iterations": trial.iterations, "solve_time_s": trial.solve_time}
+    if kept:
+        return trial, trial_info | {"self_rows": record}, trial_verdict
+    return sol, info | {"self_rows": record}, verdict
+
+
 def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,
          guess: FloatArray | None = None) -> Plan:
     """Plan ``task`` with ``method`` and judge it; never raises for a solver failure or an
@@ -377,6 +403,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         solved_as = with_task_terms(for_requirement(spec, force), task.terms)
         sol, info = _optimize(task, solved_as, force, guess)
         verdict = judge_plan(task, sol.q, force, info)
+        sol, info, verdict = _apart(task, solved_as, force, guess, sol, info, verdict)
         sol, info, verdict = _refine(task, solved_as, force, sol, info, verdict)
         q, solved, status = sol.q, sol.success, sol.status
     else:

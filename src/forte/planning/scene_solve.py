@@ -86,7 +86,7 @@ def solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatA
                                   settings=task.settings)
         sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, start, nominal,
                         term_values=term_values(method, force, task.terms), start=task.start_motion)
-        missing = missing_pairs(task.robot, sol.q, task.scene, task.clearance, slots)
+        missing = missing_pairs(task.robot, sol.q, task.scene, task.clearance, slots, fix_initial=fix)
         rounds.append({"rows": slots.rows, "slots": {ck.name: ck.slots for ck in opt._clear},
                        "iterations": sol.iterations, "missing_pairs": len(missing)})
         if not missing or not sol.success:
