@@ -97,6 +97,33 @@ def test_the_node_replans_a_new_mass_in_under_a_second_and_stops_on_ctrl_c(tmp_p
     assert "Traceback" not in err
 
 
+def test_ctrl_c_during_a_replan_stops_the_node(tmp_path):
+    """SIGINT right after a new mass, while the node re-plans in its callback: it finishes the
+    callback and exits 0 (rclpy's own handler once left it waiting for a second Ctrl-C)."""
+    domain = 50 + (os.getpid() + 37) % 100
+    env = os.environ | {"ROS_DOMAIN_ID": str(domain)}
+    node_proc = subprocess.Popen([FORTE, "ros", str(ROOT / "examples" / "tasks" / "lift.yaml"),
+                                  "--start-timeout", "0"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                 text=True)
+    context, node, got, mass_pub = _client(domain)
+    try:
+        assert _spin_until(context, node, lambda: got["status"] and got["trajectory"], 120), "no first plan"
+        assert _spin_until(context, node, lambda: mass_pub.get_subscription_count() > 0, 30), "mass not subscribed"
+        mass_pub.publish(Float64(data=0.35))
+        _spin_until(context, node, lambda: False, 0.02)  # the message on its way, the re-plan starting
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        node_proc.send_signal(signal.SIGINT)
+        try:
+            out, err = node_proc.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            node_proc.kill()
+            raise
+    assert node_proc.returncode == 0, err[-2000:]
+    assert "Traceback" not in err
+
+
 def test_without_rclpy_the_command_says_how_to_get_it(tmp_path):
     """A Python without the ros extra (simulated by hiding rclpy): one line, exit 2."""
     hide = tmp_path / "hide"

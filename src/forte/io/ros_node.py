@@ -32,6 +32,8 @@ and message wheels from PyPI; no ROS installation).
 from __future__ import annotations
 
 import json
+import signal
+import threading
 import time
 from typing import Any
 
@@ -98,16 +100,26 @@ def start_from(task: Task, names: list[str], state_names: list[str], positions: 
     return q
 
 
+#: How often (s) the node's spin loop looks for a SIGINT between callbacks.
+SPIN_PERIOD_S = 0.1
+
+
 def run_node(task: Task, method: str = "forte", start_timeout: float = 2.0, node_name: str = "forte") -> int:
     """Plan ``task``, publish it, and re-plan on every payload mass until SIGINT (returns 0)."""
     rclpy = require_rclpy()
     from rclpy.executors import ExternalShutdownException
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from rclpy.signals import SignalHandlerOptions
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64, String
     from trajectory_msgs.msg import JointTrajectory
 
-    rclpy.init()
+    # SIGINT sets a flag the spin loop reads (rclpy's own handler lost one now and then: a Ctrl-C
+    # during a re-plan's callback left the node waiting on a futex until a second one came)
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    stop = threading.Event()
+    on_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, lambda *_: stop.set()) if on_main else None
     node = rclpy.create_node(node_name)
     try:
         node.declare_parameters("", [("method", method), ("waypoints", int(task.n))])
@@ -151,10 +163,13 @@ def run_node(task: Task, method: str = "forte", start_timeout: float = 2.0, node
         node.create_subscription(Float64, "/forte/payload_mass", on_mass, 10)
         node.get_logger().info(f"planned {task.name} with {method}; waiting for /forte/payload_mass")
         try:
-            rclpy.spin(node)
+            while not stop.is_set() and rclpy.ok():
+                rclpy.spin_once(node, timeout_sec=SPIN_PERIOD_S)
         except (KeyboardInterrupt, ExternalShutdownException):
             pass
     finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
         node.destroy_node()
         if rclpy.ok():
             rclpy.try_shutdown()
