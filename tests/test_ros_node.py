@@ -55,13 +55,27 @@ def _spin_until(context, node, condition, timeout: float) -> bool:
     return False
 
 
+def _start_node(domain: int) -> subprocess.Popen:
+    """``forte ros`` on the lift in ROS domain ``domain``."""
+    return subprocess.Popen([FORTE, "ros", str(ROOT / "examples" / "tasks" / "lift.yaml"), "--start-timeout", "0"],
+                            env=os.environ | {"ROS_DOMAIN_ID": str(domain)}, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def _interrupt(node_proc: subprocess.Popen) -> str:
+    """Ctrl-C to the node; its stderr once it has exited (killed after 30 s)."""
+    node_proc.send_signal(signal.SIGINT)
+    try:
+        return node_proc.communicate(timeout=30)[1]
+    except subprocess.TimeoutExpired:
+        node_proc.kill()
+        raise
+
+
 @pytest.mark.slow
 def test_the_node_replans_a_new_mass_in_under_a_second_and_stops_on_ctrl_c(tmp_path):
     domain = 50 + os.getpid() % 100  # a ROS domain of its own: no crosstalk with other runs
-    env = os.environ | {"ROS_DOMAIN_ID": str(domain)}
-    node_proc = subprocess.Popen([FORTE, "ros", str(ROOT / "examples" / "tasks" / "lift.yaml"),
-                                  "--start-timeout", "0"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                 text=True)
+    node_proc = _start_node(domain)
     context, node, got, mass_pub = _client(domain)
     try:
         assert _spin_until(context, node, lambda: got["status"] and got["trajectory"], 120), "no first plan"
@@ -87,12 +101,7 @@ def test_the_node_replans_a_new_mass_in_under_a_second_and_stops_on_ctrl_c(tmp_p
     finally:
         node.destroy_node()
         rclpy.try_shutdown(context=context)
-        node_proc.send_signal(signal.SIGINT)
-        try:
-            out, err = node_proc.communicate(timeout=30)
-        except subprocess.TimeoutExpired:
-            node_proc.kill()
-            raise
+        err = _interrupt(node_proc)
     assert node_proc.returncode == 0, err[-2000:]
     assert "Traceback" not in err
 
@@ -101,10 +110,7 @@ def test_ctrl_c_during_a_replan_stops_the_node(tmp_path):
     """SIGINT right after a new mass, while the node re-plans in its callback: it finishes the
     callback and exits 0 (rclpy's own handler once left it waiting for a second Ctrl-C)."""
     domain = 50 + (os.getpid() + 37) % 100
-    env = os.environ | {"ROS_DOMAIN_ID": str(domain)}
-    node_proc = subprocess.Popen([FORTE, "ros", str(ROOT / "examples" / "tasks" / "lift.yaml"),
-                                  "--start-timeout", "0"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                 text=True)
+    node_proc = _start_node(domain)
     context, node, got, mass_pub = _client(domain)
     try:
         assert _spin_until(context, node, lambda: got["status"] and got["trajectory"], 120), "no first plan"
@@ -114,12 +120,7 @@ def test_ctrl_c_during_a_replan_stops_the_node(tmp_path):
     finally:
         node.destroy_node()
         rclpy.try_shutdown(context=context)
-        node_proc.send_signal(signal.SIGINT)
-        try:
-            out, err = node_proc.communicate(timeout=30)
-        except subprocess.TimeoutExpired:
-            node_proc.kill()
-            raise
+        err = _interrupt(node_proc)
     assert node_proc.returncode == 0, err[-2000:]
     assert "Traceback" not in err
 
