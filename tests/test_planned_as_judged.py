@@ -181,3 +181,16 @@ def test_an_arm_that_would_pass_through_the_torso_gets_self_collision_rows_and_g
     assert "clearance_rows" in plan.solver  # the kept plan is the one solved with rows
     result = _simulate(plan, tmp_path / "tiago")
     assert result.success, result.detail
+
+
+def test_a_force_profile_holds_its_end_value_over_hold_samples_after_the_path():
+    task = forte.load_task("examples/tasks/continuous.yaml", waypoints=9)  # the hold would cut the sine
+    end = task.targets_at.end
+    assert task.t[-3] == pytest.approx(end) and task.t[-1] > end
+    at_end = task.force_at(np.array([end]))
+    np.testing.assert_array_equal(task.force_profile.t, task.t)
+    np.testing.assert_allclose(task.force_profile.f[-3:], np.repeat(at_end.f, 3, axis=0))
+    np.testing.assert_allclose(task.force_profile.r[-3:], at_end.r[0])
+    # on the path the profile is the file's windowed sine, unchanged
+    raw = forte.load_task("examples/tasks/continuous.yaml")
+    np.testing.assert_allclose(task.force_profile.f[:-2], raw.force_at(task.t[:-2]).f)

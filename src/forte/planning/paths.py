@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
@@ -261,3 +262,20 @@ def ending_at_rest(path: TargetsAt, t: FloatArray) -> tuple[FloatArray, HeldPath
     h = float(on_path[1] - on_path[0])
     grid = np.r_[on_path, end + h, end + 2 * h]
     return grid, HeldPath(path, grid, end)
+
+
+def force_with_hold(force_at: ForceAt | None, path: HeldPath, t: FloatArray) -> ForceAt | None:
+    """``force_at`` on the grid ``t`` of ``path``: where the grid's hold samples lie after the path's
+    end (:func:`ending_at_rest`), the force holds its value at the end over them."""
+    if force_at is None or t[-1] <= path.end:
+        return force_at
+    end = path.end
+
+    def at(ts: FloatArray) -> TaskForce:
+        ts = np.asarray(ts, dtype=float)
+        on_path = ts[ts < end]
+        force = force_at(np.r_[on_path, end])
+        rows = np.minimum(np.arange(ts.size), on_path.size)  # every time from the end on: the end's row
+        m = None if force.m is None else force.m[rows]
+        return replace(force, t=ts, f=force.f[rows], r=force.r[rows], m=m)
+    return at

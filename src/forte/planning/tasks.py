@@ -42,6 +42,7 @@ from forte.planning.paths import (
     TargetsAt,
     build_path,
     ending_at_rest,
+    force_with_hold,
     sine_parameters,
     starting_at,
     taught_knots,
@@ -162,8 +163,7 @@ class Task:
         path, force_at = self.targets_at, self.force_at
         if isinstance(path, HeldPath):  # n samples of the path, the final hold decided again for them
             t, path = ending_at_rest(path.path, np.linspace(self.t[0], path.end, n))
-            if force_at is not None and t[-1] > path.end:
-                force_at = _held_force(force_at, path.end)
+            force_at = force_with_hold(force_at, path, t)
         else:
             t = np.linspace(self.t[0], self.t[-1], n)
         profile = force_at(t) if force_at is not None else None
@@ -251,18 +251,6 @@ def _force_profile(reader: Reader, t: FloatArray, radius: float) -> ForceAt | No
         vector = r.vector("vector", 3)
         return lambda ts: given_force(ts, np.tile(vector, (len(ts), 1)), radius)
     raise r.error("kind", f"expected 'windowed-sine' or 'constant', got {kind!r}")
-
-
-def _held_force(force_at: ForceAt, end: float) -> ForceAt:
-    """A force profile that holds its value at ``end`` after it (the final hold of the path)."""
-    def at(ts: FloatArray) -> TaskForce:
-        ts = np.asarray(ts, dtype=float)
-        on_path = ts[ts < end]
-        force = force_at(np.r_[on_path, end])
-        rows = np.minimum(np.arange(ts.size), on_path.size)  # every time from the end on: the end's row
-        m = None if force.m is None else force.m[rows]
-        return replace(force, t=ts, f=force.f[rows], r=force.r[rows], m=m)
-    return at
 
 
 def load_task(
@@ -383,8 +371,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     if targets_at is not None and limits.end_at_rest:
         t, targets_at = ending_at_rest(targets_at, t)
         targets = targets_at(t)
-        if force_at is not None and t[-1] > targets_at.end:  # the force holds with the path
-            force_at = _held_force(force_at, targets_at.end)
+        force_at = force_with_hold(force_at, targets_at, t)
     require_capacity = reader.get("require_capacity", False)
     if not isinstance(require_capacity, bool):
         raise reader.error("require_capacity", f"expected true or false, got {require_capacity!r}")
