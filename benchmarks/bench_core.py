@@ -18,9 +18,9 @@ from forte.capability.metrics import CapabilityParameters, capability_margin, ca
 from forte.capability.polytope import trajectory_rfp
 from forte.model.robot import default_robot
 from forte.model.twin import CasadiTwin
-from forte.planning.kernels import load_kernels, stage_terms
-from forte.planning.methods import get_method
-from forte.planning.reference import capability_stage
+from forte.planning.methods.catalog import get_method
+from forte.planning.nlp.kernels import load_kernels, stage_terms
+from forte.planning.terms.reference import capability_stage
 from forte.settings import CostWeights, SolverOptions
 
 

@@ -51,7 +51,7 @@ def main() -> None:
             print(f"first-ever run (empty kernel cache, compiles the forte kernels): {first:.2f} s")
 
     from forte.planning.planner import plan
-    from forte.planning.tasks import load_task
+    from forte.planning.tasks.tasks import load_task
 
     print("\nforte NLP solve times (IPOPT, exact derivatives, lift.yaml, 2.7 kg):")
     print("   N | iterations | solve (s) | coarse pass (s) | status")

@@ -4,7 +4,7 @@ Run: python benchmarks/bench_replan.py [--replans 60] [--waypoints 41] [--seed 0
      [--ipopt-only] [--no-cold]
 
 Each case runs with IPOPT's converged re-plan, the stagewise solver's converged re-plan and one
-real-time iteration (:mod:`forte.planning.realtime`, from the converged solution of the last mass),
+real-time iteration (:mod:`forte.planning.online.realtime`, from the converged solution of the last mass),
 in the same run, with their ratios; then the 0.35 -> 2.7 kg jump followed by consecutive real-time
 iterations until converged, where a converged stagewise re-plan's time goes (kernel evaluations,
 factorizations, the rest of the solve, outside the solve) and cold plans at N = 41 and 400 with
@@ -12,7 +12,7 @@ both solvers. The lines are named ``mass changes, converged (IPOPT)``, ``mass ch
 (stagewise)``, ``mass changes, one real-time iteration (stagewise)`` and likewise for the shifts.
 
 On the authors' lift (``examples/tasks/lift.yaml``, N = 41), with a warm
-:class:`forte.planning.replan.Replanner`:
+:class:`forte.planning.online.replan.Replanner`:
 
 1. payload-mass changes: a seeded sequence of masses between 0.3 and 3.3 kg, each re-plan
    starting from the previous solution;
@@ -30,7 +30,7 @@ initial guess for a shift), after the timed loop: the largest joint difference i
 
 The machine's load average is printed before and after: on a shared machine wall time is
 noisy. CPU time equals wall time when nothing else in the process runs (a re-plan uses one BLAS
-thread, :mod:`forte.planning.blas`; the benchmark's untimed work too, so that no OpenBLAS worker
+thread, :mod:`forte.planning.nlp.blas`; the benchmark's untimed work too, so that no OpenBLAS worker
 of a cold solve busy-waits into a timed re-plan); well above it means busy BLAS workers.
 
 ``--sqp`` runs the alternative the issue names, an SQP on the same exact derivatives with a
@@ -52,11 +52,11 @@ from pathlib import Path
 
 import numpy as np
 
-from forte.planning.blas import single_threaded_blas
+from forte.planning.nlp.blas import single_threaded_blas
+from forte.planning.online.realtime import RealTimeIteration, RealTimeStep
+from forte.planning.online.replan import Replanner, ReplanResult, converged
 from forte.planning.planner import plan, start_guess
-from forte.planning.realtime import RealTimeIteration, RealTimeStep
-from forte.planning.replan import Replanner, ReplanResult, converged
-from forte.planning.tasks import Task, load_task
+from forte.planning.tasks.tasks import Task, load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 
@@ -279,8 +279,8 @@ def time_split(task: Task, replans: int, seed: int) -> None:
 
 def step_cost(task: Task, mass: float = 3.3, repeats: int = 300) -> None:
     """One Newton step of the stagewise solver (everything but the kernels' evaluation) after a
-    mass change, compiled (:mod:`forte.planning.solvers.native_step`) and in NumPy."""
-    from forte.planning.solvers.interior_point import InteriorPoint
+    mass change, compiled (:mod:`forte.planning.nlp.solvers.native_step`) and in NumPy."""
+    from forte.planning.nlp.solvers.interior_point import InteriorPoint
 
     planner = Replanner(task, backend="stagewise")
     solver = planner.optimizer.stagewise()
@@ -305,9 +305,9 @@ def step_cost(task: Task, mass: float = 3.3, repeats: int = 300) -> None:
 
 
 def metrics_cost(task: Task, repeats: int = 50) -> None:
-    """The plan's exact metrics (``forte.planning.evaluation.evaluate``), which a re-plan computes
+    """The plan's exact metrics (``forte.planning.verdict.evaluation.evaluate``), which a re-plan computes
     after its latency is taken, as it does the verdict."""
-    from forte.planning.evaluation import evaluate
+    from forte.planning.verdict.evaluation import evaluate
 
     planner = Replanner(task, backend="stagewise")
     q, force = planner.last.q, planner.force

@@ -28,11 +28,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from forte.planning.methods import get_method
-from forte.planning.optimizer import TrajectoryOptimizer
+from forte.planning.methods.catalog import get_method
+from forte.planning.nlp.optimizer import TrajectoryOptimizer
 from forte.planning.planner import coarse_guess, start_guess
-from forte.planning.reference import base_spectral_cost
-from forte.planning.tasks import Task, load_task
+from forte.planning.tasks.tasks import Task, load_task
+from forte.planning.terms.reference import base_spectral_cost
 
 ROOT = Path(__file__).resolve().parents[1]
 LIFT = ROOT / "examples" / "tasks" / "lift.yaml"

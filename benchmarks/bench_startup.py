@@ -106,7 +106,7 @@ def main() -> None:
           f"{parser_time * 1e3:.0f} ms")
 
     if args.compile:
-        from forte.planning.methods import method_names
+        from forte.planning.methods.catalog import method_names
 
         methods = args.methods.split(",") if args.methods else method_names(optimized=True)
         print("\nfirst-ever run per method (empty kernel cache, lift.yaml, --no-figures):")

@@ -9,7 +9,7 @@ best of 3 runs:
 
 - ``check``: the exact clearance at every sample the verdict judges (the waypoints and 8 steps
   per interval of the executed spline: 893 samples), :class:`forte.model.clearance.ClearanceChecker`;
-- ``verdict``: the whole verdict with the scene (:func:`forte.planning.verdict.judge_plan`), and
+- ``verdict``: the whole verdict with the scene (:func:`forte.planning.verdict.verdict.judge_plan`), and
   its increase over the empty scene;
 - ``narrow``: the coal distance calls the broad phase lets through, per sample;
 - ``min 8 / 64``: the minimum clearance on the verdict's grid and on one 8 times finer.
@@ -31,10 +31,10 @@ import numpy as np
 
 from forte.model.clearance import ClearanceChecker
 from forte.model.scene import Box, Capsule, Cylinder, Scene, SceneObject, Sphere, pose_matrix
-from forte.planning.motion_samples import sample_motion
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
-from forte.planning.verdict import judge_plan
+from forte.planning.tasks.tasks import load_task
+from forte.planning.verdict.motion_samples import sample_motion
+from forte.planning.verdict.verdict import judge_plan
 
 ROOT = Path(__file__).resolve().parents[1]
 REPEATS = 3

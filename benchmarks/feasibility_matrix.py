@@ -122,7 +122,7 @@ class Cell(NamedTuple):
 
 
 def task_dict(cell: Cell) -> dict[str, Any]:
-    """The task file of ``cell`` as a dict (for :func:`forte.planning.tasks.task_from_dict`)."""
+    """The task file of ``cell`` as a dict (for :func:`forte.planning.tasks.tasks.task_from_dict`)."""
     case = ROBOTS[cell.robot]
     task: dict[str, Any] = {
         "name": f"{cell.robot}-{cell.reach.kind}-{cell.reach.distance:g}m", "robot": dict(case.robot),
@@ -150,7 +150,7 @@ def run_cell(cell: Cell) -> dict[str, Any]:
     from forte.exceptions import ForteError
     from forte.execution.run import simulate_plan
     from forte.io.plandir import write_plan
-    from forte.planning.tasks import task_from_dict
+    from forte.planning.tasks.tasks import task_from_dict
 
     row: dict[str, Any] = {"robot": cell.robot, "raw_urdf": ROBOTS[cell.robot].raw, "preset": ROBOTS[cell.robot].preset,
                            "reach": cell.reach.kind, "distance_m": cell.reach.distance,

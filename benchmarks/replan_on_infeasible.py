@@ -31,7 +31,7 @@ from forte.experiments import replan as replan_exp
 from forte.experiments.common import task_path
 from forte.io.plandir import write_plan
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 
 def _plan_dir(tmp: Path, task_name: str) -> Path:

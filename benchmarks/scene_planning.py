@@ -25,7 +25,7 @@ import numpy as np
 
 from forte.model.scene import Box, Cylinder, Scene, SceneObject, Sphere, pose_matrix
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 ROOT = Path(__file__).resolve().parents[1]
 

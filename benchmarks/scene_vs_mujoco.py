@@ -7,7 +7,7 @@ method that applies (``forte compare``'s list) plans twice:
 - ``no scene``: the same task without its bodies (``replace(task, scene=Scene())``), then judged
   and simulated WITH them: the plan does not know the bodies are there, so some of these hit.
 
-Each plan is judged (:mod:`forte.planning.verdict`: the ``clearance`` requirement measures the real
+Each plan is judged (:mod:`forte.planning.verdict.verdict`: the ``clearance`` requirement measures the real
 meshes with coal on the dense grid and asks for the task's ``clearance:`` margin) and executed in
 MuJoCo with the scene built in and contacts on (``forte simulate``'s defaults,
 :func:`forte.execution.run.simulate_plan`; the run does not stop at the first failure, so every
@@ -47,9 +47,9 @@ STRONG = 10.0
 def without_scene_judged_with(task, method: str):
     """Plan ``task`` without its bodies, then judge it (and record it) among them."""
     from forte.model.scene import Scene
-    from forte.planning.methods import get_method
+    from forte.planning.methods.catalog import get_method
     from forte.planning.planner import evaluate, plan
-    from forte.planning.verdict import judge_plan
+    from forte.planning.verdict.verdict import judge_plan
 
     blind = plan(replace(task, scene=Scene()), method)
     seen = replace(blind.task, scene=task.scene)  # the resolved task (payload), with the bodies back
@@ -63,7 +63,7 @@ def one_case(task_name: str, variant: str, methods: tuple[str, ...] | None) -> l
     from forte.execution.run import simulate_plan
     from forte.io.plandir import LAST_ITERATE_FILE, TRAJECTORY_FILE, write_plan
     from forte.planning.planner import methods_for, plan
-    from forte.planning.tasks import load_task
+    from forte.planning.tasks.tasks import load_task
 
     task = load_task(ROOT / "examples/tasks" / f"{task_name}.yaml")
     rows = []

@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize
 
-from forte.planning.ik import initial_guess
-from forte.planning.optimizer import TrajectoryOptimizer
+from forte.planning.nlp.optimizer import TrajectoryOptimizer
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.ik import initial_guess
+from forte.planning.tasks.tasks import load_task
 from forte.settings import SolverOptions
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"

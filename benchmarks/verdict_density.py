@@ -4,7 +4,7 @@ interval against 64, on the shipped tasks' plans.
     python benchmarks/verdict_density.py
 
 For each task and method the script plans once, samples the executed motion at 8 and at 64 steps
-per interval (:mod:`forte.planning.motion_samples`), and prints, per measure, the worst value on
+per interval (:mod:`forte.planning.verdict.motion_samples`), and prints, per measure, the worst value on
 each grid and their difference (relative to the measure's limit scale: 1 for ratios, the
 tolerance for tracking, 1 N for forces).
 """
@@ -17,11 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from forte.planning.motion_samples import sample_motion
 from forte.planning.planner import plan
-from forte.planning.requirements import REQUIREMENTS
-from forte.planning.tasks import load_task
-from forte.planning.verdict import _task_targets, context
+from forte.planning.tasks.tasks import load_task
+from forte.planning.verdict.motion_samples import sample_motion
+from forte.planning.verdict.requirements import REQUIREMENTS
+from forte.planning.verdict.verdict import _task_targets, context
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = (("lift.yaml", 2.7, ("forte", "quintic", "manipulability")), ("lift.yaml", 0.35, ("forte",)),

@@ -1,7 +1,7 @@
 """Does the plan's verdict agree with MuJoCo? The confusion table over tasks, payloads and methods.
 
 Every method that applies plans the lift (Section 5.3) and the hold (Section 5.4) at each payload
-mass; the plan is judged (:mod:`forte.planning.verdict`) and executed in MuJoCo with the same
+mass; the plan is judged (:mod:`forte.planning.verdict.verdict`) and executed in MuJoCo with the same
 payload (``forte simulate``'s defaults: the Section 3.1 controllers, the judge's thresholds). A
 *feasible* verdict agrees when the run succeeds, an *infeasible* or *solver-failed* one when it
 fails. Prints the table and every disagreement with the failed requirements and the run's outcome;
@@ -38,7 +38,7 @@ def one_case(task_name: str, mass: float) -> list[dict]:
     from forte.execution.run import simulate_plan
     from forte.io.plandir import write_plan
     from forte.planning.planner import methods_for, plan
-    from forte.planning.tasks import load_task
+    from forte.planning.tasks.tasks import load_task
 
     task = load_task(TASKS[task_name], mass=mass)
     rows = []

@@ -13,9 +13,9 @@ from conftest import authors_ee_in_base
 from forte.capability.polytope import cone_directions
 from forte.model.robot import default_robot, example_robot_data_dir
 from forte.model.twin import CasadiTwin
-from forte.planning.costs import COST_TERMS, Stage
-from forte.planning.methods import METHODS
-from forte.planning.motion_terms import BASE_BOX
+from forte.planning.methods.catalog import METHODS
+from forte.planning.terms.costs import COST_TERMS, Stage
+from forte.planning.terms.motion_terms import BASE_BOX
 from forte.settings import DEFAULT_WEIGHT_SET, WEIGHT_SETS, TermSettings
 
 
@@ -129,7 +129,7 @@ def test_baselines_are_defined_as_the_authors_run_them():
 def test_hold_as_run_is_the_trajectory_set_with_the_single_point_s_terms_only():
     """``authors-hold-as-run``: the trajectory set (and each baseline's trajectory weights) with every
     regularization weight 0, as the authors' node runs a single point on a trajectory-mode optimizer."""
-    from forte.planning.methods import REGULARIZATION
+    from forte.planning.methods.catalog import REGULARIZATION
 
     traj, as_run = WEIGHT_SETS["authors-trajectory"].weights, WEIGHT_SETS["authors-hold-as-run"].weights
     assert replace(as_run, preset=traj.preset, **{f: getattr(traj, f) for f in REGULARIZATION}) == traj
@@ -224,7 +224,7 @@ def test_velocity_nominal_and_base_velocity_terms(authors):
 def test_base_smoothness_squares_w_s_by_default_and_uses_the_metric_linearly_as_the_authors():
     """The paper's text ``1/2 ||W_s dq_b||^2`` with ``W_s = diag(1, 1, 0.5)`` (yaw weight 0.25) by
     default; the authors' code ``1/2 sum_i m_i dq_b,i^2`` with ``m = (1, 1, 0.5)`` (yaw 0.5)."""
-    from forte.planning.reference import smoothness_cost
+    from forte.planning.terms.reference import smoothness_cost
 
     rng = np.random.default_rng(11)
     q = rng.normal(size=(6, 10)) * 0.1

@@ -16,12 +16,12 @@ from forte.execution.run import simulate_plan
 from forte.force.taskforce import given_force
 from forte.io.plandir import write_plan
 from forte.model.robot import robot_from_description
-from forte.planning.base_rows import lateral_displacement
-from forte.planning.optimizer import TrajectoryOptimizer
+from forte.planning.nlp.base_rows import lateral_displacement
+from forte.planning.nlp.optimizer import TrajectoryOptimizer
 from forte.planning.planner import plan
-from forte.planning.requirements import LATERAL_SPEED_TOL
-from forte.planning.tasks import load_task
-from forte.planning.verdict import judge
+from forte.planning.tasks.tasks import load_task
+from forte.planning.verdict.requirements import LATERAL_SPEED_TOL
+from forte.planning.verdict.verdict import judge
 
 HOME = [0, 0, 0, 0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398]
 #: A lift the arm reaches alone (the base may stay where it is).

@@ -17,7 +17,7 @@ from forte.io.plandir import LEGACY_METRIC_COLUMNS, METRIC_COLUMNS, read_metrics
 from forte.model.clearance import BASE_PART, ClearanceChecker, clearances
 from forte.model.description import BASE_BOX_HALF_XY
 from forte.model.scene import Box, Scene, SceneObject, Sphere, pose_matrix
-from forte.planning.verdict import judge
+from forte.planning.verdict.verdict import judge
 
 ROOT = Path(__file__).resolve().parents[1]
 LIFT = ROOT / "examples" / "tasks" / "lift.yaml"
@@ -171,8 +171,8 @@ def test_a_world_without_bodies_or_floor_adds_nothing_and_computes_nothing(robot
     def refuse(*_args, **_kw):
         raise AssertionError("clearance computed without bodies or floor")
 
-    monkeypatch.setattr("forte.planning.verdict.clearances", refuse)
-    monkeypatch.setattr("forte.planning.requirements.clearances", refuse)
+    monkeypatch.setattr("forte.planning.verdict.verdict.clearances", refuse)
+    monkeypatch.setattr("forte.planning.verdict.requirements.clearances", refuse)
     monkeypatch.setattr("forte.model.clearance.ClearanceChecker._closest", refuse)
     t, q = _drive(robot, 1.0)
     verdict = judge(robot, t, q, given_force(t, np.zeros((len(t), 3)), 0.0), 0.9, scene=Scene((), None))
@@ -254,8 +254,8 @@ def test_a_scene_mesh_measures_like_its_primitive_when_apart(robot, tmp_path):
 
 
 def test_a_self_pair_overlapping_at_the_start_keeps_its_start_distance():
-    from forte.planning.collision_slots import START_OVERLAP_SLACK, self_margins
-    from forte.planning.self_pairs import SELF_MARGIN
+    from forte.planning.nlp.collision_slots import START_OVERLAP_SLACK, self_margins
+    from forte.planning.nlp.self_pairs import SELF_MARGIN
 
     S = np.array([[0.05, -0.03, 0.001], [0.02, -0.01, 0.0]])  # 2 waypoints x 3 pairs
     np.testing.assert_allclose(self_margins(S, True), [SELF_MARGIN, -0.03 - START_OVERLAP_SLACK,

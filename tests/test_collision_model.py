@@ -15,10 +15,10 @@ from conftest import authors_ee_in_base
 from forte.exceptions import InvalidInputError, TaskFileError
 from forte.model.collision import AUTHORS_SPHERES
 from forte.model.twin import CasadiTwin
-from forte.planning.costs import Stage, make_terms
-from forte.planning.motion_terms import BoxCollision, Collision
-from forte.planning.tasks import load_task, task_from_dict
-from forte.planning.weights_section import settings_record, weights_record
+from forte.planning.tasks.tasks import load_task, task_from_dict
+from forte.planning.tasks.weights_section import settings_record, weights_record
+from forte.planning.terms.costs import Stage, make_terms
+from forte.planning.terms.motion_terms import BoxCollision, Collision
 from forte.settings import TermSettings
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"

@@ -16,7 +16,7 @@ from forte.cli.main import main
 from forte.exceptions import ForteError
 from forte.execution.contact_objects import ContactRig
 from forte.force.contact import Carry, Drawer, PushBox, carry_wrench, drawer_force, push_force
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 G = 9.81

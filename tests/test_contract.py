@@ -18,8 +18,8 @@ import yaml
 
 from forte.cli.main import main
 from forte.model.robot import default_robot
-from forte.planning.sanity import FACTOR, best_static_capacity, sample_configurations
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
+from forte.planning.verdict.sanity import FACTOR, best_static_capacity, sample_configurations
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 HOLD = EXAMPLES / "tasks" / "hold.yaml"

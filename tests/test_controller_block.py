@@ -16,7 +16,7 @@ from forte.execution.gains import gains_from_mapping
 from forte.io.plandir import read_controller, write_plan
 from forte.model.robot import N_BASE
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 

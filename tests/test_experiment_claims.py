@@ -375,7 +375,7 @@ def test_the_hold_ball_is_judged_on_the_polytope_the_paper_draws():
 
     from forte.experiments.hold_claims import drawn_margin
     from forte.planning.planner import plan
-    from forte.planning.tasks import load_task
+    from forte.planning.tasks.tasks import load_task
 
     task = load_task(Path(__file__).resolve().parents[1] / "examples" / "tasks" / "hold.yaml")
     res = plan(task, "teaching")
@@ -472,7 +472,7 @@ def test_torque_limits_reach_the_runner_and_bad_values_are_one_line(tmp_path, mo
 def test_a_torque_limit_set_changes_the_task_robot_and_the_summary_names_it(tmp_path):
     from forte.model.description import PAPER_TORQUE_LIMITS, torque_limit_set
     from forte.model.presets import torque_limit_name, with_torque_limits
-    from forte.planning.tasks import load_task
+    from forte.planning.tasks.tasks import load_task
 
     task = load_task(common.task_path("hold"))
     assert common.with_limit_set(task, "paper") is task  # the task file's limits are the paper's

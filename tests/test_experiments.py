@@ -13,7 +13,7 @@ from forte.execution.run import simulate_plan
 from forte.experiments import run_continuous, run_hold, run_lift
 from forte.io.plandir import write_plan
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 

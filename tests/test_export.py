@@ -17,7 +17,7 @@ from forte.io.plandir import METRIC_COLUMNS, read_plan_dir, write_plan, write_pl
 from forte.model.description import mesh_package_dirs
 from forte.model.robot import MOCA_TOOL, MobileManipulator, default_robot
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 

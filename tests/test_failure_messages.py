@@ -13,7 +13,7 @@ from forte.cli.main import main
 from forte.force.taskforce import given_force
 from forte.model.robot import N_BASE
 from forte.model.trajectory import clamped_spline
-from forte.planning.verdict import judge
+from forte.planning.verdict.verdict import judge
 
 # a new user's task (issue 36): a box from a table to a shelf past a 0.9 m middle table
 SHELF_TASK = {

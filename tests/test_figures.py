@@ -19,9 +19,9 @@ from forte.io.figures import (
     slice_polygon,
     style,
 )
-from forte.planning.methods import METHODS
+from forte.planning.methods.catalog import METHODS
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 
@@ -133,7 +133,7 @@ from forte.io.figure_processes import FigureWorker, can_fork, figure_worker
 from forte.io.figures import figure_format
 from forte.model.robot import default_robot
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 out, case, parent = Path(sys.argv[1]), sys.argv[2], os.getpid()
 quintic = plan(load_task(sys.argv[3], waypoints=8), "quintic")

@@ -24,8 +24,8 @@ from forte.model.description import PAYLOAD_RADIUS
 from forte.model.presets import preset_robot
 from forte.model.scene import Scene
 from forte.model.self_collision import ArmGeometry
-from forte.planning.collision_slots import scene_distances
-from forte.planning.tasks import task_from_dict
+from forte.planning.nlp.collision_slots import scene_distances
+from forte.planning.tasks.tasks import task_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 LIFT = ROOT / "examples" / "tasks" / "lift.yaml"

@@ -13,7 +13,7 @@ import yaml
 from forte.exceptions import TaskFileError
 from forte.force.taskforce import FORCE_MODELS, authors_force, payload_force
 from forte.planning.planner import Plan
-from forte.planning.tasks import load_task, task_from_dict
+from forte.planning.tasks.tasks import load_task, task_from_dict
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 G = 9.81
@@ -121,7 +121,7 @@ def test_the_option_round_trips_through_the_task_file_and_plan_json(tmp_path):
 
 @pytest.mark.slow
 def test_a_replan_keeps_the_task_s_force_model_and_a_shift_continues_the_blend(tmp_path):
-    from forte.planning.replan import Replanner
+    from forte.planning.online.replan import Replanner
 
     task = load_task(task_file(tmp_path, "lift.yaml", force_model="authors"), waypoints=15)
     planner = Replanner(task)

@@ -22,13 +22,13 @@ from forte.model.trajectory import (
     start_history,
     start_of,
 )
-from forte.planning.evaluation import evaluate
-from forte.planning.motion_samples import sample_motion
-from forte.planning.optimizer import TrajectoryOptimizer
+from forte.planning.nlp.optimizer import TrajectoryOptimizer
+from forte.planning.nlp.solvers.stagewise import StagewiseSolver
+from forte.planning.online.replan import Replanner
 from forte.planning.planner import start_guess
-from forte.planning.replan import Replanner
-from forte.planning.solvers.stagewise import StagewiseSolver
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
+from forte.planning.verdict.evaluation import evaluate
+from forte.planning.verdict.motion_samples import sample_motion
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 
@@ -132,7 +132,7 @@ def test_the_reformulated_problem_reads_the_start_as_ipopts(task):
     """Objective, gradient and kinematic rows (the first acceleration rows move by the start
     velocity) of the stagewise problem equal the IPOPT NLP's, with a moving start."""
     opt = _optimizer(task)
-    pb = StagewiseSolver(opt).problem
+    pb = StagewiseSolver(opt.stage_nlp()).problem
     f, nominal = task.force(), task.nominal()
     start = _moving(task.robot.nq, seed=4)
     data = pb.task_data(task.t, task.targets, f.f, f.r, task.q_init, nominal, start=start)

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from conftest import random_configuration
 
-import forte.planning.kernels as kernels
+import forte.planning.nlp.kernels as kernels
 from forte.capability.polytope import cone_directions
 from forte.exceptions import SolverError
-from forte.planning.capability_terms import ConeVolume
-from forte.planning.kernels import KERNEL_NAMES, build_kernels, load_kernels
-from forte.planning.methods import METHODS
+from forte.planning.methods.catalog import METHODS
+from forte.planning.nlp.kernels import KERNEL_NAMES, build_kernels, load_kernels
+from forte.planning.terms.capability_terms import ConeVolume
 from forte.settings import SolverOptions
 
 needs_cc = pytest.mark.skipif(not (shutil.which("gcc") or shutil.which("cc")), reason="needs a C compiler")

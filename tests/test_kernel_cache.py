@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-import forte.planning.kernels as kernels
-from forte.planning.kernels import load_kernels, verify_library
-from forte.planning.tasks import load_task
+import forte.planning.nlp.kernels as kernels
+from forte.planning.nlp.kernels import load_kernels, verify_library
+from forte.planning.tasks.tasks import load_task
 from forte.settings import SolverOptions
 
 pytestmark = pytest.mark.skipif(not (shutil.which("gcc") or shutil.which("cc")), reason="needs a C compiler")
@@ -125,8 +125,8 @@ def test_the_processor_specific_build_is_in_the_cache_key(robot, monkeypatch):
     """``-march=native`` (where the compiler takes it) is keyed by the compiler's own expansion of
     it, so a cache shared between machines never loads another processor's build; with
     ``FORTE_PORTABLE_KERNELS=1`` the build and the key are the portable ones."""
-    from forte.planning import compile_target
-    from forte.planning.kernels import kernel_key
+    from forte.planning.nlp import compile_target
+    from forte.planning.nlp.kernels import kernel_key
 
     compiler = shutil.which("gcc") or shutil.which("cc")
     if compiler is None or compile_target._native(compiler) is None:

@@ -23,7 +23,7 @@ from forte.model.robot import default_robot
 from forte.model.scene import Box, Capsule, Cylinder, Mesh, Scene, SceneObject, Sphere, pose_matrix
 from forte.model.trajectory import clamped_spline
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 

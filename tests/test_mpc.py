@@ -185,7 +185,7 @@ def test_a_shift_starts_moving_as_the_reference_does(short_plan, monkeypatch, st
     loop's plan in force. ``start="measured"`` hands the measured velocity instead, which is not
     that motion (the step itself runs unchanged)."""
     from forte.execution.mpc import MpcLoop
-    from forte.planning.realtime import RealTimeIteration
+    from forte.planning.online.realtime import RealTimeIteration
 
     loops, seen = [], []
     real_init, real_step = MpcLoop.__post_init__, RealTimeIteration.step

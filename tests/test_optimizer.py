@@ -10,11 +10,11 @@ from scipy.fft import dct
 from forte.exceptions import InvalidInputError
 from forte.force.taskforce import payload_force
 from forte.model.trajectory import quintic_path
-from forte.planning.ik import follow_path
-from forte.planning.motion_terms import BaseSpectral, dct_penalty_matrix
-from forte.planning.optimizer import SolverOptions, TrajectoryOptimizer
-from forte.planning.reference import base_spectral_cost, smoothness_cost
-from forte.planning.spectral import dct_matrix, high_frequencies
+from forte.planning.nlp.optimizer import SolverOptions, TrajectoryOptimizer
+from forte.planning.tasks.ik import follow_path
+from forte.planning.terms.motion_terms import BaseSpectral, dct_penalty_matrix
+from forte.planning.terms.reference import base_spectral_cost, smoothness_cost
+from forte.planning.terms.spectral import dct_matrix, high_frequencies
 from forte.settings import CostWeights
 
 
@@ -158,7 +158,7 @@ def test_dct_matches_scipy_and_penalizes_only_high_frequencies():
 
 
 def test_kinematic_limits_bound_the_backward_differences(robot):
-    from forte.planning.optimizer import KinematicLimits
+    from forte.planning.nlp.optimizer import KinematicLimits
 
     n = 12
     t, targets, q0 = lift_problem(robot, n, duration=1.2, drop=0.3)
@@ -185,7 +185,7 @@ def test_hold_starts_are_seeded_within_the_limits_and_begin_at_the_taught_point(
     from pathlib import Path
 
     from forte.planning.planner import hold_starts
-    from forte.planning.tasks import load_task
+    from forte.planning.tasks.tasks import load_task
 
     task = load_task(Path(__file__).resolve().parents[1] / "examples" / "tasks" / "hold.yaml")
     starts = hold_starts(task)
@@ -203,7 +203,7 @@ def test_more_hold_starts_never_give_a_worse_objective():
     from pathlib import Path
 
     from forte.planning.planner import plan
-    from forte.planning.tasks import load_task
+    from forte.planning.tasks.tasks import load_task
 
     task = load_task(Path(__file__).resolve().parents[1] / "examples" / "tasks" / "hold.yaml")  # 2.7 kg
     single = plan(replace(task, solver=replace(task.solver, hold_starts=1)), "forte")

@@ -16,7 +16,7 @@ import pytest
 from forte.execution.run import simulate_plan
 from forte.io.plandir import write_plan
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 from forte.settings import WEIGHT_SETS
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"

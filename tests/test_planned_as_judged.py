@@ -11,10 +11,10 @@ import pytest
 import yaml
 
 import forte
-from forte.planning.paths import HOLD_TOLERANCE, HeldPath, ending_at_rest, hold_cut
-from forte.planning.requirements import TRACKING_ORIENTATION_TOL, TRACKING_POSITION_TOL
-from forte.planning.tasks import task_from_dict
-from forte.planning.verdict import judge_plan
+from forte.planning.tasks.paths import HOLD_TOLERANCE, HeldPath, ending_at_rest, hold_cut
+from forte.planning.tasks.tasks import task_from_dict
+from forte.planning.verdict.requirements import TRACKING_ORIENTATION_TOL, TRACKING_POSITION_TOL
+from forte.planning.verdict.verdict import judge_plan
 from forte.settings import KinematicLimits
 
 LIFT = Path("examples/tasks/lift.yaml")

@@ -13,7 +13,7 @@ import yaml
 from forte.cli.main import main
 from forte.exceptions import InfeasibleTaskError
 from forte.planning.planner import methods_for, plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 
@@ -119,7 +119,7 @@ def _tiago_reach(tmp_path: Path, end: list[float]) -> Path:
 
 
 def test_millimetres_of_ik_residual_are_a_start_not_an_unreachable_pose(tmp_path, capsys):
-    from forte.planning.ik import REACH_POSITION_M, initial_guess, pose_error, solve_pose
+    from forte.planning.tasks.ik import REACH_POSITION_M, initial_guess, pose_error, solve_pose
 
     task = load_task(_tiago_reach(tmp_path, [0.2, 0.0, -0.2]))
     guess = initial_guess(task)  # the tracking IK alone stalls 5.9 mm short at waypoint 21 (exit 2 before)
@@ -223,8 +223,8 @@ def test_another_urdf_arm_plans(tmp_path):
 def test_tutorial_example_runs():
     import runpy
 
-    from forte.planning.costs import COST_TERMS
-    from forte.planning.methods import METHODS
+    from forte.planning.methods.catalog import METHODS
+    from forte.planning.terms.costs import COST_TERMS
 
     saved = dict(METHODS), dict(COST_TERMS)
     try:

@@ -23,8 +23,8 @@ from typing import ClassVar
 
 import casadi as ca
 
-from forte.planning.costs import CostTerm, register_term
-from forte.planning.methods import Method, MethodStyle, register_method
+from forte.planning.terms.costs import CostTerm, register_term
+from forte.planning.methods.catalog import Method, MethodStyle, register_method
 
 
 @dataclass(frozen=True)

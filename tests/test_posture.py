@@ -16,8 +16,8 @@ from forte.cli.main import main
 from forte.model.presets import ROBOT_PRESETS, preset_robot
 from forte.model.robot import N_BASE
 from forte.model.self_collision import arm_geometry
-from forte.planning.ik import pose_error
-from forte.planning.posture import LIMIT_FRACTION, SINGULAR_SIGMA, assess, sigma_min, start_posture
+from forte.planning.tasks.ik import pose_error
+from forte.planning.tasks.posture import LIMIT_FRACTION, SINGULAR_SIGMA, assess, sigma_min, start_posture
 
 ROOT = Path(__file__).resolve().parents[1]
 KINOVA_HOME = np.array([1.09, 3.67, 2.38, 3.33, 2.35, 1.49])

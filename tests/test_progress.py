@@ -10,9 +10,9 @@ import pytest
 
 from forte import progress
 from forte.cli.main import main
-from forte.planning.optimizer import TrajectoryOptimizer
+from forte.planning.nlp.optimizer import TrajectoryOptimizer
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")

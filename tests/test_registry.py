@@ -12,11 +12,18 @@ import pytest
 
 from forte.cli.main import build_parser
 from forte.exceptions import InvalidInputError
-from forte.planning.costs import COST_TERMS, CostTerm, Stage, register_term
-from forte.planning.kernels import kernel_key
-from forte.planning.methods import METHODS, Method, MethodStyle, method_names, register_method, unregister_method
+from forte.planning.methods.catalog import (
+    METHODS,
+    Method,
+    MethodStyle,
+    method_names,
+    register_method,
+    unregister_method,
+)
+from forte.planning.nlp.kernels import kernel_key
 from forte.planning.planner import methods_for, plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
+from forte.planning.terms.costs import COST_TERMS, CostTerm, Stage, register_term
 from forte.settings import TermSettings
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"

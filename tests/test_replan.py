@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from forte.exceptions import InvalidInputError
-from forte.planning.layout import shift_rows
+from forte.planning.nlp.layout import shift_rows
+from forte.planning.online.replan import Replanner, converged
 from forte.planning.planner import plan, start_guess
-from forte.planning.replan import Replanner, converged
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 
@@ -139,7 +139,7 @@ def test_a_replan_stopped_at_ipopts_acceptable_level_is_not_a_success(task):
 
 BLAS_COUNTS = """
 import json
-from forte.planning.blas import openblas_builds, single_threaded_blas
+from forte.planning.nlp.blas import openblas_builds, single_threaded_blas
 
 builds = openblas_builds()
 original = [b.get() for b in builds]
@@ -200,8 +200,8 @@ def test_a_replan_is_judged_along_the_motion_as_a_plan_is(task):
     from dataclasses import replace
 
     from forte.model.robot import N_BASE
-    from forte.planning.motion_samples import SAMPLES_PER_INTERVAL, sample_motion
-    from forte.planning.verdict import judge_plan
+    from forte.planning.verdict.motion_samples import SAMPLES_PER_INTERVAL, sample_motion
+    from forte.planning.verdict.verdict import judge_plan
 
     mass = task.payload.mass * 1.5
     free = Replanner(task).replan(mass=mass).plan

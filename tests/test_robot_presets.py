@@ -14,7 +14,7 @@ from forte.exceptions import TaskFileError
 from forte.model.presets import ROBOT_PRESETS, preset_robot
 from forte.model.self_collision import ArmGeometry
 from forte.model.urdf_loading import CONTINUOUS_RANGE
-from forte.planning.tasks import task_from_dict
+from forte.planning.tasks.tasks import task_from_dict
 
 
 def _reach(preset: str, forward: float = 0.1, **extra) -> dict:
@@ -51,7 +51,7 @@ def test_each_preset_plans_feasibly_and_executes_in_mujoco(preset, tmp_path):
 def test_an_arm_of_another_size_gets_its_own_defaults_and_a_wrong_list_names_the_field(tmp_path):
     task = task_from_dict(_reach("ur5"), tmp_path / "task.yaml")  # the weight set's lists are the Panda's
     assert task.robot.n_arm == 6
-    from forte.planning.capability_terms import JointLimits
+    from forte.planning.terms.capability_terms import JointLimits
 
     w = JointLimits.from_settings(task.settings).weights_for(task.robot.n_arm)
     dof = JointLimits.setting_values(task.settings)["dof_weights"]
@@ -116,7 +116,7 @@ def test_a_preset_plans_from_the_users_own_start_posture(tmp_path):
     the Panda's, not the Kinova's: from [0, 3.6, 1.2, 0, 1.5, 0] joint 3 stays near its start; pulled to the middle
     of its range (3.14 rad, the elbow straight) the plan swings it there from the first step and
     breaks the velocity limit at any duration (the reported failure)."""
-    from forte.planning.capability_terms import JointLimits
+    from forte.planning.terms.capability_terms import JointLimits
 
     task = task_from_dict(_own_posture(), tmp_path / "task.yaml")
     assert JointLimits.from_settings(task.settings).centre_for(task.robot.n_arm) == "nominal"

@@ -91,7 +91,7 @@ def test_mjcf_world_geoms_become_bodies_and_meshes_keep_their_file_frame(tmp_pat
 
 
 def test_a_scene_file_adds_to_the_task_scene_and_bad_files_name_the_field(tmp_path):
-    from forte.planning.tasks import task_from_dict
+    from forte.planning.tasks.tasks import task_from_dict
 
     (tmp_path / "room.urdf").write_text(URDF)
     task = {"path": {"kind": "waypoints", "relative": True, "samples": 5,
@@ -110,7 +110,7 @@ def test_a_scene_file_adds_to_the_task_scene_and_bad_files_name_the_field(tmp_pa
 
 
 def test_a_mesh_entry_is_read_once_and_relative_to_the_task_file(tmp_path):
-    from forte.planning.tasks import task_from_dict
+    from forte.planning.tasks.tasks import task_from_dict
 
     _write_stl(tmp_path / "wedge.stl")
     task = {"path": {"kind": "waypoints", "relative": True, "samples": 5,

@@ -16,8 +16,8 @@ from forte.model.body_spheres import _vertices, capsule_of, primitive_centres, r
 from forte.model.robot import default_robot
 from forte.model.scene import Box, Capsule, Cylinder, SceneObject, Sphere, pose_matrix, proxy_distance
 from forte.model.self_collision import arm_geometry
-from forte.planning.collision_kernels import SLOT_SIZE, build_collision_kernels
-from forte.planning.collision_slots import assign_slots, pair_distances, trajectory_distances, upright
+from forte.planning.nlp.collision_kernels import SLOT_SIZE, build_collision_kernels
+from forte.planning.nlp.collision_slots import assign_slots, pair_distances, trajectory_distances, upright
 
 SHAPES = [Box((0.4, 0.6, 0.3)), Cylinder(0.15, 0.8), Sphere(0.2), Capsule(0.1, 0.5)]
 
@@ -83,7 +83,7 @@ def test_clearance_kernel_equals_its_numpy_twin_and_its_jacobian_finite_differen
     proxy = upright(body.proxy())
     hand = [i for i, p in enumerate(primitives) if p.frame == robot.n_arm - 1][:3]
     kern = build_collision_kernels(robot, robot.n_arm, len(hand))
-    from forte.planning.collision_slots import _slot
+    from forte.planning.nlp.collision_slots import _slot
 
     params = np.concatenate([_slot(primitives[i], proxy, 0.02) for i in hand])
     for _ in range(5):
@@ -125,7 +125,7 @@ CRATE_TASK = {
 def _exact_clearance_along_the_motion(plan) -> float:
     """The smallest exact clearance (coal, real meshes) over the waypoints and the executed spline."""
     from forte.model.clearance import clearances
-    from forte.planning.motion_samples import sample_motion
+    from forte.planning.verdict.motion_samples import sample_motion
 
     samples = sample_motion(plan.robot, plan.t, plan.q)
     return float(clearances(plan.robot, plan.scene, samples.q).distance.min())
@@ -144,7 +144,7 @@ def _simulated_without_contact(plan, tmp_path: Path) -> None:
 @pytest.mark.slow
 def test_a_crate_on_the_straight_base_path_is_driven_around(tmp_path):
     import forte
-    from forte.planning.tasks import task_from_dict
+    from forte.planning.tasks.tasks import task_from_dict
 
     task = task_from_dict(CRATE_TASK, tmp_path / "crate.yaml")
     guess_distances, _ = trajectory_distances(task.robot, task.nominal(), task.scene)
@@ -166,7 +166,7 @@ def test_a_crate_on_the_straight_base_path_is_driven_around(tmp_path):
 @pytest.mark.parametrize("name", ["table-to-shelf", "through-the-doorway"])
 def test_the_shelf_and_doorway_examples_plan_clear_and_execute_without_contact(name, tmp_path):
     import forte
-    from forte.planning.tasks import load_task
+    from forte.planning.tasks.tasks import load_task
 
     task = load_task(Path(__file__).resolve().parents[1] / "examples" / "tasks" / f"{name}.yaml")
     plan = forte.plan(task)
@@ -176,9 +176,9 @@ def test_the_shelf_and_doorway_examples_plan_clear_and_execute_without_contact(n
 
 
 def test_the_clear_start_keeps_a_clear_guess_and_finds_one_around_the_crate(tmp_path):
-    from forte.planning.ik import initial_guess
-    from forte.planning.scene_guess import clear_start
-    from forte.planning.tasks import task_from_dict
+    from forte.planning.scene.scene_guess import clear_start
+    from forte.planning.tasks.ik import initial_guess
+    from forte.planning.tasks.tasks import task_from_dict
 
     task = task_from_dict(CRATE_TASK, tmp_path / "crate.yaml")
     straight = initial_guess(task)
@@ -193,9 +193,9 @@ def test_the_clear_start_keeps_a_clear_guess_and_finds_one_around_the_crate(tmp_
 
 
 def test_a_wall_through_the_goal_leaves_no_clear_start(tmp_path):
-    from forte.planning.ik import initial_guess
-    from forte.planning.scene_guess import clear_start
-    from forte.planning.tasks import task_from_dict
+    from forte.planning.scene.scene_guess import clear_start
+    from forte.planning.tasks.ik import initial_guess
+    from forte.planning.tasks.tasks import task_from_dict
 
     wall = {"name": "wall", "box": {"size": [0.1, 4.0, 2.0]}, "pose": [3.19, 0.0, 1.0, 0, 0, 0]}
     task = task_from_dict(CRATE_TASK | {"scene": [wall]}, tmp_path / "wall.yaml")
@@ -225,8 +225,8 @@ def test_bad_scene_entries_exit_2_with_one_line(tmp_path):
 
 @pytest.mark.slow
 def test_the_replanner_keeps_clear_of_the_scene_after_a_mass_change_and_a_shift(tmp_path):
-    from forte.planning.replan import Replanner
-    from forte.planning.tasks import task_from_dict
+    from forte.planning.online.replan import Replanner
+    from forte.planning.tasks.tasks import task_from_dict
 
     task = task_from_dict(CRATE_TASK, tmp_path / "crate.yaml")
     replanner = Replanner(task)
@@ -242,8 +242,8 @@ def test_a_wall_through_the_path_is_found_before_any_solve(tmp_path):
     """The hand's own parts cross the wall at a target pose: no motion can keep clear, so the
     optimizer is not run; the verdict is infeasible and names the wall."""
     import forte
-    from forte.planning.scene_solve import blocked_path
-    from forte.planning.tasks import task_from_dict
+    from forte.planning.scene.scene_solve import blocked_path
+    from forte.planning.tasks.tasks import task_from_dict
 
     wall = {"name": "wall", "box": {"size": [0.1, 4.0, 2.0]}, "pose": [2.5, 0.0, 1.0, 0, 0, 0]}
     task = task_from_dict(CRATE_TASK | {"scene": [wall]}, tmp_path / "wall.yaml")
@@ -257,9 +257,9 @@ def test_a_wall_through_the_path_is_found_before_any_solve(tmp_path):
 
 
 def test_self_collision_kernel_equals_its_numpy_twin_and_the_pairs_skip_structural_overlaps():
-    from forte.planning.collision_kernels import SELF_SIZE
-    from forte.planning.collision_slots import _self_slot
-    from forte.planning.self_pairs import HOME_GAP, self_distances, self_pairs
+    from forte.planning.nlp.collision_kernels import SELF_SIZE
+    from forte.planning.nlp.collision_slots import _self_slot
+    from forte.planning.nlp.self_pairs import HOME_GAP, self_distances, self_pairs
 
     robot = default_robot()
     primitives = robot_primitives(robot)
@@ -290,8 +290,8 @@ def test_the_payload_sphere_is_part_of_the_robot_for_the_planner_and_the_check(t
     """A small body right at a target end-effector position, between the fingers: only the payload
     (the sphere MuJoCo's hand holds) touches it, and both the cover and the exact check see it."""
     from forte.model.description import PAYLOAD_RADIUS
-    from forte.planning.scene_solve import blocked_path
-    from forte.planning.tasks import task_from_dict
+    from forte.planning.scene.scene_solve import blocked_path
+    from forte.planning.tasks.tasks import task_from_dict
 
     task = task_from_dict(CRATE_TASK, tmp_path / "crate.yaml")
     primitives = robot_primitives(task.robot)
@@ -311,7 +311,7 @@ def test_a_hold_keeps_clear_of_a_lamp_over_the_arm(tmp_path):
     """Holding (one waypoint, every start of the multi-start solve): one row per pair, no interval."""
     import forte
     from forte.model.clearance import clearances
-    from forte.planning.tasks import load_task
+    from forte.planning.tasks.tasks import load_task
 
     hold = yaml.safe_load((Path(__file__).resolve().parents[1] / "examples" / "tasks" / "hold.yaml").read_text())
     hold["scene"] = [{"name": "lamp", "sphere": {"radius": 0.08}, "pose": [0.62, 0.0, 1.25, 0, 0, 0]}]

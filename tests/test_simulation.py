@@ -21,7 +21,7 @@ from forte.io.plandir import read_plan_dir, write_plan, write_plan_dir
 from forte.model.robot import MOCA_MOUNT, MOCA_TOOL, MobileManipulator, default_robot
 from forte.model.trajectory import quintic_path
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 # The 6 s waypoint lift on the moca-like robot (lift.yaml is now the authors' 10 s taught lift).
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift-path.yaml"

@@ -12,19 +12,19 @@ import pytest
 from scipy.fft import dct, idct
 
 from forte.exceptions import InvalidInputError
-from forte.planning.methods import Method, method_names, register_method, unregister_method
-from forte.planning.motion_terms import BaseSpectral, Smoothness
-from forte.planning.optimizer import TrajectoryOptimizer
+from forte.planning.methods.catalog import Method, method_names, register_method, unregister_method
+from forte.planning.nlp.optimizer import TrajectoryOptimizer
 from forte.planning.planner import plan
-from forte.planning.reference import base_spectral_cost
-from forte.planning.spectral import (
+from forte.planning.tasks.tasks import load_task
+from forte.planning.terms.motion_terms import BaseSpectral, Smoothness
+from forte.planning.terms.reference import base_spectral_cost
+from forte.planning.terms.spectral import (
     DENSE_MAX_WAYPOINTS,
     banded_form,
     dct_matrix,
     neumann_laplacian,
     spectral_form,
 )
-from forte.planning.tasks import load_task
 from forte.settings import CostWeights, SolverOptions, TermSettings
 
 #: J5 with gamma = 1 over the high frequencies (its exact form is sparse: the lifted rows).
@@ -229,7 +229,7 @@ def test_bounds_cover_the_lifted_variables_and_rows(robot, spectral_method):
 
 @pytest.mark.slow
 def test_a_replanner_with_lifted_variables_shifts_its_horizon():
-    from forte.planning.replan import Replanner
+    from forte.planning.online.replan import Replanner
 
     task = load_task(LIFT, waypoints=15)
     task = replace(task, settings=task.settings.with_values("base_spectral", form="banded", reference_waypoints=8))

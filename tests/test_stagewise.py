@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from forte.exceptions import InvalidInputError
-from forte.planning.optimizer import TrajectoryOptimizer
+from forte.planning.nlp.optimizer import TrajectoryOptimizer
+from forte.planning.nlp.solvers.stagewise import StagewiseSolver
+from forte.planning.online.realtime import RealTimeIteration
+from forte.planning.online.replan import Replanner
 from forte.planning.planner import plan, start_guess
-from forte.planning.realtime import RealTimeIteration
-from forte.planning.replan import Replanner
-from forte.planning.solvers.stagewise import StagewiseSolver
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 from forte.settings import SolverOptions
 
 TASKS = Path(__file__).resolve().parents[1] / "examples" / "tasks"
@@ -66,7 +66,7 @@ def test_the_reformulated_problem_is_the_optimizers():
     NLP's at random configurations (an independent evaluation: CasADi's functions of the NLP)."""
     task = load_task(TASKS / "lift.yaml", waypoints=15)
     opt, _ = _optimizers(task)
-    pb = StagewiseSolver(opt).problem
+    pb = StagewiseSolver(opt.stage_nlp()).problem
     f = task.force()
     nominal = task.nominal()
     data = pb.task_data(task.t, task.targets, f.f, f.r, task.q_init, nominal)
@@ -99,7 +99,7 @@ def test_newton_step_solves_the_full_kkt_system():
     """The null-space step equals the solution of the full KKT system (dense NumPy solve)."""
     task = load_task(TASKS / "lift.yaml", waypoints=12)
     opt, _ = _optimizers(task)
-    solver = StagewiseSolver(opt)
+    solver = StagewiseSolver(opt.stage_nlp())
     pb, ip = solver.problem, solver.ip
     f = task.force()
     nominal = task.nominal()
@@ -175,7 +175,7 @@ def test_backend_validation_and_fallback():
 def test_banded_and_dense_reduced_systems_agree(monkeypatch):
     """The banded factorization with the dense rows by Woodbury (long horizons) and the dense one
     reach the same optimum, on a horizon whose J5 has lifted rows (the banded weighting)."""
-    import forte.planning.solvers.interior_point as ipm
+    import forte.planning.nlp.solvers.interior_point as ipm
 
     task = load_task(TASKS / "lift.yaml", waypoints=70)
     results = {}
@@ -239,8 +239,8 @@ def test_the_wrench_term_solves_the_same_with_both_backends():
 def test_kernels_without_a_compiler_give_the_same_numbers():
     """The horizon loop over the compiled kernels and its fallback (CasADi's mapped virtual-machine
     functions, used without a C compiler) agree on every kernel."""
-    from forte.planning.kernels import build_kernels
-    from forte.planning.solvers.native import StageKernels
+    from forte.planning.nlp.kernels import build_kernels
+    from forte.planning.nlp.solvers.native import StageKernels
 
     task = load_task(TASKS / "lift.yaml", waypoints=12)
     opt, _ = _optimizers(task)
@@ -250,7 +250,7 @@ def test_kernels_without_a_compiler_give_the_same_numbers():
                                                                 "stage_terms", "pose", "pose_jac", "pose_hess")),
                                             "virtual-machine"))
     assert native.native and not virtual.native
-    pb = StagewiseSolver(opt).problem
+    pb = StagewiseSolver(opt.stage_nlp()).problem
     f = task.force()
     data = pb.task_data(task.t, task.targets, f.f, f.r, task.q_init, task.nominal())
     rng = np.random.default_rng(5)
@@ -269,11 +269,11 @@ def test_kernels_without_a_compiler_give_the_same_numbers():
 
 @pytest.mark.parametrize("name, waypoints", [("lift.yaml", 41), ("lift.yaml", 70), ("hold.yaml", None)])
 def test_the_compiled_newton_step_equals_numpys(name, waypoints):
-    """The step in C (:mod:`forte.planning.solvers.native_step`) and in NumPy give the same
+    """The step in C (:mod:`forte.planning.nlp.solvers.native_step`) and in NumPy give the same
     direction, multipliers and inertia correction: at the start of the lift (where the Hessian is
     indefinite) with J5's dense blocks coupling distant waypoints (N = 41), with J5's lifted rows
     (N = 70), and at the holding point (one free block)."""
-    from forte.planning.solvers.interior_point import InteriorPoint
+    from forte.planning.nlp.solvers.interior_point import InteriorPoint
 
     task = load_task(TASKS / name, waypoints=waypoints)
     _, opt = _optimizers(task)

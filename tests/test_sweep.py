@@ -119,7 +119,7 @@ def test_an_edited_urdf_changes_the_cell_ids(tmp_path):
 def test_rows_of_a_plan_that_raised_carry_the_task_waypoints(tmp_path):
     """A raised plan's rows get the task's waypoint count, as rows of plans that ran do (the
     figures group rows by task and waypoints)."""
-    from forte.planning.tasks import load_task
+    from forte.planning.tasks.tasks import load_task
 
     start = [0, 0, 0, 0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398]
     up = {"name": "reach-up", "mode": "trajectory", "initial_configuration": start, "payload": {"mass": 1.0},
@@ -152,7 +152,7 @@ def test_rows_carry_the_same_waypoints_whether_planned_or_not(pool_run):
 
 def test_methods_all_and_waypoint_axis(tmp_path):
     from forte.planning.planner import methods_for
-    from forte.planning.tasks import load_task
+    from forte.planning.tasks.tasks import load_task
 
     spec = read_sweep(write_sweep(tmp_path, methods="all", waypoints=[5, 9], simulation=False))
     groups = plan_groups(spec)

@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from forte.exceptions import ForteError, TaskFileError
-from forte.planning.tasks import load_task, task_from_dict
+from forte.planning.tasks.tasks import load_task, task_from_dict
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 
@@ -61,7 +61,7 @@ def test_continuous_example_follows_the_papers_formula():
     np.testing.assert_allclose(task.force().f[:, 2], fz, atol=1e-5)
     dy = w * 0.10 * np.sin(2 * np.pi * 0.2 * t)
     # the paper's formula everywhere but the two samples before the last, which hold the final pose so the
-    # plan can end at rest (forte.planning.paths.ending_at_rest; departure < 0.2 mm here)
+    # plan can end at rest (forte.planning.tasks.paths.ending_at_rest; departure < 0.2 mm here)
     np.testing.assert_allclose(task.targets[:-3, 1, 3] - task.targets[0, 1, 3], dy[:-3], atol=1e-9)
     np.testing.assert_array_equal(task.targets[-3:-1], task.targets[[-1, -1]])
     assert np.abs(task.targets[-3:-1, 1, 3] - task.targets[0, 1, 3] - dy[-3:-1]).max() < 2e-4
@@ -251,7 +251,7 @@ def test_capability_params_override_keeps_the_preset_s_other_fields(tmp_path):
 def test_term_settings_in_the_terms_section_equal_their_older_weights_names(tmp_path):
     """``terms: {manipulability: {lambda: ...}}`` and ``weights: {manipulability_lambda: ...}`` give the
     same settings (the term's own declaration says both); ``terms:`` wins over ``weights:``."""
-    from forte.planning.costs import make_terms
+    from forte.planning.terms.costs import make_terms
 
     def load(**sections):
         data = yaml.safe_load((EXAMPLES / "lift.yaml").read_text()) | sections

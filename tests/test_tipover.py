@@ -19,7 +19,7 @@ from forte.model.base_support import AUTHORS_BASE, TIAGO_BASE, BaseSupport, rect
 from forte.model.presets import preset_robot
 from forte.model.stability import ground_wrench, root_motion, tipover_margin, whole_body_model, zero_moment_point
 from forte.model.twin import CasadiTwin
-from forte.planning.tasks import task_from_dict
+from forte.planning.tasks.tasks import task_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 TIPOVER_TASK = ROOT / "examples" / "tasks" / "tipover.yaml"

@@ -15,8 +15,8 @@ from forte.force.taskforce import TaskForce, given_force
 from forte.model.robot import N_BASE
 from forte.model.self_collision import arm_geometry
 from forte.model.trajectory import clamped_spline
-from forte.planning.motion_samples import sample_motion
-from forte.planning.verdict import FEASIBLE, INFEASIBLE, SOLVER_FAILED, judge, largest_mass
+from forte.planning.verdict.motion_samples import sample_motion
+from forte.planning.verdict.verdict import FEASIBLE, INFEASIBLE, SOLVER_FAILED, judge, largest_mass
 
 ROOT = Path(__file__).resolve().parents[1]
 LIFT = ROOT / "examples" / "tasks" / "lift.yaml"
@@ -220,7 +220,7 @@ def test_task_force_is_a_taskforce():
 
 
 def test_batched_arm_quantities_equal_the_robot_s_own(robot):
-    from forte.planning.motion_samples import arm_quantities
+    from forte.planning.verdict.motion_samples import arm_quantities
 
     rng = np.random.default_rng(5)
     Q = np.column_stack([rng.uniform(-1, 1, (6, 2)), rng.uniform(-3, 3, 6), rng.uniform(robot.lower, robot.upper,
@@ -249,7 +249,7 @@ def test_a_hold_never_picks_a_start_that_turned_the_hand_over():
 def test_capacity_shortfall_covers_every_waypoint_the_refinement_grows():
     """What a refinement round adds to r_k: at least the waypoint's own -d_k where the ball is out,
     and nothing where neither neighbouring interval falls short."""
-    from forte.planning.verdict import capacity_shortfall
+    from forte.planning.verdict.verdict import capacity_shortfall
 
     task = forte.load_task(LIFT)
     res = forte.plan(task, "quintic")  # short of capacity over most of the lift

@@ -15,7 +15,7 @@ from forte.capability.polytope import trajectory_rfp  # noqa: E402
 from forte.cli.main import main  # noqa: E402
 from forte.io.plandir import read_metrics, read_plan_dir, write_plan  # noqa: E402
 from forte.planning.planner import plan  # noqa: E402
-from forte.planning.tasks import load_task  # noqa: E402
+from forte.planning.tasks.tasks import load_task  # noqa: E402
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 

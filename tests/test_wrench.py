@@ -42,11 +42,11 @@ from forte.force.wrench import angular_rates, payload_moment
 from forte.io.plandir import METRIC_COLUMNS, read_metrics, read_plan_dir, write_plan
 from forte.model.trajectory import backward_differences
 from forte.model.twin import CasadiTwin
-from forte.planning.evaluation import evaluate
-from forte.planning.methods import get_method
+from forte.planning.methods.catalog import get_method
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
-from forte.planning.wrench_terms import WRENCH_TERM, for_requirement, term_values
+from forte.planning.tasks.tasks import load_task
+from forte.planning.terms.wrench_terms import WRENCH_TERM, for_requirement, term_values
+from forte.planning.verdict.evaluation import evaluate
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 PARAMS = CapabilityParameters(alpha=0.8)
@@ -283,8 +283,8 @@ def test_moment_columns_against_m_a_minus_g_and_the_offset_by_hand(tmp_path):
 def test_the_wrench_term_and_the_method_that_uses_it(robot):
     """The optimizer's stage expression equals the numpy surrogate at a random waypoint; ``forte``
     is solved with ``wrench_capability`` when the force carries a moment, unchanged otherwise."""
-    from forte.planning.costs import Stage
-    from forte.planning.wrench_terms import WrenchCapability
+    from forte.planning.terms.costs import Stage
+    from forte.planning.terms.wrench_terms import WrenchCapability
 
     twin = CasadiTwin(robot)
     nq = robot.nq
@@ -326,7 +326,7 @@ def test_an_offset_payload_plan_keeps_the_wrench_margin_the_force_only_plan_lose
     assert force_plan.feasible and "mx" not in force_plan.metrics  # feasible for the force alone
     judged = evaluate(task.robot, force_plan.q, task.t, task.force(), task.settings.capability_params)
     assert np.min(judged["d"]) < -1.0
-    from forte.planning.verdict import judge_plan
+    from forte.planning.verdict.verdict import judge_plan
 
     assert "capacity" in judge_plan(task, force_plan.q, task.force()).failed
 

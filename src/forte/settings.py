@@ -7,7 +7,7 @@ the reports can all import these dataclasses without importing one another:
   surrogate's ``beta``); ``alpha`` lives here and nowhere else;
 - :class:`CostWeights`: the weights ``w_i`` of the cost terms (weights only);
 - :class:`TermSettings`: the cost terms' parameters, term -> {setting: value} (each term declares
-  its settings, defaults and units itself, :mod:`forte.planning.costs`); a named
+  its settings, defaults and units itself, :mod:`forte.planning.terms.costs`); a named
   :class:`WeightSet` (:data:`WEIGHT_SETS`) is weights plus settings;
 - :class:`SolverOptions`: IPOPT and code-generation options;
 - :class:`KinematicLimits`: joint velocity and acceleration limits of the planned motion.
@@ -76,10 +76,10 @@ class CapabilityParameters:
         _require(_finite(self.knee) and self.knee >= 0, "knee", "a finite number >= 0", self.knee)
 
 
-#: Values of the ``collision`` term's ``model`` (see :class:`forte.planning.motion_terms.Collision`).
+#: Values of the ``collision`` term's ``model`` (see :class:`forte.planning.terms.motion_terms.Collision`).
 COLLISION_MODELS = ("authors", "box")
 
-#: Values of the ``base_spectral`` term's ``form`` (see :func:`forte.planning.spectral.spectral_form`).
+#: Values of the ``base_spectral`` term's ``form`` (see :func:`forte.planning.terms.spectral.spectral_form`).
 DCT_FORMS = ("auto", "exact", "dense", "banded")
 
 
@@ -88,14 +88,14 @@ class CostWeights:
     """The weights ``w_i`` of the cost terms (one number >= 0 per weight; nothing else).
 
     A term's parameters are its own (:class:`TermSettings`, declared by the term: name, default,
-    unit, check; :mod:`forte.planning.costs`). A term takes its weight from the field named by its
+    unit, check; :mod:`forte.planning.terms.costs`). A term takes its weight from the field named by its
     ``weight_field`` (default: its name); a term with no field here (e.g. ``tipover``) uses its
     ``default_weight`` unless the method or the task's ``terms:`` gives one. The defaults are the
     authors' trajectory set; named sets (weights and settings) live in :data:`WEIGHT_SETS`.
 
     Attributes:
         preset: name of the set these weights come from (methods tune per set, see
-            :attr:`forte.planning.methods.Method.tuning`).
+            :attr:`forte.planning.methods.catalog.Method.tuning`).
         capability, manipulability, joint_limits: ``w_1..w_3``.
         smoothness: arm smoothness weight (J4 over the arm joints).
         base_smoothness: base smoothness weight (J4 over x, y, yaw).
@@ -123,7 +123,7 @@ class CostWeights:
 
 class TermSettings(Mapping[str, Mapping[str, Any]]):
     """The parameters of a plan's cost terms: term name -> {setting: value}, only the values that
-    differ from the term's declared default (:meth:`forte.planning.costs.CostTerm.declared`
+    differ from the term's declared default (:meth:`forte.planning.terms.costs.CostTerm.declared`
     fills the rest and checks each value). Immutable; :meth:`with_values` gives a changed copy.
 
     >>> TermSettings({"joint_limits": {"margin": 0.2}}).with_values("capability", alpha=0.7)["capability"]
@@ -291,7 +291,7 @@ class SolverOptions:
             where the NLP's waypoint view falls short of the executed motion (capacity, arm
             accelerations; :func:`forte.planning.planner._refine`); 0 returns the NLP's own optimum.
         backend: ``ipopt`` (default, the reference) or ``stagewise``, the stage-structured
-            interior-point method of :mod:`forte.planning.solvers` (same problem, same
+            interior-point method of :mod:`forte.planning.nlp.solvers` (same problem, same
             convergence test; several times faster per re-plan; problems with a scene or a
             differential base go to IPOPT).
     """

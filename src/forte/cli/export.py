@@ -59,7 +59,7 @@ def run_robot_export(args: argparse.Namespace) -> int:
         raise InvalidInputError(f"{args.file}: expected a file name in an existing folder")
     scene = None
     if args.task is not None:
-        from forte.planning.tasks import load_task
+        from forte.planning.tasks.tasks import load_task
 
         task = load_task(args.task)
         robot, scene = task.robot, task.scene

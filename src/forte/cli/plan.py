@@ -16,12 +16,12 @@ from forte.io.outputs import check_output, output_lock, replace_directory
 from forte.io.plandir import plan_summary, write_plan
 from forte.io.reports import write_comparison
 from forte.planning.bounds import PayloadBound, replanned_bound
-from forte.planning.methods import method_names
+from forte.planning.methods.catalog import method_names
 from forte.planning.planner import Plan, compare, methods_for, plan, resolve_payload
-from forte.planning.posture import start_posture
-from forte.planning.sanity import check_force_capacity
-from forte.planning.tasks import Task, load_task
-from forte.planning.verdict import exit_code
+from forte.planning.tasks.posture import start_posture
+from forte.planning.tasks.tasks import Task, load_task
+from forte.planning.verdict.sanity import check_force_capacity
+from forte.planning.verdict.verdict import exit_code
 from forte.settings import SOLVER_BACKENDS
 
 
@@ -114,7 +114,7 @@ def _with_bound(args: argparse.Namespace, res: Plan) -> Plan:
 
 
 def _bound_text(res: Plan) -> str:
-    """What was tried about the payload, exactly (:func:`~forte.planning.verdict.judge_plan`'s
+    """What was tried about the payload, exactly (:func:`~forte.planning.verdict.verdict.judge_plan`'s
     bound: the plan's own motion at lighter loads; :func:`replanned_bound`: re-plans), and what
     would fix the plan where the verdict can tell."""
     verdict = res.verdict

@@ -30,7 +30,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from forte.exceptions import InvalidInputError
     from forte.io.ros_node import require_rclpy, run_node
-    from forte.planning.tasks import load_task
+    from forte.planning.tasks.tasks import load_task
 
     if not 0 <= args.start_timeout <= 600:
         raise InvalidInputError(f"--start-timeout: expected 0 to 600 s, got {args.start_timeout}")

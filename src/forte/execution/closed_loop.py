@@ -7,7 +7,7 @@ While the controllers of :mod:`forte.execution.run` track the plan at 1 kHz, a
    :class:`~forte.execution.identification.PayloadIdentifier`;
 2. at ``rate_hz`` (10 Hz) compares the estimate with the mass the current plan was made for and,
    when they differ by more than ``max(threshold * m_plan, 3 sigma, min_change)``, re-plans the
-   remaining horizon with a warm :class:`~forte.planning.replan.Replanner`: the horizon is shifted
+   remaining horizon with a warm :class:`~forte.planning.online.replan.Replanner`: the horizon is shifted
    to the next waypoint (its planned configuration is the new start) and solved for the new
    mass;
 3. splices the new plan into the reference from that waypoint on (configurations, their
@@ -40,7 +40,7 @@ from forte.execution.control import Reference, interpolate_plan
 from forte.execution.identification import PayloadIdentifier, WholeBodyTorqueModel
 from forte.execution.model import SimModel
 from forte.model.robot import N_BASE
-from forte.planning.replan import Replanner
+from forte.planning.online.replan import Replanner
 from forte.validation import FloatArray
 
 #: Smallest payload mass a re-plan is made for (kg).
@@ -233,7 +233,7 @@ def task_of_plan(plan_dir: Path, plan: Any) -> Any:
     """The task a plan directory was planned for, rebuilt from the definition its plan.json records."""
     import json
 
-    from forte.planning.tasks import task_from_dict
+    from forte.planning.tasks.tasks import task_from_dict
 
     doc = json.loads((Path(plan_dir) / "plan.json").read_text(encoding="utf-8"))
     record = doc.get("task") if isinstance(doc, dict) else None
@@ -260,6 +260,6 @@ def make_replan_loop(plan_dir: Path, plan: Any, sim: SimModel, reference: Refere
 
 
 def replanner_of_plan(plan_dir: Path, plan: Any, backend: str | None = None) -> Replanner:
-    """A warm :class:`~forte.planning.replan.Replanner` of the plan in ``plan_dir`` (its method, its
+    """A warm :class:`~forte.planning.online.replan.Replanner` of the plan in ``plan_dir`` (its method, its
     task; ``backend``: the NLP solver, default the task's)."""
     return Replanner(task_of_plan(plan_dir, plan), plan.method, backend=backend)

@@ -15,11 +15,11 @@ of simulated time (100 Hz: every 10th 1 ms control step) and at each tick
 2. solves when the plan in force is stale: when the simulated time has passed a waypoint of the
    task's grid (lift: 0.25 s) that the planner's horizon has not reached, the horizon shifts
    there with the *measured* configuration as its first waypoint, moving as the controller's
-   reference moves there (``MpcOptions.start``; :meth:`~forte.planning.replan.Replanner.shift`,
-   :mod:`forte.planning.history`); otherwise, when the mass differs from the
+   reference moves there (``MpcOptions.start``; :meth:`~forte.planning.online.replan.Replanner.shift`,
+   :mod:`forte.planning.nlp.history`); otherwise, when the mass differs from the
    plan in force's by ``max(threshold m, 3 sigma, min_change)`` or more, or the planner holds a
    solution that was not published, the current horizon is re-solved
-   (:meth:`~forte.planning.replan.Replanner.replan`); otherwise nothing. Every solve goes through
+   (:meth:`~forte.planning.online.replan.Replanner.replan`); otherwise nothing. Every solve goes through
    :meth:`MpcLoop._solve_tick`;
 3. publishes a solve that converged within its deadline (``deadline_s``, default
    ``1 / rate_hz``; measured: the wall-clock latency of the re-plan call, its metrics and verdict
@@ -59,9 +59,9 @@ from forte.execution.control import Reference
 from forte.execution.model import SimModel
 from forte.force.taskforce import TaskForce
 from forte.model.trajectory import motion_at
+from forte.planning.online.realtime import RealTimeIteration
+from forte.planning.online.replan import ReplanResult
 from forte.planning.planner import evaluate
-from forte.planning.realtime import RealTimeIteration
-from forte.planning.replan import ReplanResult
 from forte.settings import SOLVER_BACKENDS
 from forte.validation import FloatArray
 
@@ -90,7 +90,7 @@ class MpcOptions:
         estimates: asynchronous estimates ``(t, kg)``: ``kg`` arrives at simulated time ``t``.
         source: polled at every tick with the simulated time; returns a new estimate (kg) or ``None``.
         solver: ``"rti"`` (default): one real-time iteration of the stagewise solver per tick
-            (:class:`~forte.planning.realtime.RealTimeIteration`), also between changes until it
+            (:class:`~forte.planning.online.realtime.RealTimeIteration`), also between changes until it
             has converged; ``"converged"``: a warm re-plan to convergence with ``backend``.
         backend: the NLP solver of ``"converged"`` solves (``stagewise`` or ``ipopt``; ``"rti"``
             always uses ``stagewise``).
@@ -105,7 +105,7 @@ class MpcOptions:
             ``"keep"`` the plan in force (not solved again before the next waypoint unless the
             mass departs), or ``"stop"`` at the next waypoint; these two wait for the verdict,
             whose time then counts against the deadline. Real-time iterations have no verdict (a
-            step is published when sound: :mod:`forte.planning.realtime`).
+            step is published when sound: :mod:`forte.planning.online.realtime`).
     """
 
     rate_hz: float = 100.0

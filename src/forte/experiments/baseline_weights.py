@@ -27,7 +27,7 @@ from forte.experiments.claims import Check, Claim, compare, runs
 from forte.experiments.common import MANIP_LABEL, Case, Log, metrics, save, sim_text, simulate_runs, style
 from forte.io.figures import pyplot
 from forte.io.plandir import write_plan
-from forte.planning.methods import METHODS, Method
+from forte.planning.methods.catalog import METHODS, Method
 from forte.planning.planner import Plan, plan
 from forte.settings import CostWeights
 

@@ -138,7 +138,7 @@ def _no_runs(sim: dict[str, Any] | None) -> str:
 def every_run(case: Case, method: str, success: bool = True) -> Check:
     """``method`` succeeds (or, with ``success=False``, fails) in every simulated run of ``case``.
 
-    A success also needs the plan's verdict to be ``feasible`` (:mod:`forte.planning.verdict`): a
+    A success also needs the plan's verdict to be ``feasible`` (:mod:`forte.planning.verdict.verdict`): a
     run that happens to get through with a plan short of its requirements is not counted."""
     verb = "succeeds" if success else "fails"
     what = f"{method} {verb} in every run (nominal + mass-error trials)" + (" with a feasible plan" if success else "")

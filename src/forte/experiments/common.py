@@ -23,9 +23,9 @@ from forte.io.plandir import FORMAT_VERSION, TRAJECTORY_FILE, plan_summary, writ
 from forte.io.reports import jsonable, package_versions
 from forte.model.description import torque_limit_set
 from forte.model.presets import torque_limit_name, with_torque_limits
-from forte.planning.methods import METHODS, method_names
+from forte.planning.methods.catalog import METHODS, method_names
 from forte.planning.planner import Plan, plan
-from forte.planning.tasks import Task, load_task
+from forte.planning.tasks.tasks import Task, load_task
 from forte.settings import weight_set
 
 TASKS_DIR = Path(__file__).resolve().parents[3] / "examples" / "tasks"
@@ -273,7 +273,7 @@ def write_summary(directory: Path, title: str, intro: list[str], cases: list[Cas
         settings = {**settings, "weight_set": weights.preset, "torque_limit_set": name,
                     "torque_limits": limits.tolist()}
         intro = [*intro, f"Weight set: `{weights.preset}` (alpha {alpha:g}); each baseline applies its "
-                 "own changes to it (`forte.planning.methods`).",
+                 "own changes to it (`forte.planning.methods.catalog`).",
                  f"Torque limits: `{name}`, {'/'.join(f'{v:g}' for v in limits)} Nm ({LIMIT_TEXT.get(name, 'given')})"
                  ", in planning and in every MuJoCo run."]
     doc = {

@@ -3,7 +3,7 @@
 The three example tasks (:data:`TASKS`: ``examples/tasks/push-box.yaml``, ``drawer.yaml`` and
 ``carry-with-partner.yaml``), each planned by forte and the paper's baselines (:data:`ROWS`), with
 the force of its physics model (:mod:`forte.force.contact`). Every plan is judged by the verdict
-(:mod:`forte.planning.verdict`: its min capacity margin ``d`` over the force, or wrench, ball) and
+(:mod:`forte.planning.verdict.verdict`: its min capacity margin ``d`` over the force, or wrench, ball) and
 executed in MuJoCo with the contact modelled (:mod:`forte.execution.contact_objects`) twice: with
 the task's own object, and with the object's resistance raised by the ball's radius ``r`` (the edge
 of what the verdict covers): the box's friction ``mu + r / (m g)``, the drawer's friction
@@ -30,7 +30,7 @@ from forte.io.outputs import GENERATOR, replace_directory
 from forte.io.plandir import FORMAT_VERSION, write_plan
 from forte.io.reports import package_versions
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 #: The contact tasks (example task files), in table order.
 TASKS: tuple[str, ...] = ("push-box", "drawer", "carry-with-partner")

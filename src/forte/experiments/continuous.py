@@ -38,7 +38,7 @@ from forte.io.figures import pyplot
 from forte.io.outputs import replace_directory
 from forte.io.plandir import write_plan
 from forte.planning.planner import Plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 LABEL = "force profile (Section 5.2)"
 
@@ -173,7 +173,7 @@ def continuous_notes(results: dict[str, Plan]) -> list[str]:
     margins = ", ".join(f"{m} {np.min(res.metrics['capacity_margin']):.1f}" for m, res in results.items())
     return [
         "Solver status per method: " + ", ".join(f"{m} {res.status}" for m, res in results.items())
-        + ". The plan column is each plan's verdict (forte.planning.verdict); a plan marked solver-failed "
+        + ". The plan column is each plan's verdict (forte.planning.verdict.verdict); a plan marked solver-failed "
           "is the solver's last iterate and its claims fail. Verdicts: "
         + "; ".join(f"{m} {res.label}" + (f" ({res.verdict.brief()})" if not res.feasible else "")
                     for m, res in results.items()) + ".",

@@ -38,7 +38,7 @@ from forte.io.outputs import GENERATOR, replace_directory
 from forte.io.plandir import FORMAT_VERSION, write_plan
 from forte.io.reports import jsonable, package_versions
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 PLANNED_MASS = 0.35
 RATE_HZ = 100.0
@@ -72,7 +72,7 @@ MODES: dict[str, tuple[str, str, dict[str, Any]]] = {
 #: How to read the table (the numbers are in it and in the findings).
 NOTES = [
     "Notes:", "",
-    "- 'real-time iterations': one Newton step of the stagewise solver per tick (`forte.planning.realtime`), "
+    "- 'real-time iterations': one Newton step of the stagewise solver per tick (`forte.planning.online.realtime`), "
     "on the newest problem, also between changes until the iterate has converged; a step is published when it "
     "is sound (finite, constraint violation <= 1e-3) and within the 10 ms deadline. 'converged': a warm re-plan "
     "to convergence per change, with the stagewise solver or IPOPT (the re-planner's solve before issue 29); "
@@ -81,7 +81,7 @@ NOTES = [
     "the same MPC running at the rate its solver allows.",
     "- shifts: a shifted horizon starts at the measured configuration, moving as the controller's reference "
     "moves there (the backward differences of the two waypoints in force before the splice and the measured "
-    "configuration: `MpcOptions.start`, `forte.planning.history`), so the new plan's dynamics over its first "
+    "configuration: `MpcOptions.start`, `forte.planning.nlp.history`), so the new plan's dynamics over its first "
     "waypoints are those the spliced reference executes. 'shifts from the measured velocity' starts it with the "
     "measured joint velocity instead, 'shifts at rest' at rest (what every shift did before): the ablations.",
     "- min d of the MPC: the smallest margin of the plan in force at each tick, over its waypoints after the "

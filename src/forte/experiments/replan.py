@@ -31,7 +31,7 @@ from forte.io.outputs import GENERATOR, replace_directory
 from forte.io.plandir import FORMAT_VERSION, write_plan
 from forte.io.reports import package_versions
 from forte.planning.planner import plan
-from forte.planning.tasks import load_task
+from forte.planning.tasks.tasks import load_task
 
 PLANNED_MASS = 0.35
 SCENARIOS: dict[str, dict[str, Any]] = {

@@ -11,7 +11,7 @@ end-effector frame). For each offset, the plans compared (:data:`ROWS`):
 - the paper's baselines (``manipulability``, ``rfp-radius``, ``rfp-cone``, ``quintic``), planned
   for the true payload (their objectives ignore the moment).
 
-Every plan is judged on the true wrench (the verdict, :mod:`forte.planning.verdict`, its min wrench
+Every plan is judged on the true wrench (the verdict, :mod:`forte.planning.verdict.verdict`, its min wrench
 margin ``d`` and its min tip-over margin) and executed in MuJoCo with the true payload at its
 centre of mass and the true wrench's feedforward (:mod:`forte.execution.run`), so the rows differ
 in their motion only, twice: at the nominal 2.7 kg and at the heaviest static payload the
@@ -44,10 +44,10 @@ from forte.io.outputs import GENERATOR, replace_directory
 from forte.io.plandir import FORMAT_VERSION, write_plan
 from forte.io.reports import package_versions
 from forte.model.description import N_BASE
-from forte.planning.evaluation import evaluate
 from forte.planning.planner import Plan, plan
-from forte.planning.tasks import Task, load_task
-from forte.planning.verdict import judge_plan
+from forte.planning.tasks.tasks import Task, load_task
+from forte.planning.verdict.evaluation import evaluate
+from forte.planning.verdict.verdict import judge_plan
 
 #: Centre-of-mass offsets (m) to the side of the hand.
 OFFSETS: tuple[float, ...] = (0.0, 0.1, 0.2)

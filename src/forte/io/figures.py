@@ -1,6 +1,6 @@
 """Figures of plans and comparisons (matplotlib, Agg backend: no display needed).
 
-Every figure uses the method colours and labels of :data:`forte.planning.methods.METHODS`, puts
+Every figure uses the method colours and labels of :data:`forte.planning.methods.catalog.METHODS`, puts
 its legend outside the data, labels its axes with units and says what each symbol is: ``f`` the
 desired end-effector force, ``r`` the radius of its uncertainty ball, ``d`` the signed distance
 of the ball to the RFP boundary (negative: the ball leaves the polytope). The file format is that
@@ -23,7 +23,7 @@ from forte.exceptions import InvalidInputError
 from forte.io.figure_processes import run_split, take_worker
 from forte.model.description import BASE_BOX_HALF_XY
 from forte.model.scene import Box, Capsule, Cylinder, Mesh, SceneObject, mesh_vertices
-from forte.planning.methods import METHODS
+from forte.planning.methods.catalog import METHODS
 from forte.planning.planner import Plan
 
 FORMATS = ("png", "pdf", "svg")

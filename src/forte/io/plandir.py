@@ -47,9 +47,9 @@ from forte.model.robot import MobileManipulator, robot_from_description
 from forte.model.scene import DEFAULT_FLOOR, Scene, scene_from_json
 from forte.model.trajectory import trajectory_header
 from forte.planning.planner import Plan
-from forte.planning.posture import start_posture
-from forte.planning.verdict import Verdict, judge
-from forte.planning.weights_section import settings_record, weights_record
+from forte.planning.tasks.posture import start_posture
+from forte.planning.tasks.weights_section import settings_record, weights_record
+from forte.planning.verdict.verdict import Verdict, judge
 from forte.settings import CapabilityParameters
 from forte.validation import (
     MAX_DURATION_S,
@@ -142,7 +142,7 @@ def write_plan_dir(plan_dir: str | Path, robot: MobileManipulator, t: Any, q: An
     ``force`` (N x 3, world frame) defaults to ``(m + m_tool) (a - g)`` of the end-effector
     waypoints (``m_tool``: the robot's ``tool_force_mass``) when ``mass`` is given
     (:func:`forte.force.taskforce.payload_force`), else to zero. The plan is judged like a
-    planned one (:func:`forte.planning.verdict.judge`, the default ``alpha`` and kinematic
+    planned one (:func:`forte.planning.verdict.verdict.judge`, the default ``alpha`` and kinematic
     limits), except tracking: there is no task path to follow.
     """
     times = check_times(t, "t")
@@ -217,7 +217,7 @@ def plan_document(plan: Plan) -> dict[str, Any]:
         if (posture := start_posture(task)) is not None:  # poor (near a limit, singular, self-colliding) or not
             doc["start_posture"] = posture.to_json()
     if plan.metrics:
-        from forte.planning.sanity import negative_margins
+        from forte.planning.verdict.sanity import negative_margins
 
         doc["summary"] = plan_summary(plan)
         doc["capacity"] = negative_margins(plan.metrics)  # where the force ball leaves the RFP (d < 0)

@@ -7,7 +7,7 @@ Topics (names relative to the node's namespace; the defaults are absolute):
   trajectory below, in any order; missing ones keep the task's value), else from the task's own
   initial configuration;
 - subscribes ``/forte/payload_mass`` (``std_msgs/Float64``, kg): every new mass is re-planned
-  with the warm re-planner (:class:`forte.planning.replan.Replanner`: the last primal-dual
+  with the warm re-planner (:class:`forte.planning.online.replan.Replanner`: the last primal-dual
   solution, a few Newton steps);
 - publishes ``/forte/joint_trajectory`` (``trajectory_msgs/JointTrajectory``): joint names
   ``base_x``, ``base_y``, ``base_yaw`` and the arm's joints; positions, velocities (backward
@@ -42,9 +42,9 @@ import numpy as np
 from forte.exceptions import ForteError, InvalidInputError
 from forte.model.description import N_BASE
 from forte.model.trajectory import backward_differences
+from forte.planning.online.replan import Replanner
 from forte.planning.planner import Plan
-from forte.planning.replan import Replanner
-from forte.planning.tasks import Task
+from forte.planning.tasks.tasks import Task
 
 #: The base joints' names in the published trajectory and the joint states read.
 BASE_JOINT_NAMES = ("base_x", "base_y", "base_yaw")

@@ -34,7 +34,7 @@ from forte.exceptions import InvalidInputError
 from forte.io.export import whole_body_urdf
 from forte.io.plandir import read_metrics, read_plan_dir
 from forte.model.scene import Box, Capsule, Cylinder, Scene, Sphere, mesh_vertices
-from forte.planning.methods import METHODS
+from forte.planning.methods.catalog import METHODS
 
 #: Length of the force arrow in the robot scene (m per N).
 FORCE_SCALE = 0.005

@@ -1,7 +1,7 @@
 """Collision geometry of a mobile manipulator: spheres fixed to the end effector or to the base.
 
 The one owner of the sphere lists. The ``collision`` cost term
-(:class:`forte.planning.motion_terms.Collision`) penalizes every pair (end-effector sphere,
+(:class:`forte.planning.terms.motion_terms.Collision`) penalizes every pair (end-effector sphere,
 base sphere) that comes closer than a safe distance.
 
 A sphere hangs on a frame of the robot and its centre is given in that frame's axes (m):

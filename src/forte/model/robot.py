@@ -90,7 +90,7 @@ class MobileManipulator:
         base: How the base moves (:data:`BASE_MODES`): ``holonomic`` (x, y, yaw free),
             ``differential`` (no lateral velocity in the base frame) or ``fixed`` (it stays at
             the initial configuration's base). Not part of the kinematics or the kernels: the
-            planner imposes it with bounds and rows (:mod:`forte.planning.base_rows`).
+            planner imposes it with bounds and rows (:mod:`forte.planning.nlp.base_rows`).
         base_support: The base's support polygon, mass and centre of mass
             (:class:`~forte.model.base_support.BaseSupport`, or its dict); ``None``: not stated
             (no tip-over margin, :mod:`forte.model.stability`).

@@ -188,7 +188,7 @@ class Scene(NamedTuple):
     """Static bodies around the robot (empty: planning in free space, as the paper does) and the
     floor's height (m; ``None``: no floor). ``bool(scene)`` says whether there are bodies: the
     floor alone does not send a plan through the scene's solve (the planner gives it rows only
-    when the robot comes near it, :mod:`forte.planning.scene_solve`)."""
+    when the robot comes near it, :mod:`forte.planning.scene.scene_solve`)."""
 
     objects: tuple[SceneObject, ...] = ()
     floor: float | None = DEFAULT_FLOOR

@@ -29,7 +29,7 @@ support polygon's edge (:meth:`~forte.model.base_support.BaseSupport.margin`, m,
 the base tips when it is negative. With ``F_z <= 0`` (the floor pulls) the margin is ``-inf``.
 
 The NLP's smooth version (the same Newton-Euler sums in CasADi,
-:meth:`forte.model.twin.CasadiTwin.ground_wrench`) is the term of :mod:`forte.planning.tipover_terms`.
+:meth:`forte.model.twin.CasadiTwin.ground_wrench`) is the term of :mod:`forte.planning.terms.tipover_terms`.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 When a plan's verdict fails on capacity or torque, two bounds answer "how much could it carry?":
 
 - ``fixed_motion_kg``: with the plan's own motion (computed with the verdict,
-  :func:`forte.planning.verdict.fixed_motion_bound`: the force recomputed for each mass, the
+  :func:`forte.planning.verdict.verdict.fixed_motion_bound`: the force recomputed for each mass, the
   motion unchanged);
 - ``replanned_kg`` (:func:`replanned_bound`): with the method re-planning the task for each mass,
   by bisection on the verdict of the new plan. The largest mass whose plan was judged feasible is
@@ -15,8 +15,8 @@ from __future__ import annotations
 from typing import NamedTuple
 
 from forte.planning.planner import plan
-from forte.planning.tasks import Task
-from forte.planning.verdict import MIN_MASS, largest_mass
+from forte.planning.tasks.tasks import Task
+from forte.planning.verdict.verdict import MIN_MASS, largest_mass
 
 #: Mass resolution (kg) of the re-planned bound (each step is one solve).
 REPLANNED_RESOLUTION = 0.05

@@ -1,7 +1,7 @@
-"""Planning: from a validated :class:`~forte.planning.tasks.Task` to a :class:`Plan` and its metrics.
+"""Planning: from a validated :class:`~forte.planning.tasks.tasks.Task` to a :class:`Plan` and its metrics.
 
-The methods are the entries of :data:`forte.planning.methods.METHODS`: optimized ones solve the
-NLP of :mod:`forte.planning.optimizer` with their cost terms, the others produce their
+The methods are the entries of :data:`forte.planning.methods.catalog.METHODS`: optimized ones solve the
+NLP of :mod:`forte.planning.nlp.optimizer` with their cost terms, the others produce their
 configurations directly (the quintic path + IK, the teaching configuration).
 """
 
@@ -21,18 +21,18 @@ from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import backward_differences
-from forte.planning.diagnosis import failed_rows
-from forte.planning.evaluation import evaluate
-from forte.planning.ik import initial_guess
-from forte.planning.methods import METHODS, Method, get_method, method_names
-from forte.planning.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
-from forte.planning.requirements import TRACKING_ORIENTATION_TOL, orientation_errors
-from forte.planning.scene_guess import clear_start
-from forte.planning.scene_solve import blocked_path, floor_near, needs_rows, solve_in_scene
-from forte.planning.tasks import Task
-from forte.planning.terms_section import term_settings, term_values, with_task_terms
-from forte.planning.verdict import SOLVER_FAILED, Verdict, capacity_shortfall, judge_plan, limit_ratios
-from forte.planning.wrench_terms import for_requirement, uses_capability
+from forte.planning.methods.catalog import METHODS, Method, get_method, method_names
+from forte.planning.nlp.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
+from forte.planning.scene.diagnosis import failed_rows
+from forte.planning.scene.scene_guess import clear_start
+from forte.planning.scene.scene_solve import blocked_path, floor_near, needs_rows, solve_in_scene
+from forte.planning.tasks.ik import initial_guess
+from forte.planning.tasks.tasks import Task
+from forte.planning.tasks.terms_section import term_settings, term_values, with_task_terms
+from forte.planning.terms.wrench_terms import for_requirement, uses_capability
+from forte.planning.verdict.evaluation import evaluate
+from forte.planning.verdict.requirements import TRACKING_ORIENTATION_TOL, orientation_errors
+from forte.planning.verdict.verdict import SOLVER_FAILED, Verdict, capacity_shortfall, judge_plan, limit_ratios
 from forte.validation import FloatArray
 
 
@@ -52,7 +52,7 @@ class Plan:
             optimized), and the solver's or producer's status.
         solver: solver facts (iterations, times, cost terms, ...).
         task: the task it solves (``None`` for a plan read from disk).
-        verdict: whether the plan can be executed (:mod:`forte.planning.verdict`; ``None`` when
+        verdict: whether the plan can be executed (:mod:`forte.planning.verdict.verdict`; ``None`` when
             not judged).
         scene: the task's scene (:mod:`forte.model.scene`), recorded in plan.json for
             ``forte simulate``, ``forte view`` and the exports.
@@ -155,7 +155,7 @@ def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]
 def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:
     """The optimizer's initial guess: the nominal trajectory for taught configurations (the
     authors' joint-space interpolation), else IK along the path / onto the pose; with a scene,
-    base poses that keep the robot clear of it where :func:`~forte.planning.scene_guess.clear_start`
+    base poses that keep the robot clear of it where :func:`~forte.planning.scene.scene_guess.clear_start`
     finds them."""
     if task.knots is not None:
         guess = task.nominal() if nominal is None else nominal
@@ -176,7 +176,7 @@ def _solve_clear(task: Task, method: Method, force: TaskForce, q: FloatArray, no
                  opt: TrajectoryOptimizer | None = None, self_rows: bool = False
                  ) -> tuple[TrajectoryOptimizer, SolverResult, dict | None]:
     """Solve from ``q``: with clearance rows when the task has bodies or ``q`` comes near the floor
-    (:func:`~forte.planning.scene_solve.needs_rows`) or ``self_rows`` (the robot's own pairs, see
+    (:func:`~forte.planning.scene.scene_solve.needs_rows`) or ``self_rows`` (the robot's own pairs, see
     :func:`_apart`), else in free space (on ``opt`` when given), and again with rows from a
     free-space solution that comes within the clearance of the floor. Returns the problem, its
     solution and the rows' facts (``None``: solved without rows)."""
@@ -355,8 +355,8 @@ def _apart(task: Task, spec: Method, force: TaskForce, guess: FloatArray | None,
     A task without scene bodies near the robot has no rows for the robot's own pairs (most tasks
     never bring two parts close, and rows cost time); a plan the verdict finds in self-collision
     (exact meshes) is solved again, from the same guess, with rows for the robot's pairs near it
-    (:func:`~forte.planning.scene_solve.solve_in_scene`; a pair whose covers already overlap at
-    the start keeps its start distance, :func:`~forte.planning.collision_slots.self_margins`).
+    (:func:`~forte.planning.scene.scene_solve.solve_in_scene`; a pair whose covers already overlap at
+    the start keeps its start distance, :func:`~forte.planning.nlp.collision_slots.self_margins`).
     The new plan is kept when it no longer collides; ``info["self_rows"]`` records the try.
     """
     if "clearance_rows" in info or "self_collision" not in verdict.failed:

@@ -24,7 +24,7 @@ from forte.experiments.common import metrics
 from forte.experiments.sweep.spec import Cell, PlanGroup, Simulation
 from forte.io.plandir import write_plan
 from forte.planning.planner import Plan, plan
-from forte.planning.tasks import task_from_dict
+from forte.planning.tasks.tasks import task_from_dict
 
 #: Plan metrics copied into the table (their names there), from :func:`forte.experiments.common.metrics`.
 PLAN_COLUMNS = ("min_d", "min_capacity_margin", "min_capacity_minus_force", "mean_capacity", "min_capacity",

@@ -47,11 +47,11 @@ import numpy as np
 
 from forte.exceptions import InvalidInputError
 from forte.experiments.common import MASS_ERROR
-from forte.planning.methods import METHODS
+from forte.planning.methods.catalog import METHODS
+from forte.planning.methods.plugins import load_plugins
 from forte.planning.planner import methods_for
-from forte.planning.plugins import load_plugins
-from forte.planning.schema import Reader
-from forte.planning.tasks import Task, read_yaml, task_from_dict
+from forte.planning.tasks.schema import Reader
+from forte.planning.tasks.tasks import Task, read_yaml, task_from_dict
 from forte.validation import MAX_HOLD_S, MAX_WAYPOINTS, payload_mass
 
 #: Version of the cell key and cell file layout (part of every cell id). 2: the key holds the robot.
@@ -202,7 +202,7 @@ def _methods(r: Reader) -> tuple[str, ...] | None:
     if r.get("methods") == "all":
         return None
     items = _list(r, "methods")
-    load_plugins()  # a method from an installed package (forte.planning.plugins) is a method too
+    load_plugins()  # a method from an installed package (forte.planning.methods.plugins) is a method too
     for i, m in enumerate(items or []):
         if m not in METHODS:
             raise r.error(f"methods[{i}]", f"expected one of {', '.join(METHODS)} (or methods: all), got {m!r}")

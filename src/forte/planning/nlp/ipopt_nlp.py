@@ -1,0 +1,94 @@
+"""The IPOPT side of the trajectory NLP: its constraint Jacobian, Lagrangian Hessian, kinematic
+rows and options, as CasADi expressions of a :class:`~forte.planning.nlp.optimizer.TrajectoryOptimizer`
+(``opt``) under construction (:meth:`~forte.planning.nlp.optimizer.TrajectoryOptimizer._build`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from forte.planning.nlp.assembly import block_diagonal_pattern
+
+
+def constraint_jacobian(opt: Any, x: ca.MX, X: ca.MX, pd: ca.MX, Rd: ca.MX, g_kin: ca.MX) -> ca.MX:
+    """6 x nq pose blocks (one per posed waypoint), then the linear rows."""
+    nq, n, nx = opt.robot.nq, opt.n, x.numel()
+    steps = opt._pose_steps
+    blocks = opt.kernels.pose_jac.map(n)(X, pd, Rd)  # 6 x nq n
+    runs = np.split(steps, np.flatnonzero(np.diff(steps) != 1) + 1) if steps.size else []
+    parts = []
+    for run in runs:  # contiguous runs of posed waypoints: block-diagonal pieces
+        sp, nz = block_diagonal_pattern(6, nq, run.size, col_offset=int(run[0]) * nq, ncol=nx)
+        cols = blocks[:, int(run[0]) * nq:(int(run[-1]) + 1) * nq]
+        parts.append(ca.MX(sp, ca.mtimes(ca.DM(nz), ca.vec(cols))))
+    jac = ca.vertcat(*parts) if parts else ca.MX(0, nx)
+    return ca.vertcat(jac, ca.jacobian(g_kin, x)) if g_kin.numel() else jac
+
+def lagrangian_hessian(opt: Any, pattern: tuple[ca.Sparsity, Any], X: ca.MX, pd: ca.MX, Rd: ca.MX,
+                       stage_args: list[Any], lam_f: ca.MX, lam_g: ca.MX) -> ca.MX:
+    """Upper triangle of ``lam_f * Hess(cost) + sum lam_g Hess(g)`` over the pose rows (linear
+    rows add nothing) in ``pattern`` (:func:`~forte.planning.nlp.assembly.hessian_pattern`)."""
+    n = opt.n
+    steps = opt._pose_steps
+    lam_pose = ca.reshape(lam_g[: 6 * steps.size], 6, steps.size)
+    cols = [ca.MX.zeros(6, 1)] * n
+    for i, k in enumerate(steps.tolist()):
+        cols[k] = lam_pose[:, i]
+    lam = ca.horzcat(*cols)
+    h_stage = opt.kernels.hess.map(n)(*stage_args)  # 3nq x 3nq n
+    h_pose = opt.kernels.pose_hess.map(n)(X, pd, Rd, lam)  # nq x nq n
+    sp, maps = pattern
+    nz = (lam_f * ca.mtimes(ca.DM(maps[0]), ca.vec(h_stage))
+          + ca.mtimes(ca.DM(maps[1]), ca.vec(h_pose))
+          + lam_f * ca.DM(maps[2]))
+    return ca.MX(sp, nz)
+
+def kinematic_rows(opt: Any, X: ca.MX, dt: ca.MX) -> ca.MX:
+    """Velocity rows ``q_k - q_{k-1}`` and acceleration rows ``dq_k - dq_{k-1}`` (k >= 2), with
+    ``dq_1 = 0``; :meth:`~forte.planning.nlp.optimizer.TrajectoryOptimizer.bounds` scales the limits by ``dt_k``."""
+    opt._vel_rows = np.flatnonzero(np.isfinite(opt._vel)) if opt.limits.enabled else np.array([], int)
+    opt._acc_rows = np.flatnonzero(np.isfinite(opt._acc)) if opt.limits.enabled else np.array([], int)
+    if opt.n < 2 or not opt.fix_initial:
+        opt._vel_rows = opt._acc_rows = np.array([], int)
+        return ca.MX(0, 1)
+    if not opt.limits.enabled and not opt.rests_at_end:
+        return ca.MX(0, 1)
+    step = X[:, 1:] - X[:, :-1]
+    dq = step / ca.repmat(dt[:, 1:], X.shape[0], 1)
+    dq_prev = ca.horzcat(ca.MX.zeros(X.shape[0], 1), dq[:, :-1])
+    rows = [ca.vec(step[opt._vel_rows.tolist(), :]), ca.vec((dq - dq_prev)[opt._acc_rows.tolist(), :])]
+    if opt.rests_at_end:  # v_N = 0 and a_N = (v_N - v_{N-1}) / dt_N = 0
+        rows += [step[:, -1], step[:, -2]]
+    return ca.vertcat(*rows)
+
+def warm_options(options: Any) -> dict[str, Any]:
+    """IPOPT's options of a solve from a given primal-dual point (added to :func:`ipopt_options`).
+
+    The barrier parameter starts at ``tol / 10``: from a near-optimal primal-dual point a larger
+    one only costs the iterations that bring it down again (on the lift's seeded mass changes,
+    375 warm iterations in all with 1e-7, 406 with 1e-5, 417 with 1e-6). No "acceptable level"
+    exit: a warm solve converges to ``tol`` or fails.
+    """
+    return {
+        "ipopt.warm_start_init_point": "yes", "ipopt.warm_start_bound_push": 1e-9,
+        "ipopt.warm_start_bound_frac": 1e-9, "ipopt.warm_start_slack_bound_push": 1e-9,
+        "ipopt.warm_start_slack_bound_frac": 1e-9, "ipopt.warm_start_mult_bound_push": 1e-9,
+        "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 0.1 * options.tol,
+        "ipopt.acceptable_iter": 0, "calc_lam_x": True,
+    }
+
+
+def ipopt_options(opt: Any) -> dict[str, Any]:
+    """IPOPT's options of ``opt``'s solves (``SolverOptions.extra`` last)."""
+    o = opt.options
+    opts = {
+        "ipopt.max_iter": o.max_iter, "ipopt.tol": o.tol, "ipopt.print_level": o.print_level,
+        "ipopt.sb": "yes", "print_time": False, "ipopt.constr_viol_tol": o.constraint_tol,
+        "ipopt.mu_strategy": "adaptive", "calc_lam_p": False, "calc_lam_x": opt.keep_multipliers,
+        # QAMD ordering: ~25 % faster factorizations than MUMPS' default on this KKT (benchmarks/)
+        "ipopt.mumps_pivot_order": 6,
+    }
+    opts.update({k if "." in k else f"ipopt.{k}": v for k, v in o.extra.items()})
+    return opts
