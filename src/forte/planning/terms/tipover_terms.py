@@ -36,7 +36,7 @@ import casadi as ca
 import numpy as np
 
 from forte.exceptions import InvalidInputError
-from forte.planning.terms.costs import CostTerm, Stage, TermSetting, register_term
+from forte.planning.terms.costs import CostTerm, Stage, TermSetting, nonnegative, register_term
 from forte.validation import FloatArray
 
 #: Default distance (m) the ZMP keeps inside the support polygon's edge.
@@ -53,7 +53,7 @@ class Tipover(CostTerm):
     parameters: ClassVar[tuple[tuple[str, int], ...]] = (("tipover_margin", 1), ("tipover_moment", 3))
     settings: ClassVar[tuple[TermSetting, ...]] = (
         TermSetting("margin", "tipover_margin", DEFAULT_MARGIN, "m",
-                    "distance the zero-moment point keeps inside the support polygon's edge"),)
+                    "distance the zero-moment point keeps inside the support polygon's edge", valid=nonnegative),)
     length: float = 0.01
     beta: float = 10.0
     kappa: float = 3.0
