@@ -152,7 +152,36 @@ def rotation(reader: Reader, name: str, default: FloatArray) -> FloatArray:
     raise reader.error(name, "expected a mapping with 'rpy' (radians) or 'matrix'")
 
 
+def _mount(m: Reader) -> FloatArray:
+    """``robot.mount``: the arm's base frame on the mobile base (``xyz``, ``rpy``)."""
+    m.unknown({"xyz", "rpy"})
+    T = np.eye(4)
+    T[:3, 3] = m.vector("xyz", 3, default=[0, 0, 0])
+    T[:3, :3] = pin.rpy.rpyToMatrix(*m.vector("rpy", 3, default=[0, 0, 0]))
+    return T
+
+
+def _tool(tl: Reader) -> ToolLoad:
+    """``robot.tool``: a load rigid with the hand (mass, centre of mass, inertia: a 3 x 3 matrix or
+    its diagonal)."""
+    tl.unknown({"mass", "com", "inertia"})
+    inertia_value = tl.get("inertia", [[0, 0, 0]] * 3)
+    if isinstance(inertia_value, list | tuple) and len(inertia_value) == 3 and all(
+            not isinstance(v, list | tuple) for v in inertia_value):
+        inertia = np.diag(tl.vector("inertia", 3))  # the diagonal
+    else:
+        inertia = tl.matrix("inertia", 3, 3, [[0, 0, 0]] * 3)
+    mass = tl.number("mass", positive=True, maximum=MAX_MASS_KG, unit=" kg")
+    com = tl.vector("com", 3, [0, 0, 0])
+    try:
+        return ToolLoad(mass=mass, com=tuple(com), inertia=tuple(map(tuple, inertia)))
+    except ForteError as exc:
+        raise tl.error("", str(exc)) from exc
+
+
 def robot_section(reader: Reader, base: Path) -> MobileManipulator:
+    """``robot:`` (a preset, or a URDF with its end-effector frame, and what the description does
+    not carry), or the built-in robot when the file has none."""
     if not reader.has("robot"):
         overrides: dict[str, Any] = {}
         if reader.has("torque_limits"):
@@ -185,30 +214,9 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
             raise r.error("arm_joints", "expected a list of joint names")
         kwargs["arm_joints"] = tuple(joints)
     if r.has("mount"):
-        m = r.sub("mount")
-        m.unknown({"xyz", "rpy"})
-        T = np.eye(4)
-        T[:3, 3] = m.vector("xyz", 3, default=[0, 0, 0])
-        T[:3, :3] = pin.rpy.rpyToMatrix(*m.vector("rpy", 3, default=[0, 0, 0]))
-        kwargs["mount"] = T
+        kwargs["mount"] = _mount(r.sub("mount"))
     if "tool" in r.data:
-        if r.get("tool") is None:
-            kwargs["tool"] = None
-        else:
-            tl = r.sub("tool")
-            tl.unknown({"mass", "com", "inertia"})
-            inertia_value = tl.get("inertia", [[0, 0, 0]] * 3)
-            if isinstance(inertia_value, list | tuple) and len(inertia_value) == 3 and all(
-                    not isinstance(v, list | tuple) for v in inertia_value):
-                inertia = np.diag(tl.vector("inertia", 3))  # the diagonal
-            else:
-                inertia = tl.matrix("inertia", 3, 3, [[0, 0, 0]] * 3)
-            mass = tl.number("mass", positive=True, maximum=MAX_MASS_KG, unit=" kg")
-            com = tl.vector("com", 3, [0, 0, 0])
-            try:
-                kwargs["tool"] = ToolLoad(mass=mass, com=tuple(com), inertia=tuple(map(tuple, inertia)))
-            except ForteError as exc:
-                raise tl.error("", str(exc)) from exc
+        kwargs["tool"] = None if r.get("tool") is None else _tool(r.sub("tool"))
     limits_key = "torque_limits" if r.has("torque_limits") else None
     if limits_key:
         kwargs["torque_limits"] = r.vector("torque_limits")

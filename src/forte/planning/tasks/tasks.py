@@ -14,10 +14,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 import yaml
 
-from forte.exceptions import ForteError, TaskFileError
+from forte.exceptions import TaskFileError
 from forte.force.contact import Carry, Contact, contact_force
 from forte.force.payload import Payload
 from forte.force.taskforce import (
@@ -27,7 +26,6 @@ from forte.force.taskforce import (
     RADIUS_RULES,
     TaskForce,
     authors_force,
-    given_force,
     mass_range_radius,
     payload_force,
 )
@@ -36,17 +34,13 @@ from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import StartMotion, quintic_path, start_through
 from forte.planning.tasks.contact_section import read_contact
+from forte.planning.tasks.motion_section import force_profile, limits_section, path_targets, start_configuration
 from forte.planning.tasks.paths import (
     ForceAt,
     HeldPath,
     TargetsAt,
-    build_path,
     ending_at_rest,
     force_with_hold,
-    sine_parameters,
-    starting_at,
-    taught_knots,
-    windowed_sine,
 )
 from forte.planning.tasks.payload_section import payload_section
 from forte.planning.tasks.scene_section import DEFAULT_CLEARANCE, check_floor, clearance_value, scene_section
@@ -56,12 +50,11 @@ from forte.planning.tasks.schema import (
     controller_section,
     dataclass_from,
     robot_section,
-    rotation,
 )
 from forte.planning.tasks.terms_section import settings_of, terms_section
-from forte.planning.tasks.weights_section import by_joint_name, read_weights
+from forte.planning.tasks.weights_section import read_weights
 from forte.settings import CostWeights, KinematicLimits, SolverOptions, TermSettings, WeightSet
-from forte.validation import MAX_DURATION_S, MAX_FILE_BYTES, MAX_WAYPOINTS, FloatArray
+from forte.validation import MAX_FILE_BYTES, MAX_WAYPOINTS, FloatArray
 
 MODES = ("trajectory", "hold")
 
@@ -231,28 +224,6 @@ class Task:
         return f"{self.source}: {key}" if self.source else key
 
 
-def _force_profile(reader: Reader, t: FloatArray, radius: float) -> ForceAt | None:
-    """The task's force profile as a function of time, or ``None`` without one."""
-    if not reader.has("force"):
-        return None
-    r = reader.sub("force")
-    r.unknown({"kind", "offset", "amplitude", "frequency", "phase", "duration", "vector"})
-    kind = r.get("kind", "constant")
-    if kind == "windowed-sine":
-        span = float(t[-1] - t[0])
-        duration = r.number("duration", default=span or 1.0, positive=True, maximum=MAX_DURATION_S, unit=" s")
-        if duration < span - 1e-9:  # the window is zero after its end: the rest of the path would get no force
-            raise r.error("duration", f"the force profile lasts {duration:g} s but the path lasts {span:g} s; "
-                          "expected a profile at least as long as the path")
-        sine = sine_parameters(r)
-        t0 = float(t[0])
-        return lambda ts: given_force(ts, windowed_sine(ts - t0, duration, *sine), radius)
-    if kind == "constant":
-        vector = r.vector("vector", 3)
-        return lambda ts: given_force(ts, np.tile(vector, (len(ts), 1)), radius)
-    raise r.error("kind", f"expected 'windowed-sine' or 'constant', got {kind!r}")
-
-
 def load_task(
     path: str | Path, mass: float | None = None, waypoints: int | None = None,
 ) -> Task:
@@ -317,18 +288,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     base = path.parent if path else Path.cwd()
     robot = robot_section(reader, base)
     mode = reader.choice("mode", MODES, "trajectory")
-    q_init = robot.home()
-    knots = None
-    if mode == "trajectory" and reader.has("path") and isinstance(reader.get("path"), dict) \
-            and reader.get("path").get("kind") == "taught":
-        knots = taught_knots(reader.sub("path"), robot)
-        q_init = knots[1][0].copy()
-    if reader.has("initial_configuration"):
-        q_init = reader.vector("initial_configuration", robot.nq)
-        check_joint_limits(reader, "initial_configuration", robot, q_init)
-        if knots is not None and not np.allclose(q_init, knots[1][0], atol=1e-9):
-            raise reader.error("initial_configuration", "differs from the first taught configuration "
-                               "(path.configurations[0].q); leave it out")
+    q_init, knots = start_configuration(reader, robot, mode)
     radius = reader.number("uncertainty_radius", DEFAULT_RADIUS, nonnegative=True, maximum=1e6, unit=" N")
     radius_rule = reader.choice("uncertainty_rule", RADIUS_RULES, "fixed")
     force_model = reader.choice("force_model", FORCE_MODELS, "paper")
@@ -336,38 +296,17 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     if reader.has("teaching_configuration"):
         teaching = reader.vector("teaching_configuration", robot.nq)
         check_joint_limits(reader, "teaching_configuration", robot, teaching)
-    T0 = robot.ee_pose(q_init)
-    if mode == "trajectory":
-        if waypoints is not None and not 2 <= waypoints <= MAX_WAYPOINTS:
-            raise TaskFileError(f"--waypoints: expected 2 to {MAX_WAYPOINTS} (forte's documented bound), "
-                                f"got {waypoints}")
-        t, targets_at = build_path(reader, T0, waypoints, robot)
-        targets_at = starting_at(reader, targets_at(t)[0], T0, targets_at)
-        targets = targets_at(t)
-    else:
-        if waypoints is not None:
-            raise TaskFileError(f"--waypoints: applies to mode 'trajectory', {path} is a 'hold' task")
-        if reader.has("path"):
-            raise reader.error("path", "not used in mode 'hold' (give pose or teaching_configuration)")
-        t = np.zeros(1)
-        targets = _hold_pose(reader, robot, T0, teaching)
-        targets_at = None
+    t, targets, targets_at = path_targets(reader, robot, mode, robot.ee_pose(q_init), waypoints, teaching)
     contact, carried = read_contact(reader, targets, mode, mass)
     payload = payload_section(reader, base, mass) if contact is None else carried
-    force_at = _force_profile(reader, t, radius)
+    force_at = force_profile(reader, t, radius)
     if force_at is None and payload is None and contact is None:
         raise reader.error("payload", "give a payload (mass, or description/image) or a force profile")
     if force_at is not None and reader.has("force_model"):
         raise reader.error("force_model", "sets a payload's force; this task gives its force profile directly")
     weights, settings = read_weights(reader, mode, robot)
     solver = dataclass_from(reader, "solver", SolverOptions, SolverOptions())
-    for key, default in (("arm_velocity", robot.model.velocityLimit), ("arm_acceleration", robot.acceleration_limits)):
-        by_joint_name(reader, "limits", key, tuple(robot.arm_joints), default)
-    limits = dataclass_from(reader, "limits", KinematicLimits, KinematicLimits())
-    try:
-        limits.resolve(robot)
-    except ForteError as exc:
-        raise reader.error("limits", str(exc)) from exc
+    limits = limits_section(reader, robot)
     if targets_at is not None and limits.end_at_rest:
         t, targets_at = ending_at_rest(targets_at, t)
         targets = targets_at(t)
@@ -389,23 +328,3 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                 clearance=clearance, terms=terms_section(reader), contact=contact)
 
 
-def _hold_pose(reader: Reader, robot: MobileManipulator, T0: FloatArray, teaching: FloatArray | None) -> FloatArray:
-    if reader.has("pose"):
-        r = reader.sub("pose")
-        r.unknown({"position", "relative", "orientation"})
-        p = r.vector("position", 3)
-        if r.get("relative", False):
-            p = T0[:3, 3] + p
-        T = np.eye(4)
-        T[:3, :3] = rotation(r, "orientation", T0[:3, :3])
-        T[:3, 3] = p
-        if teaching is not None:
-            Tt = robot.ee_pose(teaching)
-            gap = np.linalg.norm(Tt[:3, 3] - T[:3, 3])
-            if gap > 1e-4 or np.linalg.norm(pin.log3(Tt[:3, :3] @ T[:3, :3].T)) > 1e-3:
-                raise reader.error("teaching_configuration",
-                                   f"does not reach the hold pose (position error {gap:.4f} m)")
-        return T[None]
-    if teaching is None:
-        raise reader.error("pose", "mode 'hold' needs a pose or a teaching_configuration")
-    return robot.ee_pose(teaching)[None]
