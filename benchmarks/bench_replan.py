@@ -55,7 +55,8 @@ import numpy as np
 from forte.planning.nlp.blas import single_threaded_blas
 from forte.planning.online.realtime import RealTimeIteration, RealTimeStep
 from forte.planning.online.replan import Replanner, ReplanResult, converged
-from forte.planning.planner import plan, start_guess
+from forte.planning.planner import plan
+from forte.planning.solve import start_guess
 from forte.planning.tasks.tasks import Task, load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"

@@ -30,7 +30,7 @@ import numpy as np
 
 from forte.planning.methods.catalog import get_method
 from forte.planning.nlp.optimizer import TrajectoryOptimizer
-from forte.planning.planner import coarse_guess, start_guess
+from forte.planning.solve import coarse_guess, start_guess
 from forte.planning.tasks.tasks import Task, load_task
 from forte.planning.terms.reference import base_spectral_cost
 
@@ -48,7 +48,7 @@ class Solve(NamedTuple):
 
 
 def solve(task: Task, dct_form: str) -> Solve:
-    """The planner's solve (``forte.planning.planner._optimize``) with J5 in ``dct_form``, timed."""
+    """The planner's solve (``forte.planning.solve.optimize``) with J5 in ``dct_form``, timed."""
     task = replace(task, settings=task.settings.with_values("base_spectral", form=dct_form))
     method = get_method("forte")
     force, nominal = task.force(), task.nominal()

@@ -25,7 +25,7 @@ from forte.model.trajectory import (
 from forte.planning.nlp.optimizer import TrajectoryOptimizer
 from forte.planning.nlp.solvers.stagewise import StagewiseSolver
 from forte.planning.online.replan import Replanner
-from forte.planning.planner import start_guess
+from forte.planning.solve import start_guess
 from forte.planning.tasks.tasks import load_task
 from forte.planning.verdict.evaluation import evaluate
 from forte.planning.verdict.motion_samples import sample_motion

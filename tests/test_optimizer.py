@@ -184,7 +184,7 @@ def test_hold_starts_are_seeded_within_the_limits_and_begin_at_the_taught_point(
     from dataclasses import replace
     from pathlib import Path
 
-    from forte.planning.planner import hold_starts
+    from forte.planning.solve import hold_starts
     from forte.planning.tasks.tasks import load_task
 
     task = load_task(Path(__file__).resolve().parents[1] / "examples" / "tasks" / "hold.yaml")

@@ -14,7 +14,8 @@ import pytest
 from forte.exceptions import InvalidInputError
 from forte.planning.nlp.layout import shift_rows
 from forte.planning.online.replan import Replanner, converged
-from forte.planning.planner import plan, start_guess
+from forte.planning.planner import plan
+from forte.planning.solve import start_guess
 from forte.planning.tasks.tasks import load_task
 
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"

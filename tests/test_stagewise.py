@@ -14,7 +14,8 @@ from forte.planning.nlp.optimizer import TrajectoryOptimizer
 from forte.planning.nlp.solvers.stagewise import StagewiseSolver
 from forte.planning.online.realtime import RealTimeIteration
 from forte.planning.online.replan import Replanner
-from forte.planning.planner import plan, start_guess
+from forte.planning.planner import plan
+from forte.planning.solve import start_guess
 from forte.planning.tasks.tasks import load_task
 from forte.settings import SolverOptions
 

@@ -8,7 +8,10 @@
 - :mod:`~forte.planning.verdict`: what a plan is worth and whether it can be executed;
 - :mod:`~forte.planning.scene`: getting around the world (a clear start, re-solves with rows,
   naming what is in the way);
-- :mod:`~forte.planning.planner`: the entry point (:func:`~forte.planning.planner.plan`);
+- :mod:`~forte.planning.solve`: solving a task with an optimized method (initial guess,
+  coarse-to-fine, clearance rows, several starts for a hold);
+- :mod:`~forte.planning.planner`: the entry point (:func:`~forte.planning.planner.plan`: solve,
+  judge, refine);
 - :mod:`~forte.planning.online`: re-planning while the robot moves;
 - :mod:`~forte.planning.bounds`: the largest payload a task could carry.
 

@@ -63,8 +63,9 @@ from forte.planning.nlp.blas import single_threaded_blas
 from forte.planning.nlp.collision_slots import assign_slots, missing_pairs
 from forte.planning.nlp.layout import shift_rows
 from forte.planning.nlp.optimizer import SolverResult, TrajectoryOptimizer
-from forte.planning.planner import Plan, evaluate, resolve_payload, start_guess
+from forte.planning.planner import Plan, evaluate, resolve_payload
 from forte.planning.scene.scene_solve import solve_in_scene
+from forte.planning.solve import start_guess
 from forte.planning.tasks.tasks import Task
 from forte.planning.tasks.terms_section import term_values, with_task_terms
 from forte.planning.terms.wrench_terms import for_requirement

@@ -1,0 +1,171 @@
+"""Solving a task with an optimized method: the initial guess (IK, or a start clear of the scene),
+coarse-to-fine for long horizons, clearance rows when the world needs them, and several starts
+for a hold. :func:`forte.planning.planner.plan` calls :func:`optimize`, then judges and refines."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from forte.force.taskforce import TaskForce
+from forte.model.robot import N_BASE
+from forte.planning.methods.catalog import Method
+from forte.planning.nlp.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
+from forte.planning.scene.diagnosis import failed_rows
+from forte.planning.scene.scene_guess import clear_start
+from forte.planning.scene.scene_solve import floor_near, needs_rows, solve_in_scene
+from forte.planning.tasks.ik import initial_guess
+from forte.planning.tasks.tasks import Task
+from forte.planning.tasks.terms_section import term_settings, term_values
+from forte.planning.verdict.requirements import TRACKING_ORIENTATION_TOL, orientation_errors
+from forte.validation import FloatArray
+
+#: Trajectories longer than this are solved coarse-to-fine (see :func:`coarse_guess`).
+COARSE_WAYPOINTS = 25
+
+
+def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]] | None:
+    """Solve the same task on ``COARSE_WAYPOINTS`` samples and interpolate the result in time.
+
+    A fine horizon makes the finite-difference accelerations stiff (``1 / dt^2``) and IPOPT slow
+    from the IK guess; starting from the interpolated coarse optimum halves the iterations at
+    N = 100 (see ``benchmarks/bench_planner.py``). Returns ``None`` when it does not apply.
+    """
+    if task.mode != "trajectory" or task.n <= 2 * COARSE_WAYPOINTS or task.targets_at is None:
+        return None
+    coarse = task.resampled(COARSE_WAYPOINTS)
+    force = coarse.force()
+    nominal = coarse.nominal()
+    # with a scene (or near the floor) clear of it already: the fine solve starts outside the bodies
+    sol = solve_clear(coarse, method, force, start_guess(coarse, nominal), nominal, task.solver)[1]
+    if not sol.success:
+        return None
+    q = np.column_stack([np.interp(task.t, coarse.t, sol.q[:, j]) for j in range(sol.q.shape[1])])
+    q[0] = task.q_init
+    return q, {"waypoints": coarse.n, "iterations": sol.iterations, "solve_time_s": sol.solve_time}
+
+
+def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:
+    """The optimizer's initial guess: the nominal trajectory for taught configurations (the
+    authors' joint-space interpolation), else IK along the path / onto the pose; with a scene,
+    base poses that keep the robot clear of it where :func:`~forte.planning.scene.scene_guess.clear_start`
+    finds them."""
+    if task.knots is not None:
+        guess = task.nominal() if nominal is None else nominal
+    else:
+        guess = initial_guess(task)
+    if task.scene and task.robot.base != "fixed":  # a start clear of the scene (a fixed base has no other)
+        clear = clear_start(task, guess)
+        return guess if clear is None else clear
+    return guess
+
+
+def _solve(opt: TrajectoryOptimizer, task: Task, force: TaskForce, q: FloatArray, nominal: FloatArray) -> SolverResult:
+    return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q, nominal,
+                     term_values=term_values(opt.method_spec, force, task.terms), start=task.start_motion)
+
+
+def solve_clear(task: Task, method: Method, force: TaskForce, q: FloatArray, nominal: FloatArray, options: Any,
+                 opt: TrajectoryOptimizer | None = None, self_rows: bool = False
+                 ) -> tuple[TrajectoryOptimizer, SolverResult, dict | None]:
+    """Solve from ``q``: with clearance rows when the task has bodies or ``q`` comes near the floor
+    (:func:`~forte.planning.scene.scene_solve.needs_rows`) or ``self_rows`` (the robot's own pairs, see
+    :func:`_apart`), else in free space (on ``opt`` when given), and again with rows from a
+    free-space solution that comes within the clearance of the floor. Returns the problem, its
+    solution and the rows' facts (``None``: solved without rows)."""
+    if self_rows or needs_rows(task, q):
+        return solve_in_scene(task, method, force, q, nominal, options)
+    if opt is None:
+        opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
+                                  options=options, limits=task.limits, settings=task.settings)
+    sol = _solve(opt, task, force, q, nominal)
+    if sol.success and floor_near(task, sol.q, task.clearance):
+        return solve_in_scene(task, method, force, sol.q, nominal, options)
+    return opt, sol, None
+
+
+def optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None,
+              reported: TaskForce | None = None, self_rows: bool = False) -> tuple[SolverResult, dict]:
+    """Solve the method's NLP (coarse-to-fine unless a guess is given); returns the result and facts
+    (the cost terms evaluated with the ``reported`` force, default ``force``); ``self_rows``: with
+    rows for the robot's own pairs near the solve (:func:`_apart`)."""
+    nominal = task.nominal()
+    q_guess = start_guess(task, nominal) if guess is None else guess
+    options, info = task.solver, {}
+    warm = coarse_guess(task, method) if guess is None else None
+    if warm is not None:
+        q_guess, info["coarse"] = warm
+        # a near-optimal start: begin with a small barrier parameter
+        options = replace(options, extra={"mu_strategy": "monotone", "mu_init": 1e-4} | options.extra)
+    opt, sol, rows = solve_clear(task, method, force, q_guess, nominal, options, self_rows=self_rows)
+    if rows is not None:
+        info["clearance_rows"] = rows
+    if not sol.success and (failed := failed_rows(opt, sol, task, force)) is not None:
+        info["failed_rows"] = failed.to_json()  # the body in the way, or the pose out of reach
+    if task.mode == "hold" and guess is None and options.hold_starts > 1:
+        free = None if rows is not None else opt  # the free-space problem serves every start
+
+        def solve_from(q: FloatArray) -> SolverResult:
+            # each start with rows gets those of the pairs near it (and near its solution)
+            return solve_clear(task, method, force, q, nominal, options, free)[1]
+
+        sol, info["starts"] = _best_of_starts(solve_from, task, sol)
+    info |= {
+        "status": sol.status, "success": sol.success, "iterations": sol.iterations, "backend": sol.backend,
+        "objective": sol.objective, "constraint_violation": sol.constraint_violation,
+        "accepted_violation": accepted_violation(options),
+        "build_time_s": sol.build_time, "solve_time_s": sol.solve_time, "kernels": sol.codegen,
+        "cost_terms": opt.cost_terms(sol.q, task.t, task.targets, (rep := reported or force).f, rep.r,
+                                     term_values=term_values(method, rep, task.terms), start=task.start_motion),
+        "term_weights": opt.term_weights(), "term_settings": term_settings(method, opt.settings),
+        "quadratic_forms": opt.quadratic_forms,
+    }
+    if "starts" in info:  # the work of every start, the chosen start's own figures under "starts"
+        starts = info["starts"]
+        starts["chosen_iterations"], starts["chosen_solve_time_s"] = sol.iterations, sol.solve_time
+        info["iterations"], info["solve_time_s"] = starts["iterations"], starts["solve_time_s"]
+    return sol, info
+
+
+def hold_starts(task: Task) -> FloatArray:
+    """The starting configurations of a hold problem (``task.solver.hold_starts`` rows): the
+    task's initial configuration, then seeded ones around it (base within 0.3 m and 0.6 rad,
+    each arm joint within 0.6 rad, clipped to the joint limits)."""
+    rng = np.random.default_rng(task.solver.hold_seed)
+    q0 = np.asarray(task.q_init, dtype=float)
+    spread = np.r_[0.3, 0.3, 0.6, np.full(q0.size - N_BASE, 0.6)]
+    starts = q0 + rng.uniform(-1.0, 1.0, (task.solver.hold_starts - 1, q0.size)) * spread
+    starts[:, N_BASE:] = np.clip(starts[:, N_BASE:], task.robot.lower, task.robot.upper)
+    return np.vstack([q0, starts])
+
+
+def _best_of_starts(solve_from: Callable[[FloatArray], SolverResult], task: Task, first: SolverResult
+                    ) -> tuple[SolverResult, dict[str, Any]]:
+    """Solve the hold problem from every start of :func:`hold_starts` (``solve_from(q)``, q 1 x nq);
+    the converged result with the lowest objective (``first`` is the solve from the first start).
+
+    The orientation equality ``vee(R_d^T R - R^T R_d) = 0`` also holds with the hand turned by pi
+    about some axis, and a start can converge there (the holding sweep's rfp-radius at capability
+    weight 20 and 60 did); such a result is chosen only when no start converged the right way up
+    (``facts["upside_down"]`` counts them)."""
+    results = [first]
+    for q in hold_starts(task)[1:]:
+        results.append(solve_from(q[None, :]))
+    converged = [i for i, r in enumerate(results) if r.success]
+    upright = [i for i in converged if _upright(task, results[i].q)]
+    best = min(upright or converged, key=lambda i: results[i].objective) if converged else 0
+    facts = {"count": len(results), "converged": len(converged), "upside_down": len(converged) - len(upright),
+             "chosen": best,
+             "objectives": [float(r.objective) for r in results],
+             "iterations": int(sum(r.iterations for r in results)),
+             "solve_time_s": float(sum(r.solve_time for r in results))}
+    return results[best], facts
+
+
+def _upright(task: Task, q: FloatArray) -> bool:
+    """The end effector within the verdict's orientation tolerance of the task's poses."""
+    ee = np.array([task.robot.ee_pose(qk) for qk in q])
+    return bool(np.all(orientation_errors(ee, task.targets) <= TRACKING_ORIENTATION_TOL))
