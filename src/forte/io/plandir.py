@@ -128,9 +128,9 @@ def fill_plan_dir(plan: Plan, directory: Path, figures: bool = True) -> None:
     doc["robot"] = store_robot(plan.robot, directory)
     atomic_write(directory / PLAN_FILE, json.dumps(doc, indent=2) + "\n")
     if figures and plan.metrics:
-        from forte.io.figures import plan_figures  # matplotlib only when figures are drawn
+        from forte.io.figure_worker import draw_plan_figures  # matplotlib only when figures are drawn
 
-        plan_figures(plan, directory)
+        draw_plan_figures(plan, directory)
 
 
 def write_plan_dir(plan_dir: str | Path, robot: MobileManipulator, t: Any, q: Any, *, mass: float | None = None,
