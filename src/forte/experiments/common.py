@@ -20,7 +20,7 @@ from forte.experiments.claims import Claim, claims_section, compare, fmt_num, so
 from forte.io.figures import pyplot
 from forte.io.outputs import GENERATOR
 from forte.io.plandir import FORMAT_VERSION, TRAJECTORY_FILE, plan_summary, write_plan
-from forte.io.reports import jsonable, package_versions
+from forte.io.records import jsonable, package_versions
 from forte.model.description import torque_limit_set
 from forte.model.presets import torque_limit_name, with_torque_limits
 from forte.planning.methods import METHODS, method_names
