@@ -23,23 +23,15 @@ from typing import Any
 import numpy as np
 
 from forte.force.images import ImageInput
-from forte.force.mass import (
-    CONFIDENCE_LEVELS,
-    MAX_MASS_KG,
-    MIN_MASS_KG,
-    MassEstimate,
-    MassEstimator,
-    ObjectEstimate,
-)
+from forte.force.mass import CONFIDENCE_LEVELS as CONFIDENCE_LEVELS  # owned there, kept importable here
+from forte.force.mass import MAX_MASS_KG as MAX_MASS_KG
+from forte.force.mass import MIN_MASS_KG as MIN_MASS_KG
+from forte.force.mass import MassEstimate as MassEstimate
+from forte.force.mass import MassEstimator as MassEstimator
+from forte.force.mass import ObjectEstimate as ObjectEstimate
 from forte.force.offline import OfflineEstimator
 from forte.force.vlm import VLMConfig, VLMEstimator
 from forte.validation import FloatArray, as_array, as_positive
-
-# The estimate types live in forte.force.mass; they stay importable from here.
-__all__ = [
-    "CONFIDENCE_LEVELS", "DEFAULT_R_MIN", "GRAVITY", "MAX_MASS_KG", "MIN_MASS_KG", "MassEstimate",
-    "MassEstimator", "ObjectEstimate", "estimate_payload", "radius_from_estimate", "user_estimate",
-]  # fmt: skip
 
 #: Gravity used by the paper (m/s^2), pointing along -z.
 GRAVITY = np.array([0.0, 0.0, -9.81])
