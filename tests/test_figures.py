@@ -128,8 +128,9 @@ def test_an_error_of_a_group_is_raised_here(tmp_path: Path) -> None:
 WORKER = """
 import os, sys
 from pathlib import Path
-from forte.io import figure_processes, figures
-from forte.io.figure_processes import FigureWorker, can_fork, figure_worker
+from forte.io import figures
+from forte.io.figure_processes import can_fork
+from forte.io.figure_worker import FigureWorker, draw_plan_figures, figure_worker
 from forte.io.figures import figure_format
 from forte.model.robot import default_robot
 from forte.planning.planner import plan
@@ -153,7 +154,7 @@ with figure_worker(robot, fork=True) as worker:
     pid = worker.pid if worker else None
     if case != "unused":
         with figure_format("svg"):
-            figures.plan_figures(quintic, out)
+            draw_plan_figures(quintic, out)
         print("worker drew", answers == [True])
         print("asked", bool(answers), "used", worker is not None and worker.used)
 print("reaped", pid is None or not os.path.exists(f"/proc/{pid}") or open(f"/proc/{pid}/stat").read().split()[2] == "Z")
@@ -200,7 +201,7 @@ def test_no_process_to_be_had_draws_here(tmp_path: Path, monkeypatch: pytest.Mon
     drawn here."""
     import errno
 
-    from forte.io import figure_processes
+    from forte.io import figure_processes, figure_worker
 
     def no_fork() -> int:
         raise BlockingIOError(errno.EAGAIN, "Resource temporarily unavailable")
@@ -213,12 +214,12 @@ def test_no_process_to_be_had_draws_here(tmp_path: Path, monkeypatch: pytest.Mon
     figure_processes.run_split(groups, fork=True)
     assert ran == [("a", os.getpid()), ("b", os.getpid()), ("c", os.getpid())]
     before = _open_fds()
-    assert figure_processes.FigureWorker(quintic.robot).pid == -1
+    assert figure_worker.FigureWorker(quintic.robot).pid == -1
     assert _open_fds() == before  # its pipes were closed
-    with figure_processes.figure_worker(quintic.robot, fork=True) as worker:
-        assert worker is None and figure_processes.take_worker() is None
+    with figure_worker.figure_worker(quintic.robot, fork=True) as worker:
+        assert worker is None and figure_worker.take_worker() is None
         with figure_format("svg"):
-            plan_figures(quintic, tmp_path)
+            figure_worker.draw_plan_figures(quintic, tmp_path)
     assert _open_fds() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
         f"{s}.svg" for s in ("capacity", "manipulability", "rfp_worst", "ellipsoid"))

@@ -13,7 +13,8 @@ import sys
 from pathlib import Path
 
 from forte.exceptions import EstimationError, InvalidInputError
-from forte.force.estimate import DEFAULT_R_MIN, MassEstimator, estimate_payload, radius_from_estimate
+from forte.force.estimate import DEFAULT_R_MIN, estimate_payload, radius_from_estimate
+from forte.force.mass import MassEstimator
 from forte.force.massbench import load_dataset, markdown_table, run_benchmark, summarize_results, write_per_item_csv
 from forte.force.offline import OfflineEstimator
 from forte.force.vlm import VLMConfig, VLMEstimator

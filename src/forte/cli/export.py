@@ -73,7 +73,7 @@ def run_robot_export(args: argparse.Namespace) -> int:
 
         robot = default_robot()
     if suffix == ".urdf":
-        from forte.io.export import portable_urdf
+        from forte.io.whole_body import portable_urdf
 
         text = portable_urdf(robot)  # package:// meshes: the file travels
         scene_note = f"; the scene's {len(scene.objects)} bodies are in the MJCF (.xml) only" if scene else ""

@@ -62,7 +62,7 @@ EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_BUG = 0, 1, 2, 3
 #: the threads cost wall time too (N = 400: 8-10 s single-threaded against 9-17 s); only large
 #: horizons on an idle machine gain from them (N = 400: 2.8 s instead of 3.6 s of solve with
 #: ``OPENBLAS_NUM_THREADS=2``). Single-threaded, the process also may fork its figure drawing
-#: (:mod:`forte.io.figure_processes`).
+#: (:mod:`forte.io.figure_processes`, :mod:`forte.io.figure_worker`).
 THREAD_DEFAULTS = SINGLE_THREAD_ENV
 
 

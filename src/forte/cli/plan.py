@@ -10,7 +10,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from forte.io.figure_processes import figure_worker
+from forte.io.figure_worker import figure_worker
 from forte.io.figures import figure_format
 from forte.io.outputs import check_output, output_lock, replace_directory
 from forte.io.plandir import plan_summary, write_plan

@@ -8,7 +8,12 @@ derivatives) and calls
 and :class:`forte.execution.control.BaseAdmittance` per MuJoCo step and judges every step
 (:class:`forte.execution.judge.Judge`). When the plan has no payload (``payload.mass`` null) but
 a task force, the force is an interaction with the environment: its reaction ``-f_d`` is
-applied at the end effector. A payload whose centre of mass is off the hand (``payload.com``,
+applied at the end effector (with ``force_feedforward=False`` the arm does not push back). A
+simulated payload mass other than the plan's models an estimation error: the feedforward still
+applies the plan's force. ``mass=0`` on a plan that carries a payload means no payload: no
+payload body, and the feedforward keeps only the share of the plan's force that is the robot's
+own end-effector load (the tool: ``m_tool / (m_payload + m_tool)``, none without a tool) unless
+``force_feedforward`` says otherwise. A payload whose centre of mass is off the hand (``payload.com``,
 ``payload.inertia`` in plan.json) is simulated there, with its inertia
 (:func:`forte.execution.bodies.carried_body`), and the feedforward applies the plan's whole wrench,
 ``J6^T (f, m)`` (:mod:`forte.execution.control`).
@@ -36,7 +41,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
@@ -185,44 +190,21 @@ def run_simulation(
 
 
 def simulate_plan(
-    plan_dir: str | Path,
-    mass: float | None = None,
-    *,
-    force_feedforward: bool | None = None,
-    out_dir: str | Path | None = None,
-    gains: ControlGains | Mapping[str, Any] | None = None,
-    thresholds: Thresholds | None = None,
-    torque_limits: Any = None,
-    hold: float = 1.0,
-    timestep: float = 1e-3,
-    record_every: int = 10,
-    stop_on_failure: bool = False,
-    frames_dir: str | Path | None = None,
-    video: str | Path | None = None,
-    fps: float = 30.0,
-    viewer: bool = False,
-    write: bool = True,
-    replan: Any = None,
-    reference: str = "spline",
-    mpc: Any = None,
+    plan_dir: str | Path, mass: float | None = None, *, force_feedforward: bool | None = None,
+    out_dir: str | Path | None = None, gains: ControlGains | Mapping[str, Any] | None = None,
+    thresholds: Thresholds | None = None, torque_limits: Any = None, hold: float = 1.0, timestep: float = 1e-3,
+    record_every: int = 10, stop_on_failure: bool = False, frames_dir: str | Path | None = None,
+    video: str | Path | None = None, fps: float = 30.0, viewer: bool = False, write: bool = True,
+    replan: Any = None, reference: str = "spline", mpc: Any = None,
 ) -> SimResult:
     """Simulate the plan in ``plan_dir`` and (with ``write``) store ``sim.csv`` and ``sim.json``.
 
     Args:
         plan_dir: Folder with ``trajectory.csv`` and ``plan.json``.
-        mass: True payload mass in the simulation (kg); default: the plan's ``payload.mass``
-            (none when null). A mass > 0 different from the plan's models a mass-estimation
-            error: the controller's force feedforward still uses the plan's force. ``mass=0``
-            on a plan that carries a payload means *no payload*: no payload body, and the
-            force feedforward keeps only the share of the robot's own end-effector load (the
-            tool that the plan's force includes: ``m_tool / (m_payload + m_tool)`` of it, none
-            without a tool) unless ``force_feedforward`` says otherwise. On a
-            plan without payload (``payload.mass`` null) the force is an interaction with the
-            environment and stays on.
-        force_feedforward: ``tau_F = J^T f_d`` on (True, the plan's whole force) or off
-            (False); default (None): on (the tool's share for ``mass=0`` on a payload plan,
-            see ``mass``). Off, with a plan's interaction force, the environment still pushes
-            but the arm does not push back.
+        mass: True payload mass in the simulation (kg); default: the plan's ``payload.mass`` (none
+            when null). Another mass > 0 models an estimation error, ``0`` no payload (module docstring).
+        force_feedforward: ``tau_F = J^T f_d`` on (True, the plan's whole force) or off (False);
+            default (None): on (for ``mass=0`` on a payload plan, the tool's share: module docstring).
         out_dir: Where to write the results (default ``plan_dir``).
         gains: Controller gains, or a ``controller:`` mapping for
             :func:`forte.execution.gains.gains_from_mapping` (rule inertia at the plan's start);
@@ -241,15 +223,13 @@ def simulate_plan(
             run (and after writing the results) wait until the user closes the window.
         replan: :class:`~forte.execution.closed_loop.ReplanOptions` to identify the payload
             online and re-plan the remaining motion (:mod:`forte.execution.closed_loop`).
-        mpc: :class:`~forte.execution.mpc.MpcOptions` to run the plan under model-predictive
-            control: the remaining motion re-solved at a fixed rate from the measured state, with
-            online identification and asynchronous payload estimates (:mod:`forte.execution.mpc`);
-            not with ``replan``.
-        reference: How the waypoints become the controller's reference: ``"spline"`` (clamped
-            cubic spline) or ``"plan"`` (the plan's own backward-difference velocities and
-            accelerations at every waypoint); see :mod:`forte.execution.reference`.
-        write: Write ``sim.csv``/``sim.json``, after the run, each through a temporary file
-            and a rename: an interrupted or crashed run never replaces earlier results.
+        mpc: :class:`~forte.execution.mpc.MpcOptions` to run under model-predictive control: the
+            remaining motion re-solved at a fixed rate from the measured state, with online
+            identification and asynchronous payload estimates (:mod:`forte.execution.mpc`); not with ``replan``.
+        reference: ``"spline"`` (clamped cubic spline through the waypoints) or ``"plan"`` (the plan's
+            own backward-difference velocities and accelerations), see :mod:`forte.execution.reference`.
+        write: Write ``sim.csv``/``sim.json``, after the run, each through a temporary file and a
+            rename: an interrupted or crashed run never replaces earlier results.
 
     Examples:
         Hold the home pose for 0.2 s, no payload:
@@ -268,48 +248,17 @@ def simulate_plan(
     if replan is not None and mpc is not None:
         raise InvalidInputError("replan, mpc: expected one closed loop, got both")
     plan = read_plan_dir(plan_dir)
-    robot = plan.robot if torque_limits is None else with_torque_limits(plan.robot, torque_limits)
-    true_mass = plan.payload.mass if mass is None else check_mass(mass)
-    force_feedforward, force_share = _feedforward(plan, robot, mass is not None and true_mass == 0.0,
-                                                  force_feedforward)
-    hold = as_positive(hold, "hold", allow_zero=True)
     offscreen = frames_dir is not None or video is not None
-    # the robot's end-effector load that the plan's force includes (tool_force_mass) is carried
-    # physically with the payload, at the payload's centre of mass with its inertia: one welded body
-    carried, com, inertia = carried_body(true_mass or 0.0, plan.payload.com, plan.payload.inertia,
-                                         robot.tool_force_mass if plan.payload.mass is not None else 0.0)
-    # contact with the scene and the floor, unless the URDF's geometry cannot be loaded and there is no scene
-    scene = plan.scene if plan.scene or geometry_loadable(robot) else None
-    # a contact task's object (forte.execution.contact_objects): built in, its contact modelled
-    rig = rig_for(plan.contact, robot, plan.q, plan.force)
-    sim = build_sim_model(robot, carried, payload_com=com, payload_inertia=inertia, meshes=offscreen or viewer,
-                          timestep=timestep, scene=scene, decorate=None if rig is None else rig.decorate)
-    gains = _resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
-    # the moment is the payload's alone: none without it
-    moment_share = 0.0 if mass is not None and true_mass == 0.0 and force_feedforward is None else force_share
-    reference_kind, reference = reference, _plan_reference(plan, sim.timestep, hold, force_share, reference,
-                                                           moment_share)
-    recorder = FrameRecorder(sim, _optional_path(frames_dir), _optional_path(video), fps) if offscreen else None
-    live = LiveViewer(sim) if viewer else None
-    loop = None
-    if replan is not None:
-        from forte.execution.closed_loop import make_replan_loop
-
-        loop = make_replan_loop(Path(plan_dir), plan, sim, reference, replan)
-    elif mpc is not None:
-        from forte.execution.mpc import make_mpc_loop
-
-        loop = make_mpc_loop(Path(plan_dir), plan, sim, reference, mpc)
+    run = _setup(plan, mass, force_feedforward, gains, torque_limits, hold, timestep, reference, offscreen or viewer)
+    recorder = FrameRecorder(run.sim, _optional_path(frames_dir), _optional_path(video), fps) if offscreen else None
+    live = LiveViewer(run.sim) if viewer else None
+    loop = _closed_loop(Path(plan_dir), plan, run.sim, run.reference, replan, mpc)
     result = run_simulation(
-        sim, reference, gains=gains, thresholds=thresholds,
-        reaction_force=(plan.payload.mass is None and plan.contact is None and plan.force is not None
-                        and bool(np.any(plan.force.f))),
+        run.sim, run.reference, gains=run.gains, thresholds=thresholds, reaction_force=_reaction_force(plan),
         record_every=record_every, stop_on_failure=stop_on_failure,
-        sinks=[s for s in (recorder, live) if s is not None], after_step=loop, rig=rig,
+        sinks=[s for s in (recorder, live) if s is not None], after_step=loop, rig=run.rig,
     )
-    result.summary.update(_run_facts(plan, Path(plan_dir), sim, gains))
-    result.summary["force_feedforward_share"] = force_share if gains.force_feedforward else 0.0
-    result.summary["reference"] = reference_kind
+    result.summary.update(_run_facts(plan, Path(plan_dir), run, reference))
     if loop is not None:
         result.summary["mpc" if mpc is not None else "replanning"] = loop.summary()
     if recorder is not None:
@@ -319,6 +268,62 @@ def simulate_plan(
     if live is not None:
         live.finish()
     return result
+
+
+class _Run(NamedTuple):
+    """What a run of a plan is built from (:func:`_setup`)."""
+
+    sim: SimModel
+    gains: ControlGains
+    reference: Reference  # sampled at every control step, ``hold`` s past the plan's end
+    force_share: float  # the share of the plan's force the feedforward applies
+    rig: ContactRig | None  # a contact task's object
+
+
+def _setup(plan: Plan, mass: float | None, force_feedforward: bool | None,
+           gains: ControlGains | Mapping[str, Any] | None, torque_limits: Any, hold: float, timestep: float,
+           reference: str, meshes: bool) -> _Run:
+    """The MuJoCo model of ``plan`` carrying the true payload ``mass``, the controller's gains and
+    the reference (arguments as in :func:`simulate_plan`; ``meshes`` for rendering)."""
+    robot = plan.robot if torque_limits is None else with_torque_limits(plan.robot, torque_limits)
+    true_mass = plan.payload.mass if mass is None else check_mass(mass)
+    force_feedforward, force_share = _feedforward(plan, robot, mass is not None and true_mass == 0.0,
+                                                  force_feedforward)
+    hold = as_positive(hold, "hold", allow_zero=True)
+    # the robot's end-effector load that the plan's force includes (tool_force_mass) is carried
+    # physically with the payload, at the payload's centre of mass with its inertia: one welded body
+    carried, com, inertia = carried_body(true_mass or 0.0, plan.payload.com, plan.payload.inertia,
+                                         robot.tool_force_mass if plan.payload.mass is not None else 0.0)
+    # contact with the scene and the floor, unless the URDF's geometry cannot be loaded and there is no scene
+    scene = plan.scene if plan.scene or geometry_loadable(robot) else None
+    # a contact task's object (forte.execution.contact_objects): built in, its contact modelled
+    rig = rig_for(plan.contact, robot, plan.q, plan.force)
+    sim = build_sim_model(robot, carried, payload_com=com, payload_inertia=inertia, meshes=meshes,
+                          timestep=timestep, scene=scene, decorate=None if rig is None else rig.decorate)
+    gains = _resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
+    # the moment is the payload's alone: none without it
+    moment_share = 0.0 if mass is not None and true_mass == 0.0 and force_feedforward is None else force_share
+    return _Run(sim, gains, _plan_reference(plan, sim.timestep, hold, force_share, reference, moment_share),
+                force_share, rig)
+
+
+def _closed_loop(plan_dir: Path, plan: Plan, sim: SimModel, reference: Reference, replan: Any, mpc: Any) -> Any:
+    """The ``after_step`` of a re-planning or MPC run (it may rewrite ``reference``), None open-loop."""
+    if replan is not None:
+        from forte.execution.closed_loop import make_replan_loop
+
+        return make_replan_loop(plan_dir, plan, sim, reference, replan)
+    if mpc is not None:
+        from forte.execution.mpc import make_mpc_loop
+
+        return make_mpc_loop(plan_dir, plan, sim, reference, mpc)
+    return None
+
+
+def _reaction_force(plan: Plan) -> bool:
+    """No payload, no contact task, a force: an interaction, the environment pushes back with ``-f_d``."""
+    return (plan.payload.mass is None and plan.contact is None and plan.force is not None
+            and bool(np.any(plan.force.f)))
 
 
 def _feedforward(plan: Plan, robot: MobileManipulator, unloaded: bool, wanted: bool | None) -> tuple[bool, float]:
@@ -337,9 +342,10 @@ def _optional_path(path: str | Path | None) -> Path | None:
     return None if path is None else Path(path)
 
 
-def _run_facts(plan: Plan, plan_dir: Path, sim: SimModel, gains: ControlGains) -> dict[str, Any]:
-    """What ``sim.json`` records about the plan, the model and the controller of a run."""
+def _run_facts(plan: Plan, plan_dir: Path, run: _Run, reference: str) -> dict[str, Any]:
+    """What ``sim.json`` records about the plan, the model, the controller and the reference of a run."""
     q_a0 = plan.q[0, N_BASE:]
+    sim, gains = run.sim, run.gains
     return {
         "plan_dir": str(plan_dir.resolve()), "plan_method": plan.method, "plan_status": plan.status,
         "plan_verdict": plan.label,
@@ -348,6 +354,8 @@ def _run_facts(plan: Plan, plan_dir: Path, sim: SimModel, gains: ControlGains) -
         "torque_limits": sim.robot.torque_limits.tolist(),  # the plan's, or simulate_plan's torque_limits
         "gains": describe_gains(gains),
         "sampled_loop_radius_start": sampled_loop_radius_at(sim.robot, gains, q_a0, sim.armature, sim.timestep),
+        "force_feedforward_share": run.force_share if gains.force_feedforward else 0.0,
+        "reference": reference,
     }
 
 
@@ -362,8 +370,6 @@ def _resolve_gains(gains: ControlGains | Mapping[str, Any] | None, sim: SimModel
         raise InvalidInputError(f"gains: expected ControlGains or a mapping, got {type(gains).__name__}")
     gains.check(sim.robot.n_arm)
     return gains if force_feedforward else replace(gains, force_feedforward=False)
-
-
 
 
 def _plan_reference(plan: Plan, dt: float, hold: float, force_share: float = 1.0,

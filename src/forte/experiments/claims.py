@@ -29,7 +29,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from forte.experiments.common import Case
     from forte.planning.planner import Plan
 
 
@@ -43,6 +42,17 @@ def fmt_num(value: Any, digits: int = 2) -> str:
 def cell(text: str) -> str:
     """Text for a markdown table cell."""
     return text.replace("|", "\\|")
+
+
+@dataclass
+class Case:
+    """The plans of one payload (or of the force profile) and their simulations: what the claims
+    about it are judged on (:func:`every_run`, :func:`some_run_fails`)."""
+
+    label: str
+    mass: float | None
+    results: dict[str, Plan] = field(default_factory=dict)
+    sims: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -16,11 +16,11 @@ import numpy as np
 
 from forte import progress
 from forte.execution.run import simulate_plan
-from forte.experiments.claims import Claim, claims_section, compare, fmt_num, solved
+from forte.experiments.claims import Case, Claim, claims_section, compare, fmt_num, solved
 from forte.io.figures import pyplot
 from forte.io.outputs import GENERATOR
 from forte.io.plandir import FORMAT_VERSION, TRAJECTORY_FILE, plan_summary, write_plan
-from forte.io.reports import jsonable, package_versions
+from forte.io.records import jsonable, package_versions
 from forte.model.description import torque_limit_set
 from forte.model.presets import torque_limit_name, with_torque_limits
 from forte.planning.methods.catalog import METHODS, method_names
@@ -63,16 +63,6 @@ def quiet(_: str) -> None:
 
 
 # -- cases, planning and simulation ----------------------------------------------------------
-@dataclass
-class Case:
-    """The plans of one payload (or of the force profile) and their simulations."""
-
-    label: str
-    mass: float | None
-    results: dict[str, Plan] = field(default_factory=dict)
-    sims: dict[str, dict[str, Any]] = field(default_factory=dict)
-
-
 def task_path(name: str) -> Path:
     """``examples/tasks/NAME.yaml`` of the source tree (or of the working directory)."""
     path = TASKS_DIR / f"{name}.yaml"

@@ -28,7 +28,7 @@ from forte.force.contact import Carry, Contact, Drawer, PushBox, contact_to_dict
 from forte.io.figures import pyplot
 from forte.io.outputs import GENERATOR, replace_directory
 from forte.io.plandir import FORMAT_VERSION, write_plan
-from forte.io.reports import package_versions
+from forte.io.records import package_versions
 from forte.planning.planner import plan
 from forte.planning.tasks.tasks import load_task
 

@@ -36,7 +36,7 @@ from forte.experiments.common import Log, check_format, quiet, save, task_path
 from forte.io.figures import pyplot
 from forte.io.outputs import GENERATOR, replace_directory
 from forte.io.plandir import FORMAT_VERSION, write_plan
-from forte.io.reports import jsonable, package_versions
+from forte.io.records import jsonable, package_versions
 from forte.planning.planner import plan
 from forte.planning.tasks.tasks import load_task
 

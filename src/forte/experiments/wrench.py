@@ -42,7 +42,7 @@ from forte.experiments.common import Log, check_format, quiet, save, sim_cell, s
 from forte.io.figures import pyplot
 from forte.io.outputs import GENERATOR, replace_directory
 from forte.io.plandir import FORMAT_VERSION, write_plan
-from forte.io.reports import package_versions
+from forte.io.records import package_versions
 from forte.model.description import N_BASE
 from forte.planning.planner import Plan, plan
 from forte.planning.tasks.tasks import Task, load_task

@@ -35,7 +35,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from forte.exceptions import ForteError, InvalidInputError
-from forte.force.estimate import MassEstimate, MassEstimator
+from forte.force.mass import MassEstimate, MassEstimator
 from forte.force.quantities import states_mass
 
 METRICS: tuple[str, ...] = ("mALDE", "mAPE", "r2_ls", "mMnRE", "q")

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from forte.exceptions import EstimationError
-from forte.force.estimate import MAX_MASS_KG, MIN_MASS_KG, MassEstimate, ObjectEstimate
 from forte.force.images import ImageInput
+from forte.force.mass import MAX_MASS_KG, MIN_MASS_KG, MassEstimate, ObjectEstimate
 from forte.force.quantities import Quantity, parse_items, parse_quantities
 
 

@@ -20,8 +20,8 @@ from typing import Any
 from urllib.parse import urlparse
 
 from forte.exceptions import EstimationError, InvalidInputError
-from forte.force.estimate import MassEstimate
 from forte.force.images import ImageInput, data_url, image_bytes
+from forte.force.mass import MassEstimate
 from forte.force.vlm_answer import DEFAULT_DESCRIPTION, PROMPT_VERSION, RESPONSE_FORMAT, SYSTEM_PROMPT, parse_answer
 from forte.force.vlm_cache import cache_key, read_entry, server_id, write_entry
 

@@ -15,7 +15,7 @@ import re
 from typing import Any
 
 from forte.exceptions import EstimationError
-from forte.force.estimate import CONFIDENCE_LEVELS, MAX_MASS_KG, MIN_MASS_KG, MassEstimate, ObjectEstimate
+from forte.force.mass import CONFIDENCE_LEVELS, MAX_MASS_KG, MIN_MASS_KG, MassEstimate, ObjectEstimate
 
 #: Bumped whenever the prompt or the answer schema changes; part of every cache key.
 PROMPT_VERSION = "forte-payload-mass-v2"

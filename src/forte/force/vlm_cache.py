@@ -13,7 +13,7 @@ from typing import Any
 from urllib.parse import urlparse
 
 from forte.exceptions import EstimationError
-from forte.force.estimate import MassEstimate
+from forte.force.mass import MassEstimate
 
 log = logging.getLogger(__name__)
 

@@ -20,7 +20,7 @@ import numpy as np
 from forte.capability.metrics import ellipsoid_axes
 from forte.capability.polytope import facets, halfspaces, residual_margins, trajectory_rfp, vertices
 from forte.exceptions import InvalidInputError
-from forte.io.figure_processes import run_split, take_worker
+from forte.io.figure_processes import run_split
 from forte.model.description import BASE_BOX_HALF_XY
 from forte.model.scene import Box, Capsule, Cylinder, Mesh, SceneObject, mesh_vertices
 from forte.planning.methods.catalog import METHODS
@@ -41,6 +41,11 @@ def figure_format(fmt: str) -> Iterator[None]:
         yield
     finally:
         _FORMAT.reset(token)
+
+
+def current_format() -> str:
+    """The format in effect (:func:`figure_format`; png outside any block)."""
+    return _FORMAT.get()
 
 
 def figure_path(directory: Path, stem: str) -> Path:
@@ -372,13 +377,9 @@ def plot_scene(plan: Plan, path: Path) -> None:
 
 def plan_figures(plan: Plan, directory: Path) -> None:
     """The four figures of a plan directory (in the format of :func:`figure_format`), and
-    ``scene`` (:func:`plot_scene`) when the plan has one: by the
-    figure worker when one waits (:func:`forte.io.figure_processes.figure_worker`), else here,
-    two groups in two processes where :func:`~forte.io.figure_processes.run_split` can fork
-    (about 0.3 s of CPU time each)."""
-    worker = take_worker()
-    if worker is not None and worker.draw(plan, directory, _FORMAT.get()):
-        return
+    ``scene`` (:func:`plot_scene`) when the plan has one, drawn here: two groups in two processes
+    where :func:`~forte.io.figure_processes.run_split` can fork (about 0.3 s of CPU time each).
+    :func:`forte.io.figure_worker.draw_plan_figures` hands them to a worker forked earlier."""
     scene = [lambda: plot_scene(plan, figure_path(directory, "scene"))] if plan.scene else []
     run_split([
         [lambda: plot_polytope(plan, figure_path(directory, "rfp_worst")),

@@ -8,7 +8,7 @@ from the plan's start; every frame is a link of the whole-body URDF, the fixed f
   (every waypoint: positions, the plan's backward-difference velocities and accelerations,
   ``time_from_start``);
 - ``/robot_description`` ``std_msgs/String``: one message at 0, the whole-body URDF the plan was
-  planned with, its meshes ``package://`` URIs (:func:`forte.io.export.portable_urdf`, as
+  planned with, its meshes ``package://`` URIs (:func:`forte.io.whole_body.portable_urdf`, as
   ``forte robot export --plan`` writes it);
 - ``/tf_static`` ``tf2_msgs/TFMessage``: one message at 0, every fixed joint of the URDF (parent
   link to child link), as ``robot_state_publisher`` publishes them;
@@ -56,6 +56,7 @@ from scipy.spatial import ConvexHull
 from forte.capability.polytope import trajectory_rfp
 from forte.exceptions import InvalidInputError
 from forte.io import ros_messages as ros
+from forte.io.whole_body import portable_urdf
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Box, Capsule, Cylinder, Scene, SceneObject, Sphere
 from forte.model.trajectory import clamped_spline
@@ -243,8 +244,6 @@ def write_mcap(data: Any, path: Path) -> None:
     except ImportError as exc:
         raise InvalidInputError("MCAP export needs the 'mcap-ros2-support' package: "
                                 "pip install 'forte[export]'") from exc
-    from forte.io.export import portable_urdf
-
     robot: MobileManipulator = data.robot
     t0 = float(data.t[0])
     urdf = portable_urdf(robot)

@@ -42,6 +42,7 @@ from forte.io.outputs import (
     output_lock,
     replace_directory,
 )
+from forte.io.records import jsonable, package_versions
 from forte.io.robot_file import store_robot, stored_description
 from forte.model.robot import MobileManipulator, robot_from_description
 from forte.model.scene import DEFAULT_FLOOR, Scene, scene_from_json
@@ -128,9 +129,9 @@ def fill_plan_dir(plan: Plan, directory: Path, figures: bool = True) -> None:
     doc["robot"] = store_robot(plan.robot, directory)
     atomic_write(directory / PLAN_FILE, json.dumps(doc, indent=2) + "\n")
     if figures and plan.metrics:
-        from forte.io.figures import plan_figures  # matplotlib only when figures are drawn
+        from forte.io.figure_worker import draw_plan_figures  # matplotlib only when figures are drawn
 
-        plan_figures(plan, directory)
+        draw_plan_figures(plan, directory)
 
 
 def write_plan_dir(plan_dir: str | Path, robot: MobileManipulator, t: Any, q: Any, *, mass: float | None = None,
@@ -181,8 +182,6 @@ def plan_summary(plan: Plan) -> dict[str, float]:
 
 def plan_document(plan: Plan) -> dict[str, Any]:
     """Everything ``plan.json`` records (schema version :data:`FORMAT_VERSION`)."""
-    from forte.io.reports import jsonable, package_versions
-
     task = plan.task
     doc: dict[str, Any] = {"generator": GENERATOR, "format_version": FORMAT_VERSION}
     if task is not None:

@@ -1,52 +1,21 @@
-"""Reports: JSON-safe values, package versions, and the comparison of several plans.
+"""Reports: the comparison of several plans (summary.md, summary.csv, comparison.json, its figure).
 
 The plan directory itself (file names, plan.json, the one writer and reader) belongs to
-:mod:`forte.io.plandir`; figures to :mod:`forte.io.figures`.
+:mod:`forte.io.plandir`; JSON-safe values and package versions to :mod:`forte.io.records`;
+figures to :mod:`forte.io.figures`.
 """
 
 from __future__ import annotations
 
 import csv
 import json
-import platform
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from forte.io.outputs import GENERATOR, atomic_write
 from forte.io.plandir import COMPARISON_FILE, FORMAT_VERSION, plan_summary
+from forte.io.records import jsonable
 from forte.planning.planner import Plan
-
-PACKAGES = ("forte", "numpy", "scipy", "casadi", "pin", "example-robot-data", "matplotlib", "mujoco", "openai")
-
-
-def package_versions() -> dict[str, str]:
-    out = {"python": platform.python_version()}
-    for name in PACKAGES:
-        try:
-            out[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            out[name] = "not installed"
-    return out
-
-
-def jsonable(value: Any) -> Any:
-    """``value`` with numpy types, paths and non-finite floats turned into plain JSON values."""
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, float) and not np.isfinite(value):
-        return str(value)
-    if isinstance(value, Path):
-        return str(value)
-    return value
 
 
 def comparison_rows(results: list[Plan]) -> list[dict[str, Any]]:

@@ -4,7 +4,7 @@
 
 - ``world/robot/<geometry>/mesh``: the robot's meshes (the STL collision meshes of the URDF, which
   Rerun reads; COLLADA visual meshes are not), posed at every waypoint by Pinocchio's forward
-  kinematics of the whole-body URDF (:func:`forte.io.export.whole_body_urdf`);
+  kinematics of the whole-body URDF (:func:`forte.io.whole_body.whole_body_urdf`);
 - ``world/scene/<name>``: the plan's scene (:mod:`forte.model.scene`), each body posed once
   (static): boxes, cylinders, spheres (ellipsoids), capsules, and meshes as the triangles the
   planner's loader (coal) reads;
@@ -31,8 +31,8 @@ import numpy as np
 
 from forte.capability.polytope import trajectory_rfp
 from forte.exceptions import InvalidInputError
-from forte.io.export import whole_body_urdf
 from forte.io.plandir import read_metrics, read_plan_dir
+from forte.io.whole_body import whole_body_urdf
 from forte.model.scene import Box, Capsule, Cylinder, Scene, Sphere, mesh_vertices
 from forte.planning.methods.catalog import METHODS
 

@@ -23,7 +23,7 @@ from forte.experiments.sweep.stops import held_stops
 from forte.experiments.sweep.store import SweepDir
 from forte.experiments.sweep.table import write_table
 from forte.io.outputs import output_lock
-from forte.io.reports import package_versions
+from forte.io.records import package_versions
 
 Log = Callable[[str], None]
 

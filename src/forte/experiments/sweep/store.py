@@ -34,7 +34,7 @@ from forte.exceptions import OutputError
 from forte.experiments.sweep.spec import CELL_FORMAT, Cell, SweepSpec, cell_id
 from forte.experiments.sweep.table import NAMES, normalize
 from forte.io.outputs import GENERATOR, MAX_JSON_BYTES, atomic_write, check_output
-from forte.io.reports import jsonable, package_versions
+from forte.io.records import jsonable, package_versions
 
 if TYPE_CHECKING:
     from forte.experiments.sweep.cell import CellResult
