@@ -16,6 +16,7 @@ import yaml
 from forte.cli.main import main
 from forte.exceptions import TaskFileError
 from forte.io.task_schema import MARKER, PAGE, json_schema, markdown
+from forte.model.robot import default_robot
 from forte.planning.tasks.task_fields import FIELDS, MODES, STRICT_VARIANTS, Field
 from forte.planning.tasks.tasks import load_task, task_from_dict
 from forte.planning.terms.costs import COST_TERMS
@@ -24,6 +25,8 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted((ROOT / "examples" / "tasks").glob("*.yaml"))
 BOGUS = "zz_not_a_field"
 WAYPOINTS = [{"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 1.0, "position": [0.1, 0.0, 0.0]}]
+_HOME = default_robot().home().tolist()
+TAUGHT = [{"t": 0.0, "q": _HOME}, {"t": 1.0, "q": [_HOME[0] + 0.05, *_HOME[1:]]}]
 #: A valid task every probe starts from (the built-in robot, 5 samples).
 BASE: dict[str, Any] = {"path": {"relative": True, "samples": 5, "waypoints": WAYPOINTS}, "payload": {"mass": 1.0}}
 HOLD: dict[str, Any] = {"mode": "hold", "pose": {"position": [0.0, 0.0, 0.0], "relative": True},
@@ -52,7 +55,10 @@ def _probes() -> dict[str, dict[str, Any]]:
         "robot": _with(BASE, ("robot",), {"preset": "authors"}),
         "robot.mount": _with(BASE, ("robot", "mount"), {"xyz": [0, 0, 0.5]}),
         "robot.tool": _with(BASE, ("robot", "tool"), {"mass": 1.0}),
-        "path": _with(BASE, ("path",), BASE["path"]),
+        "path|waypoints": _with(BASE, ("path",), BASE["path"]),
+        "path|windowed-sine": _with(BASE, ("path",), {"kind": "windowed-sine", "duration": 1.0, "samples": 5,
+                                                      "amplitude": [0.01, 0, 0], "frequency": [1, 0, 0]}),
+        "path|taught": _with(BASE, ("path",), {"kind": "taught", "samples": 5, "configurations": TAUGHT}),
         "path.waypoints[]": _with(BASE, ("path", "waypoints", 0), WAYPOINTS[0]),
         "path.orientation": _with(BASE, ("path", "orientation"), {"rpy": [0, 0, 0]}),
         "path.configurations[]": _with({**BASE, "path": {"kind": "taught", "configurations": [{}, {}]}},
@@ -109,8 +115,9 @@ def test_every_described_mapping_is_probed():
     parents = {f.parent for f in FIELDS}
     probed = {p.partition("|")[0] for p in _probes()}
     assert parents == probed
-    assert {f.when[1] for f in FIELDS if f.parent == "contact" and f.when} == {
-        p.partition("|")[2] for p in _probes() if p.startswith("contact|")}
+    for strict in STRICT_VARIANTS:  # a probe per variant of a mapping that refuses the others' fields
+        assert {f.when[1] for f in FIELDS if f.parent == strict and f.when} == {
+            p.partition("|")[2] for p in _probes() if p.startswith(f"{strict}|")}
 
 
 def test_the_constants_the_description_repeats_agree_with_their_owners():
@@ -176,6 +183,7 @@ BROKEN: dict[str, dict[str, Any]] = {
     "unknown preset": {**BASE, "robot": {"preset": "pr2"}},
     "sine path without duration": {**BASE, "path": {"kind": "windowed-sine", "amplitude": [0, 0, 0.1],
                                                     "frequency": [0, 0, 0.5]}},
+    "a sine's amplitude on a waypoint path": {**BASE, "path": {**BASE["path"], "amplitude": [0, 0, 0.1]}},
     "drawer field in a push": {"path": BASE["path"], "contact": {**CONTACT["push-box"], "stiffness": 10.0}},
     "two shapes in one body": {**BASE, "scene": [{"box": SHAPES["box"], "sphere": SHAPES["sphere"],
                                                   "pose": [5, 5, 0, 0, 0, 0]}]},

@@ -104,14 +104,22 @@ def taught_targets(robot: MobileManipulator, knot_times: FloatArray, knots: Floa
     return targets_at
 
 
+#: The fields of every path, and those of each kind.
+PATH_FIELDS = frozenset({"kind", "samples", "rate", "orientation"})
+PATH_KIND_FIELDS = {"waypoints": frozenset({"waypoints", "relative"}),
+                    "windowed-sine": frozenset({"duration", "offset", "amplitude", "frequency", "phase"}),
+                    "taught": frozenset({"configurations"})}
+
+
 def build_path(reader: Reader, T0: FloatArray, waypoints: int | None,
           robot: MobileManipulator | None = None) -> tuple[FloatArray, TargetsAt]:
     if not reader.has("path"):
         raise reader.error("path", "required for mode 'trajectory'")
     r = reader.sub("path")
-    r.unknown({"kind", "waypoints", "relative", "samples", "rate", "orientation", "duration", "amplitude",
-               "frequency", "phase", "offset", "configurations"})
     kind = r.get("kind", "waypoints")
+    if kind not in PATH_KIND_FIELDS:
+        raise r.error("kind", f"expected 'waypoints', 'windowed-sine' or 'taught', got {kind!r}")
+    r.unknown(PATH_FIELDS | PATH_KIND_FIELDS[kind])  # another kind's field is refused, not ignored
     R = rotation(r, "orientation", T0[:3, :3])
     if kind == "taught" and robot is not None:
         kt, kq = taught_knots(r, robot)

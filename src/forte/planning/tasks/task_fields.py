@@ -56,7 +56,7 @@ __all__ = ["FIELDS", "Field", "Prose", "Type", "STRICT_VARIANTS", "task_fields"]
 #: The task's modes (:data:`forte.planning.tasks.tasks.MODES`; a test checks they agree).
 MODES = ("trajectory", "hold")
 #: Mappings whose variants accept different fields (the reader refuses another variant's field).
-STRICT_VARIANTS = frozenset({"contact"})
+STRICT_VARIANTS = frozenset({"contact", "path"})
 
 
 MASS = number(above=0, high=MAX_MASS_KG)
