@@ -167,6 +167,7 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
     vel, acc = (limit.copy() for limit in task.limits.resolve(task.robot))
     acc = acc[N_BASE:]
     rounds, current, current_verdict = [], sol, verdict
+    apart = bool(info.get("self_rows", {}).get("kept"))  # a plan kept apart by self rows keeps them
     for _ in range(task.solver.refine_rounds):
         if "capacity" in current_verdict.failed:
             short = capacity_shortfall(task, current.q, force)
@@ -181,7 +182,7 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
                                                   arm_velocity=tuple(vel[N_BASE:]),
                                                   base_velocity=tuple(vel[:N_BASE])))
         trial, trial_info = optimize(trial_task, spec, replace(force, r=radius), current.q,
-                                      reported=force)
+                                     reported=force, self_rows=apart)
         trial_verdict = judge_plan(task, trial.q, force, trial_info)
         rounds.append({"max_added_radius_n": float(np.max(radius - force.r)), "arm_acceleration": acc.tolist(),
                        "velocity": vel.tolist(), "verdict": trial_verdict.label,
