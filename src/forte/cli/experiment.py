@@ -50,7 +50,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--weights", metavar="PRESET",
                    help="lift, hold: plan with this named weight set instead of the task file's (e.g. "
                    "authors-trajectory for the authors' exact lift set, authors-hold-as-run for holding with "
-                   "the trajectory weights, see the README); the summary names the set it used")
+                   "the trajectory weights, see docs/formulas.md); the summary names the set it used")
     p.add_argument("--torque-limits", metavar="SET",
                    help="lift, hold: the arm's torque limits in planning and in every simulated run: paper (the "
                    "paper's 60/12 Nm, the default) or urdf (the URDF's efforts, 87/12 Nm on the Panda, a what-if); "

@@ -4,7 +4,7 @@ A task names the robot (default: the built-in one), the mode (``trajectory`` or 
 end-effector path or pose, the payload (a mass, or a description and an image for the
 estimator) or a force profile given directly, the uncertainty radius, weights, torque limits
 and solver options. Every error names the file, the field and what was expected. See
-``examples/tasks/*.yaml`` and the README for the schema.
+``examples/tasks/*.yaml`` and ``docs/task-files.md`` (generated from :mod:`forte.planning.tasks.task_fields`).
 """
 
 from __future__ import annotations
