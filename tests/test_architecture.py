@@ -13,7 +13,7 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 
 #: planning's rooms from the bottom up: a room imports only rooms before it (the top-level
 #: modules ``solve``, ``planner`` and ``bounds`` count as rooms of their own).
-ROOMS = ["terms", "tasks", "methods", "nlp", "verdict", "scene", "solve", "planner", "online", "bounds"]
+ROOMS = ["terms", "tasks", "methods", "nlp", "verdict", "search", "scene", "solve", "planner", "online", "bounds"]
 #: The longest chain of imports inside one room (nlp with its solvers: 7; planning/ as one
 #: folder had 15).
 MAX_ROOM_FLOORS = 7

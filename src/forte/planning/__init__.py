@@ -6,6 +6,8 @@
 - :mod:`~forte.planning.nlp`: the transcription (variables, rows, compiled kernels), the
   :class:`~forte.planning.nlp.optimizer.TrajectoryOptimizer` and its solvers;
 - :mod:`~forte.planning.verdict`: what a plan is worth and whether it can be executed;
+- :mod:`~forte.planning.search`: a collision-free whole-body path in configuration space (OMPL)
+  and its time-optimal law (toppra);
 - :mod:`~forte.planning.scene`: getting around the world (a clear start, re-solves with rows,
   naming what is in the way);
 - :mod:`~forte.planning.solve`: solving a task with an optimized method (initial guess,

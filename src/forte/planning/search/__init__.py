@@ -1,0 +1,16 @@
+"""Getting from here to there: a collision-free whole-body path in configuration space and its time law.
+
+- :mod:`~forte.planning.search.validity`: is a configuration free (forte's collision model, one
+  C++ call per state), is a straight C-space segment free;
+- :mod:`~forte.planning.search.sampling`: :func:`find_path`, OMPL's RRT-Connect, shortcut;
+- :mod:`~forte.planning.search.timing`: :func:`retime`, the time-optimal law along a path (toppra).
+
+OMPL and toppra are the optional extra ``plan`` (``pip install 'forte[plan]'``); they are imported
+when a search or a retiming runs.
+"""
+
+from forte.planning.search.sampling import SearchResult, find_path
+from forte.planning.search.timing import Timed, retime
+from forte.planning.search.validity import StateChecker, segment_free
+
+__all__ = ["SearchResult", "StateChecker", "Timed", "find_path", "retime", "segment_free"]
