@@ -31,12 +31,15 @@ class Contact(NamedTuple):
 class ArmGeometry:
     """The arm's collision meshes and the pairs that are checked (see the module docstring)."""
 
-    def __init__(self, urdf: Path, arm_joints: tuple[str, ...]) -> None:
+    def __init__(self, urdf: Path, arm_joints: tuple[str, ...], locked: tuple[tuple[str, float], ...] = ()) -> None:
         full = load_model(urdf)
         geom = load_geometry(full, urdf, pin.COLLISION, _package_dirs(urdf))
         keep = {full.getJointId(j) for j in arm_joints}
         lock = [j for j in range(1, full.njoints) if j not in keep]
-        q_ref = np.clip(pin.neutral(full), full.lowerPositionLimit, full.upperPositionLimit)
+        q_ref = pin.neutral(full)
+        for name, value in locked:  # (joint, value) pairs for locked 1-DoF joints; others at neutral
+            q_ref[full.joints[full.getJointId(name)].idx_q] = value
+        q_ref = np.clip(q_ref, full.lowerPositionLimit, full.upperPositionLimit)
         self.model, self.geom = pin.buildReducedModel(full, geom, lock, q_ref) if lock else (full, geom)
         self.geom.addAllCollisionPairs()
         srdf = sorted((urdf.parent.parent / "srdf").glob("*.srdf")) if urdf.parent.name == "urdf" else []

@@ -54,9 +54,10 @@ def _hull(geometry: Any) -> Any:
 
 
 @lru_cache(maxsize=8)
-def _robot_model(urdf: str, arm_joints: tuple[str, ...], mount: bytes) -> _Model:
+def _robot_model(urdf: str, arm_joints: tuple[str, ...], mount: bytes,
+                 locked: tuple[tuple[str, float], ...] = ()) -> _Model:
     """The base's planar joint (id 1, frame :attr:`_Model.frame`) with the arm's hulls on it at ``mount``."""
-    arm = ArmGeometry(Path(urdf), arm_joints)
+    arm = ArmGeometry(Path(urdf), arm_joints, locked)
     for obj in arm.geom.geometryObjects:
         obj.geometry = _hull(obj.geometry)
     base = pin.Model()
@@ -73,16 +74,20 @@ def _robot_model(urdf: str, arm_joints: tuple[str, ...], mount: bytes) -> _Model
 
 class StateChecker:
     """Validity of whole-body configurations of ``robot`` in ``scene`` with ``clearance`` (m)
-    (module docstring). ``floor`` replaces the scene's floor when given."""
+    (module docstring). ``floor`` replaces the scene's floor when given. Two departures from
+    :class:`ClearanceChecker`'s model, for measurements only (its ``why`` still reports on that
+    model): ``locked`` holds joints outside the arm (the fingers) at given values instead of
+    neutral, and ``base_box=False`` leaves the base box out."""
 
-    def __init__(self, robot: MobileManipulator, scene: Scene, clearance: float = 0.0,
-                 floor: float | None = None) -> None:
+    def __init__(self, robot: MobileManipulator, scene: Scene, clearance: float = 0.0, floor: float | None = None,
+                 *, locked: dict[str, float] | None = None, base_box: bool = True) -> None:
         self.robot, self.clearance = robot, float(clearance)
         self.scene = scene if floor is None else scene._replace(floor=float(floor))
-        built = _robot_model(str(robot.urdf_path), tuple(robot.arm_joints), np.ascontiguousarray(robot.mount).tobytes())
+        built = _robot_model(str(robot.urdf_path), tuple(robot.arm_joints), np.ascontiguousarray(robot.mount).tobytes(),
+                             tuple(sorted((locked or {}).items())))
         self.model, self.geom = built.model, pin.GeometryModel(built.geom)  # parts and bodies go into a copy
-        self._add_base_and_payload(built.frame)
-        grounded = (*built.grounded, True, False)
+        self._add_base_and_payload(built.frame, base_box)
+        grounded = (*built.grounded, *((True,) if base_box else ()), False)
         bodies = self._add_bodies()
         scene_pairs = [(g, b) for b in bodies for g in range(len(grounded))
                        if not (self.geom.geometryObjects[b].name == FLOOR and grounded[g])]
@@ -97,11 +102,12 @@ class StateChecker:
         self._q = np.zeros(self.model.nq)
         self.checks = 0
 
-    def _add_base_and_payload(self, frame: int) -> None:
+    def _add_base_and_payload(self, frame: int, with_box: bool) -> None:
         import coal
 
-        box, offset = base_box(self.robot)
-        self.geom.addGeometryObject(pin.GeometryObject(BASE_PART, 1, frame, pin.SE3(offset), box))
+        if with_box:
+            box, offset = base_box(self.robot)
+            self.geom.addGeometryObject(pin.GeometryObject(BASE_PART, 1, frame, pin.SE3(offset), box))
         ee_name = self.robot.ee_frame
         ee = self.model.frames[self.model.getFrameId(ee_name)]
         placement = ee.placement.homogeneous
