@@ -52,7 +52,7 @@ def read_planning_scene(path: Path, data: Any = None) -> tuple[SceneObject, ...]
     """The bodies of the PlanningScene YAML ``path`` (its parsed ``data`` when already read)."""
     if data is None:
         data = load_yaml(path)
-    where = _Where(path.name)
+    where = Where(path.name)
     if not isinstance(data, dict):
         raise where.error("(top level)", f"expected a MoveIt PlanningScene mapping, got {type(data).__name__}")
     if "world" in data:
@@ -82,7 +82,7 @@ def load_yaml(path: Path) -> Any:
         raise InvalidInputError(f"{path.name}: cannot read it as YAML: {str(exc).splitlines()[0]}") from exc
 
 
-class _Where:
+class Where:
     """Errors that name the file and the field path."""
 
     def __init__(self, name: str) -> None:
@@ -92,7 +92,7 @@ class _Where:
         return InvalidInputError(f"{self.name}: {field}: {message}")
 
 
-def _object(obj: Any, where: _Where, at: str) -> list[SceneObject]:
+def _object(obj: Any, where: Where, at: str) -> list[SceneObject]:
     if not isinstance(obj, dict):
         raise where.error(at, f"expected a collision object mapping, got {type(obj).__name__}")
     name = obj.get("id")
@@ -102,9 +102,9 @@ def _object(obj: Any, where: _Where, at: str) -> list[SceneObject]:
     operation = OPERATIONS.get(operation, operation) if isinstance(operation, int) else str(operation).upper()
     if operation != "ADD":
         raise where.error(f"{at}.operation", f"only ADD is read (a scene file lists what is there), got {operation}")
-    T_obj = _pose(obj["pose"], where, f"{at}.pose") if obj.get("pose") is not None else np.eye(4)
+    T_obj = moveit_pose(obj["pose"], where, f"{at}.pose") if obj.get("pose") is not None else np.eye(4)
     shapes: list[tuple[Shape, FloatArray]] = []
-    for key, poses_key, read in (("primitives", "primitive_poses", _primitive), ("meshes", "mesh_poses", _mesh)):
+    for key, poses_key, read in (("primitives", "primitive_poses", primitive_shape), ("meshes", "mesh_poses", _mesh)):
         items, poses = obj.get(key) or [], obj.get(poses_key) or []
         if not isinstance(items, list) or not isinstance(poses, list):
             raise where.error(f"{at}.{key}", "expected lists of shapes and of their poses")
@@ -113,7 +113,7 @@ def _object(obj: Any, where: _Where, at: str) -> list[SceneObject]:
                               f"got {len(poses)}")
         for k, (item, pose) in enumerate(zip(items, poses, strict=True)):
             shape = read(item, where, f"{at}.{key}[{k}]")
-            shapes.append((shape, T_obj @ _pose(pose, where, f"{at}.{poses_key}[{k}]")))
+            shapes.append((shape, T_obj @ moveit_pose(pose, where, f"{at}.{poses_key}[{k}]")))
     if not shapes:
         raise where.error(at, f"object {name!r} has no primitives or meshes")
     if len(shapes) == 1:
@@ -121,7 +121,7 @@ def _object(obj: Any, where: _Where, at: str) -> list[SceneObject]:
     return [SceneObject(f"{name}_{k}", shape, T) for k, (shape, T) in enumerate(shapes)]
 
 
-def _primitive(item: Any, where: _Where, at: str) -> Shape:
+def primitive_shape(item: Any, where: Where, at: str) -> Shape:
     if not isinstance(item, dict):
         raise where.error(at, f"expected a primitive mapping (type, dimensions), got {type(item).__name__}")
     kind = item.get("type")
@@ -146,7 +146,7 @@ def _primitive(item: Any, where: _Where, at: str) -> Shape:
     return Sphere(float(values[0]))
 
 
-def _mesh(item: Any, where: _Where, at: str) -> Mesh:
+def _mesh(item: Any, where: Where, at: str) -> Mesh:
     if not isinstance(item, dict):
         raise where.error(at, f"expected a mesh mapping (vertices, triangles), got {type(item).__name__}")
     vertices, triangles = item.get("vertices"), item.get("triangles")
@@ -180,7 +180,7 @@ def _obj_file(V: FloatArray, F: Any) -> Path:
     return path
 
 
-def _numbers(values: Any, where: _Where, at: str) -> FloatArray:
+def _numbers(values: Any, where: Where, at: str) -> FloatArray:
     if not isinstance(values, list) or any(isinstance(v, bool) or not isinstance(v, int | float) for v in values):
         raise where.error(at, f"expected numbers, got {values!r}")
     arr = np.asarray(values, dtype=float)
@@ -189,7 +189,7 @@ def _numbers(values: Any, where: _Where, at: str) -> FloatArray:
     return arr
 
 
-def _point(value: Any, where: _Where, at: str) -> FloatArray:
+def _point(value: Any, where: Where, at: str) -> FloatArray:
     """``[x, y, z]`` or ``{x, y, z}``."""
     if isinstance(value, dict):
         value = [value.get(k) for k in "xyz"]
@@ -198,7 +198,7 @@ def _point(value: Any, where: _Where, at: str) -> FloatArray:
     return _numbers(value, where, at)
 
 
-def _pose(value: Any, where: _Where, at: str) -> FloatArray:
+def moveit_pose(value: Any, where: Where, at: str) -> FloatArray:
     """4x4 transform of a MoveIt pose (module docstring)."""
     if not isinstance(value, dict):
         raise where.error(at, f"expected a pose mapping (position, orientation), got {type(value).__name__}")
@@ -206,11 +206,11 @@ def _pose(value: Any, where: _Where, at: str) -> FloatArray:
     if value.get("position") is not None:
         T[:3, 3] = _point(value["position"], where, f"{at}.position")
     if value.get("orientation") is not None:
-        T[:3, :3] = quaternion_matrix(_quaternion(value["orientation"], where, f"{at}.orientation"))
+        T[:3, :3] = quaternion_matrix(unit_quaternion(value["orientation"], where, f"{at}.orientation"))
     return T
 
 
-def _quaternion(value: Any, where: _Where, at: str) -> FloatArray:
+def unit_quaternion(value: Any, where: Where, at: str) -> FloatArray:
     if isinstance(value, dict):
         value = [value.get(k) for k in "xyzw"]
     if not isinstance(value, list) or len(value) != 4:
