@@ -43,11 +43,6 @@ DIMENSIONS = {"box": ("x, y, z", 3), "cylinder": ("height, radius", 2), "sphere"
 OPERATIONS = {0: "ADD", 1: "REMOVE", 2: "APPEND", 3: "MOVE"}
 
 
-def is_planning_scene(data: Any) -> bool:
-    """Whether YAML ``data`` looks like a PlanningScene (``world:``) or a PlanningSceneWorld."""
-    return isinstance(data, dict) and ("world" in data or "collision_objects" in data)
-
-
 def read_planning_scene(path: Path, data: Any = None) -> tuple[SceneObject, ...]:
     """The bodies of the PlanningScene YAML ``path`` (its parsed ``data`` when already read)."""
     if data is None:

@@ -32,12 +32,9 @@ def read_scene_file(path: Path) -> tuple[SceneObject, ...]:
     if suffix in (".xml", ".mjcf"):
         return _from_mjcf(path)
     if suffix in (".yaml", ".yml"):
-        from forte.model.moveit_scene import is_planning_scene, load_yaml, read_planning_scene
+        from forte.model.moveit_scene import read_planning_scene
 
-        data = load_yaml(path)
-        if not is_planning_scene(data):
-            raise InvalidInputError(f"{path.name}: expected a MoveIt PlanningScene (world.collision_objects)")
-        return read_planning_scene(path, data)
+        return read_planning_scene(path)
     raise InvalidInputError(f"{path.name}: expected a .urdf, an MJCF .xml or a MoveIt PlanningScene .yaml file")
 
 
