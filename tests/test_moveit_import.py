@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +19,7 @@ from forte.exceptions import RobotModelError, TaskFileError
 from forte.io.moveit_import import MARKER, PANDA_ROBOT
 from forte.model.description import resolve_urdf
 from forte.model.moveit_scene import read_planning_scene
-from forte.model.robot import MobileManipulator
+from forte.model.robot import MobileManipulator, robot_from_description
 from forte.model.scene import Box, Cylinder, Mesh
 from forte.model.scene_files import read_scene_file
 from forte.model.urdf_loading import locked_configuration
@@ -199,6 +200,13 @@ def test_locked_joints_reach_the_model_the_geometry_and_mujoco():
     spec = load_arm_spec(robot, meshes=False, rotor=np.zeros(7))
     assert np.allclose(spec.body("panda_leftfinger").pos, [0, 0.03, 0.0584], atol=1e-12)
     assert robot.fingerprint != at_zero.fingerprint
+    again = robot_from_description(robot.describe())  # plan.json keeps them
+    assert again.locked_joints == robot.locked_joints and again.fingerprint == robot.fingerprint
+    from forte.io.whole_body import portable_urdf
+
+    joint = ET.fromstring(portable_urdf(robot)).find("joint[@name='panda_finger_joint1']")
+    assert joint.get("type") == "fixed"
+    assert np.allclose([float(v) for v in joint.find("origin").get("xyz").split()], [0, 0.03, 0.0584])
 
 
 def test_locked_joints_errors_name_the_joint():

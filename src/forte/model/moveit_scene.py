@@ -57,7 +57,8 @@ def read_planning_scene(path: Path, data: Any = None) -> tuple[SceneObject, ...]
     elif "collision_objects" in data:
         world, prefix = data, ""
     else:
-        raise where.error("world", "required: a MoveIt PlanningScene lists its obstacles in world.collision_objects")
+        raise where.error("world", "required (a MoveIt PlanningScene's world.collision_objects); scene_file takes a "
+                          ".urdf, an MJCF .xml or a PlanningScene .yaml")
     objects = world.get("collision_objects") or []
     if not isinstance(objects, list):
         raise where.error(f"{prefix}collision_objects", f"expected a list, got {type(objects).__name__}")
