@@ -273,8 +273,9 @@ def test_import_moveit_writes_a_pose_goal(tmp_path):
                                      "absolute_z_axis_tolerance": 0.2}]}]
     out = tmp_path / "task.yaml"
     assert main(["import", "moveit", str(write(tmp_path / "r.yaml", request)), "--scene", str(MBM / "scene0001.yaml"),
-                 "--out", str(out), "--payload", "1.5", "--quiet"]) == 0
+                 "--out", str(out), "--payload", "1.5", "--floor", "keep", "--quiet"]) == 0
     doc = yaml.safe_load(out.read_text())
+    assert "floor" not in doc  # kept: forte's floor at z = 0 although the box reaches below it
     assert doc["path"]["pose"]["position"] == [0.4, 0.1, 0.5]
     assert np.allclose(doc["path"]["pose"]["orientation"]["rpy"], [0.3, 0, 0])
     assert doc["path"]["tolerance"] == {"position": 0.01, "angle": 0.05}

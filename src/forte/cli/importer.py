@@ -29,6 +29,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     robot.add_argument("--urdf", help="the arm's URDF (a path, or erd:<path inside example-robot-data>)")
     m.add_argument("--ee-frame", help="the end-effector frame of --urdf")
     m.add_argument("--base", choices=BASE_MODES, default="fixed", help="how the base of --urdf moves (default fixed)")
+    m.add_argument("--floor", choices=("auto", "none", "keep"), default="auto",
+                   help="auto (default): floor: none when a scene body reaches below z = 0; none: always; keep: "
+                   "forte's floor at z = 0")
     m.add_argument("--payload", type=float, metavar="KG", help="a payload in the hand (default: none)")
     m.add_argument("--quiet", action="store_true", help="print nothing on success")
     m.set_defaults(func=run_import_moveit)
@@ -54,7 +57,7 @@ def run_import_moveit(args: argparse.Namespace) -> int:
         raise InvalidInputError("--ee-frame: only with --urdf")
     if args.payload is not None and not args.payload > 0:
         raise InvalidInputError(f"--payload: expected a mass > 0 kg, got {args.payload:g}")
-    doc, notes = task_document(args.request, args.scene, args.out, robot, args.payload)
+    doc, notes = task_document(args.request, args.scene, args.out, robot, args.payload, args.floor)
     write_task(args.out, doc, (args.request, args.scene))
     if not args.quiet:
         for note in notes:

@@ -14,7 +14,8 @@ What the task gets from the request:
   region's inner radius, angle: the smallest axis tolerance}``; MoveIt's joint tolerances are
   not carried (forte's goal is reached exactly);
 - ``scene_file``: the scene's path relative to the task; ``floor: none`` when a body reaches below
-  z = 0 (MotionBenchMaker's worlds have no floor: tables stand on nothing);
+  z = 0 (MotionBenchMaker's worlds have no floor: tables stand on nothing), or always (``--floor
+  none``; ``--floor keep``: never);
 - ``payload: {mass}`` only when one is given (no payload: the empty hand).
 
 The task file starts with :data:`MARKER`; an existing file without it is never replaced.
@@ -180,8 +181,9 @@ def lowest_z(body: SceneObject) -> float:
 
 
 def task_document(request_path: Path, scene_path: Path, out: Path, robot: dict[str, Any] | None = None,
-                  payload: float | None = None) -> tuple[dict[str, Any], list[str]]:
-    """The task (a mapping, ready for YAML) and notes for the user (clipped values)."""
+                  payload: float | None = None, floor: str = "auto") -> tuple[dict[str, Any], list[str]]:
+    """The task (a mapping, ready for YAML) and notes for the user (clipped values). ``floor``:
+    ``auto`` (``none`` when a body reaches below z = 0), ``none`` or ``keep`` (forte's floor at 0)."""
     request = load_yaml(request_path)
     if not isinstance(request, dict):
         raise _error(request_path, "(top level)", "expected a MoveIt MotionPlanRequest mapping")
@@ -198,7 +200,7 @@ def task_document(request_path: Path, scene_path: Path, out: Path, robot: dict[s
                            "initial_configuration": [*base_q, *arm],
                            "path": goal_path(request_path, request, model, base_q),
                            "scene_file": _relative(scene_path.resolve(), out.parent.resolve())}
-    if bodies and min(lowest_z(b) for b in bodies) < 0:
+    if floor == "none" or (floor == "auto" and bodies and min(lowest_z(b) for b in bodies) < 0):
         doc["floor"] = "none"
     if payload is not None:
         doc["payload"] = {"mass": float(payload)}
