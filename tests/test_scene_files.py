@@ -100,7 +100,8 @@ def test_a_scene_file_adds_to_the_task_scene_and_bad_files_name_the_field(tmp_pa
             "scene": [{"name": "ball", "sphere": {"radius": 0.1}, "pose": [3, 0, 1, 0, 0, 0]}]}
     loaded = task_from_dict(task, tmp_path / "task.yaml")
     assert sorted(loaded.scene.names) == ["ball", "post_0", "post_1", "table_0"]
-    for value, expected in (("nope.urdf", "scene_file: no such file"), ("task.yaml", "expected a .urdf or an MJCF")):
+    for value, expected in (("nope.urdf", "scene_file: no such file"),
+                            ("task.yaml", "takes a .urdf, an MJCF .xml or a PlanningScene")):
         (tmp_path / "task.yaml").write_text(yaml.safe_dump(task))
         with pytest.raises(TaskFileError, match=expected):
             task_from_dict(task | {"scene_file": value}, tmp_path / "task.yaml")

@@ -23,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("file", type=Path, metavar="FILE", help="FILE.npz, FILE.csv or FILE.mcap")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=run_export)
-    r = sub.add_parser("robot", help="robot model tools (export the whole-body model)")
+    r = sub.add_parser("robot", help="robot model tools (export the whole-body model, the hand's pose)")
     rsub = r.add_subparsers(dest="robot_command", metavar="ACTION", required=True)
     e = rsub.add_parser(
         "export", help="write the whole-body model (base x, y, yaw + arm) as URDF or MJCF",
@@ -39,6 +39,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     src.add_argument("--plan", type=Path, metavar="PLAN_DIR", help="use this plan's robot")
     e.add_argument("--quiet", action="store_true", help="print nothing on success")
     e.set_defaults(func=run_robot_export)
+    from forte.cli.robot_pose import register_pose
+
+    register_pose(rsub)
 
 
 def run_export(args: argparse.Namespace) -> int:

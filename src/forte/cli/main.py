@@ -52,6 +52,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "forte.cli.view",
     "forte.cli.ros",
     "forte.cli.schema",
+    "forte.cli.importer",
 )
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_BUG = 0, 1, 2, 3
 #: The environment the command sets where the user has not (:data:`forte.system.SINGLE_THREAD_ENV`).

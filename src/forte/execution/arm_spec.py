@@ -1,7 +1,8 @@
 """The arm's URDF as a MuJoCo ``MjSpec``, reduced to the joints the planner controls.
 
 * joints that Pinocchio locks (the Panda's fingers) are deleted: their bodies become rigidly
-  fixed at the locked value (the neutral configuration clipped to the joint range); every
+  fixed at the locked value (the robot's ``locked_joints``, else the neutral configuration clipped
+  to the joint range); every
   equality constraint (a URDF ``mimic``, e.g. between the fingers) is deleted;
 * the arm joints keep their range limits, lose damping and friction loss (Pinocchio's ``rnea``
   models neither) and get the reflected rotor inertia as ``armature``;
@@ -125,7 +126,8 @@ def _prepare_arm(arm: mujoco.MjSpec, robot: MobileManipulator, meshes: bool, arm
             joint.armature = float(rotor[joint.name])
             joint.frictionloss = 0.0
             continue
-        _fix_body_at(joint, _locked_value(joint))
+        given = robot.locked_joints.get(joint.name)  # already clipped to the URDF's range
+        _fix_body_at(joint, _locked_value(joint) if given is None else given)
         arm.delete(joint)
     for geom in list(arm.geoms):
         if not meshes:

@@ -42,12 +42,13 @@ def _origin_matrix(joint: ET.Element) -> FloatArray:
     return T
 
 
-def _lock(joint: ET.Element) -> None:
-    """Turn a joint the planner locks into a fixed joint at its locked value (neutral, clipped)."""
+def _lock(joint: ET.Element, given: float | None = None) -> None:
+    """Turn a joint the planner locks into a fixed joint at its locked value (``given``: the
+    robot's ``locked_joints``, already clipped; else neutral, clipped)."""
     kind = joint.get("type")
     limit = joint.find("limit")
-    value = 0.0
-    if limit is not None and kind in ("revolute", "prismatic"):
+    value = 0.0 if given is None else given
+    if given is None and limit is not None and kind in ("revolute", "prismatic"):
         lo, hi = float(limit.get("lower", 0)), float(limit.get("upper", 0))
         value = float(np.clip(0.0, lo, hi)) if lo < hi else 0.0
     if kind in ("revolute", "continuous", "prismatic") and value != 0.0:
@@ -140,7 +141,7 @@ def _arm_tree(robot: MobileManipulator) -> tuple[ET.Element, set[str], str]:
         raise RobotModelError(f"urdf: {robot.urdf_path.name}: expected one root link, got {roots}")
     for joint in joints:
         if joint.get("type") != "fixed" and joint.get("name") not in (robot.arm_joints or ()):
-            _lock(joint)
+            _lock(joint, robot.locked_joints.get(joint.get("name")))
     for el in root.iter():
         for child in [c for c in el if c.tag in ("gazebo", "transmission")]:
             el.remove(child)

@@ -2,7 +2,7 @@
 
 **The robot's parts** (:class:`Part`), placed in the world frame for a whole-body configuration:
 
-- the arm's URDF collision geometry (links, hand and fingers, the fingers at neutral as in
+- the arm's URDF collision geometry (links, hand and fingers, the fingers at neutral or their locked values as in
   :class:`~forte.model.self_collision.ArmGeometry`), placed by forward kinematics, the mount and the
   base transform. A mesh enters as its convex hull (qhull, through coal): for a convex mesh, as
   every collision mesh of the Panda is (hull volume within 0.1 % of the mesh's, distances equal to
@@ -47,7 +47,7 @@ import pinocchio as pin
 from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT, PAYLOAD_RADIUS
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import FLOOR, Scene
-from forte.model.self_collision import ArmGeometry
+from forte.model.self_collision import ArmGeometry, locked_key
 from forte.validation import FloatArray
 
 #: The names of the base box and the payload among the robot's parts.
@@ -105,9 +105,9 @@ class _Arm(NamedTuple):
 
 
 @lru_cache(maxsize=8)
-def _arm(urdf: str, arm_joints: tuple[str, ...]) -> _Arm | None:
+def _arm(urdf: str, arm_joints: tuple[str, ...], locked: tuple[tuple[str, float], ...] = ()) -> _Arm | None:
     try:
-        arm = ArmGeometry(Path(urdf), arm_joints)
+        arm = ArmGeometry(Path(urdf), arm_joints, locked)
     except (ValueError, RuntimeError):  # no collision geometry that can be loaded
         return None
     parts, excess = [], {}
@@ -136,7 +136,7 @@ class ClearanceChecker:
 
     def __init__(self, robot: MobileManipulator, scene: Scene) -> None:
         self.robot, self.scene = robot, scene
-        self._arm = _arm(str(robot.urdf_path), tuple(robot.arm_joints or ()))
+        self._arm = _arm(str(robot.urdf_path), tuple(robot.arm_joints or ()), locked_key(robot))
         box, self._base_offset = base_box(robot)
         import coal
 

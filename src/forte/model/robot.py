@@ -55,7 +55,7 @@ from forte.model.description import (
     resolve_urdf,
     urdf_reference,
 )
-from forte.model.urdf_loading import load_model, reduce_to_arm, set_link_mass
+from forte.model.urdf_loading import check_locked, load_model, reduce_to_arm, set_link_mass
 from forte.validation import FloatArray, as_array, as_positive, as_vector
 
 #: How the base may move: ``holonomic`` (the default), ``differential`` (no lateral velocity), ``fixed``.
@@ -70,7 +70,9 @@ class MobileManipulator:
         urdf: Path to the arm URDF, or ``erd:<path>`` inside example-robot-data.
         ee_frame: Name of the end-effector frame in the URDF.
         arm_joints: Actuated arm joints, root to tip; default: the joints supporting
-            ``ee_frame``. Every other joint is locked at its neutral value.
+            ``ee_frame``. Every other joint is locked at its neutral value, or:
+        locked_joints: ``{name: value}`` of joints that are not planned (the Panda's fingers),
+            held at these values clipped to the URDF's range.
         mount: 4x4 homogeneous transform from the base frame to the arm's root frame.
         tool: Load rigidly attached to the end effector, part of the arm dynamics.
         torque_limits: Symmetric limits tau_max per arm joint (Nm); default: the URDF efforts.
@@ -112,6 +114,7 @@ class MobileManipulator:
     tool_force_mass: float = 0.0
     base: str = "holonomic"
     base_support: Any = None
+    locked_joints: Any = None
 
     def __post_init__(self) -> None:
         if self.base not in BASE_MODES:
@@ -157,7 +160,9 @@ class MobileManipulator:
             if full.joints[jid].nq != 1 or full.joints[jid].nv != 1:
                 raise RobotModelError(f"arm_joints: joint '{j}' is not a 1-DoF joint")
         self.arm_joints = joints
-        self.model = reduce_to_arm(full, joints, self.mount, self.ee_frame, self.ee_offset, self.tool)
+        self.locked_joints = check_locked(full, self.urdf_path.name, joints, self.locked_joints)
+        self.model = reduce_to_arm(full, joints, self.mount, self.ee_frame, self.ee_offset, self.tool,
+                                   self.locked_joints)
         self.model.gravity = pin.Motion(np.array([0, 0, -self.gravity, 0, 0, 0]))
         self.data = self.model.createData()
         if self.ee_offset is not None:
@@ -228,6 +233,7 @@ class MobileManipulator:
             "tool_force_mass": self.tool_force_mass,
             "base": self.base,
             "base_support": None if self.base_support is None else self.base_support.to_dict(),
+            "locked_joints": dict(self.locked_joints),
         }
 
     @cached_property
@@ -236,6 +242,8 @@ class MobileManipulator:
         desc = self.describe()
         desc.pop("urdf")
         desc.pop("base")  # the base mode is bounds and rows outside the compiled kernels
+        if not desc["locked_joints"]:  # the keys of the robots that lock nothing stay as they were
+            desc.pop("locked_joints")
         return hashlib.sha256(repr(sorted(desc.items())).encode()).hexdigest()[:16]
 
     # -- configuration helpers ----------------------------------------------------------
@@ -385,6 +393,7 @@ def robot_from_description(desc: dict[str, Any]) -> MobileManipulator:
             tool_force_mass=desc.get("tool_force_mass", 0.0),
             base=desc.get("base", "holonomic"),
             base_support=desc.get("base_support"),
+            locked_joints=desc.get("locked_joints") or None,
         )
     except KeyError as exc:
         raise RobotModelError(f"robot description: missing field {exc}") from exc

@@ -1,4 +1,4 @@
-"""Static bodies read from a URDF or an MJCF file (a task's ``scene_file:``).
+"""Static bodies read from a URDF, an MJCF or a MoveIt PlanningScene file (a task's ``scene_file:``).
 
 - URDF: every ``<collision>`` element, placed by the forward kinematics of the file's neutral
   configuration (Pinocchio); the bodies are named ``<link>/<index>`` as Pinocchio names them.
@@ -7,7 +7,8 @@
   ``contype = conaffinity = 0`` are visual only and skipped too.
 
 Both keep boxes, cylinders, spheres and capsules as such and meshes as meshes (the file the
-description names, with its scale).
+description names, with its scale). A ``.yaml``/``.yml`` file is a MoveIt ``PlanningScene``
+(recognised by its ``world:`` key), read by :mod:`forte.model.moveit_scene`.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from forte.model.scene import Box, Capsule, Cylinder, Mesh, SceneObject, Shape, 
 
 
 def read_scene_file(path: Path) -> tuple[SceneObject, ...]:
-    """The static bodies of ``path`` (``.urdf`` or ``.xml``/``.mjcf``)."""
+    """The static bodies of ``path`` (``.urdf``, ``.xml``/``.mjcf`` or a PlanningScene ``.yaml``)."""
     if not path.is_file():
         raise InvalidInputError(f"no such file {path}")
     suffix = path.suffix.lower()
@@ -30,7 +31,11 @@ def read_scene_file(path: Path) -> tuple[SceneObject, ...]:
         return _from_urdf(path)
     if suffix in (".xml", ".mjcf"):
         return _from_mjcf(path)
-    raise InvalidInputError(f"{path.name}: expected a .urdf or an MJCF .xml file")
+    if suffix in (".yaml", ".yml"):
+        from forte.model.moveit_scene import read_planning_scene
+
+        return read_planning_scene(path)
+    raise InvalidInputError(f"{path.name}: expected a .urdf, an MJCF .xml or a MoveIt PlanningScene .yaml file")
 
 
 def _from_urdf(path: Path) -> tuple[SceneObject, ...]:

@@ -1,9 +1,10 @@
 """Self-collision of the arm on its URDF's collision meshes (coal, through Pinocchio's geometry model).
 
 The geometry is the URDF's ``<collision>`` elements, reduced like the kinematic model (fingers and
-every joint outside the arm locked at neutral) and mounted on the base like it. Pairs that never
-count: every pair the robot's SRDF disables (``<disable_collisions>``, found beside the URDF as
-``../srdf/*.srdf``), and, for a URDF without one, geometries on the same or on adjacent links.
+every joint outside the arm locked at neutral, or at the robot's ``locked_joints``) and mounted on
+the base like it. Pairs that never count: every pair the robot's SRDF disables
+(``<disable_collisions>``, found beside the URDF as ``../srdf/*.srdf``), and, for a URDF without
+one, geometries on the same or on adjacent links.
 The check is exact on the meshes (coal's narrow phase), ~50 us per configuration for the Panda.
 The base of the built-in robot is not in the URDF, so the arm is not checked against it here.
 """
@@ -18,7 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from forte.model.description import mesh_package_dirs
-from forte.model.urdf_loading import load_geometry, load_model
+from forte.model.urdf_loading import load_geometry, load_model, locked_configuration
 
 
 class Contact(NamedTuple):
@@ -36,10 +37,7 @@ class ArmGeometry:
         geom = load_geometry(full, urdf, pin.COLLISION, _package_dirs(urdf))
         keep = {full.getJointId(j) for j in arm_joints}
         lock = [j for j in range(1, full.njoints) if j not in keep]
-        q_ref = pin.neutral(full)
-        for name, value in locked:  # (joint, value) pairs for locked 1-DoF joints; others at neutral
-            q_ref[full.joints[full.getJointId(name)].idx_q] = value
-        q_ref = np.clip(q_ref, full.lowerPositionLimit, full.upperPositionLimit)
+        q_ref = locked_configuration(full, dict(locked))
         self.model, self.geom = pin.buildReducedModel(full, geom, lock, q_ref) if lock else (full, geom)
         self.geom.addAllCollisionPairs()
         srdf = sorted((urdf.parent.parent / "srdf").glob("*.srdf")) if urdf.parent.name == "urdf" else []
@@ -83,9 +81,9 @@ def _package_dirs(urdf: Path) -> list[str]:
 
 
 @lru_cache(maxsize=8)
-def _arm_geometry(urdf: str, arm_joints: tuple[str, ...]) -> ArmGeometry | None:
+def _arm_geometry(urdf: str, arm_joints: tuple[str, ...], locked: tuple[tuple[str, float], ...]) -> ArmGeometry | None:
     try:
-        geometry = ArmGeometry(Path(urdf), arm_joints)
+        geometry = ArmGeometry(Path(urdf), arm_joints, locked)
     except (ValueError, RuntimeError):  # no collision meshes found: nothing to check on
         return None
     return geometry if geometry.pairs else None
@@ -94,4 +92,9 @@ def _arm_geometry(urdf: str, arm_joints: tuple[str, ...]) -> ArmGeometry | None:
 def arm_geometry(robot: Any) -> ArmGeometry | None:
     """The robot's arm collision geometry (cached per URDF and joints); ``None`` when its URDF has
     no collision meshes that can be loaded or no pair to check."""
-    return _arm_geometry(str(robot.urdf_path), tuple(robot.arm_joints))
+    return _arm_geometry(str(robot.urdf_path), tuple(robot.arm_joints), locked_key(robot))
+
+
+def locked_key(robot: Any) -> tuple[tuple[str, float], ...]:
+    """The robot's ``locked_joints`` as a hashable key (cached geometries)."""
+    return tuple(sorted((getattr(robot, "locked_joints", None) or {}).items()))

@@ -21,7 +21,7 @@ import pinocchio as pin
 
 from forte.exceptions import RobotModelError
 from forte.model.description import _link_inertial
-from forte.validation import FloatArray
+from forte.validation import FloatArray, did_you_mean
 
 #: The range (rad) a continuous joint is planned within, each way.
 CONTINUOUS_RANGE = 2 * np.pi
@@ -77,13 +77,47 @@ def set_link_mass(full: pin.Model, urdf: Path, link: str, mass: float) -> None:
     full.inertias[frame.parentJoint] = full.inertias[frame.parentJoint] - old + new
 
 
+def check_locked(full: pin.Model, urdf_name: str, joints: tuple[str, ...], locked: Any) -> dict[str, float]:
+    """``robot.locked_joints`` (``{name: value}``) checked against ``full``: each a 1-DoF joint of the
+    URDF that is not planned, its value a finite number, clipped to the joint's range."""
+    if locked is None:
+        return {}
+    if not isinstance(locked, dict):
+        raise RobotModelError(f"locked_joints: expected a mapping of joint name to value, got {locked!r}")
+    out: dict[str, float] = {}
+    for name, value in locked.items():
+        if not full.existJointName(str(name)):
+            raise RobotModelError(f"locked_joints: no joint '{name}' in {urdf_name}"
+                                  f"{did_you_mean(name, full.names[1:])}")
+        jid = full.getJointId(str(name))
+        if name in joints:
+            raise RobotModelError(f"locked_joints: '{name}' is a planned arm joint; lock only the others")
+        if full.joints[jid].nq != 1:
+            raise RobotModelError(f"locked_joints: joint '{name}' is not a 1-DoF joint")
+        if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value):
+            raise RobotModelError(f"locked_joints: {name}: expected a finite number, got {value!r}")
+        i = full.idx_qs[jid]
+        out[str(name)] = float(np.clip(value, full.lowerPositionLimit[i], full.upperPositionLimit[i]))
+    return out
+
+
+def locked_configuration(full: pin.Model, locked: dict[str, float] | None = None) -> FloatArray:
+    """The full model's configuration the unplanned joints are locked at: ``locked``'s values,
+    every other joint at neutral clipped to its limits (the arm joints' entries are unused)."""
+    q = np.clip(pin.neutral(full), full.lowerPositionLimit, full.upperPositionLimit)
+    for name, value in (locked or {}).items():
+        q[full.idx_qs[full.getJointId(name)]] = value
+    return q
+
+
 def reduce_to_arm(full: pin.Model, joints: tuple[str, ...], mount: FloatArray, ee_frame: str,
-                  ee_offset: FloatArray | None, tool: Any) -> pin.Model:
-    """``full`` with every joint but ``joints`` locked (at neutral, clipped to the limits), the
-    arm moved to ``mount`` on the base, and the ``tool`` load (if any) at the end effector."""
+                  ee_offset: FloatArray | None, tool: Any, locked: dict[str, float] | None = None) -> pin.Model:
+    """``full`` with every joint but ``joints`` locked (at ``locked``'s values, else at neutral,
+    clipped to the limits: :func:`locked_configuration`), the arm moved to ``mount`` on the base,
+    and the ``tool`` load (if any) at the end effector."""
     keep = {full.getJointId(j) for j in joints}
     lock = [j for j in range(1, full.njoints) if j not in keep]
-    q_ref = np.clip(pin.neutral(full), full.lowerPositionLimit, full.upperPositionLimit)
+    q_ref = locked_configuration(full, locked)
     model = pin.buildReducedModel(full, lock, q_ref) if lock else full.copy()
     order = [model.names[j] for j in range(1, model.njoints)]
     if tuple(order) != joints:

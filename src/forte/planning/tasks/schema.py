@@ -179,6 +179,12 @@ def _tool(tl: Reader) -> ToolLoad:
         raise tl.error("", str(exc)) from exc
 
 
+def _locked_joints(lj: Reader) -> dict[str, float]:
+    """``robot.locked_joints``: ``{joint name: value}`` (rad or m) of joints that are not planned;
+    the names are checked against the URDF by the robot model."""
+    return {str(name): lj.number(str(name)) for name in lj.data}
+
+
 def robot_section(reader: Reader, base: Path) -> MobileManipulator:
     """``robot:`` (a preset, or a URDF with its end-effector frame, and what the description does
     not carry), or the built-in robot when the file has none."""
@@ -189,7 +195,7 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
         return default_robot(**overrides)
     r = reader.sub("robot")
     r.unknown({"preset", "urdf", "ee_frame", "arm_joints", "mount", "tool", "torque_limits", "gravity", "name",
-               "tool_force_mass", "home_arm", "acceleration_limits", "base", *SUPPORT_FIELDS})
+               "tool_force_mass", "home_arm", "acceleration_limits", "base", "locked_joints", *SUPPORT_FIELDS})
     kwargs: dict[str, Any] = {}
     if r.has("base"):
         kwargs["base"] = r.choice("base", BASE_MODES, "holonomic")
@@ -213,6 +219,8 @@ def robot_section(reader: Reader, base: Path) -> MobileManipulator:
         if not isinstance(joints, list) or not all(isinstance(j, str) for j in joints):
             raise r.error("arm_joints", "expected a list of joint names")
         kwargs["arm_joints"] = tuple(joints)
+    if r.has("locked_joints"):
+        kwargs["locked_joints"] = _locked_joints(r.sub("locked_joints"))
     if r.has("mount"):
         kwargs["mount"] = _mount(r.sub("mount"))
     if "tool" in r.data:
