@@ -261,3 +261,19 @@ def test_a_self_pair_overlapping_at_the_start_keeps_its_start_distance():
     np.testing.assert_allclose(self_margins(S, True), [SELF_MARGIN, -0.03 - START_OVERLAP_SLACK,
                                                        min(SELF_MARGIN, 0.001 - START_OVERLAP_SLACK)])
     np.testing.assert_allclose(self_margins(S, False), SELF_MARGIN)  # no fixed start (a hold): the margin
+
+
+def test_a_bare_arm_at_its_base_frame_has_no_base_box_and_a_mobile_base_has_one():
+    """forte's base box stands for a mobile base under the arm's mount: a fixed arm mounted at its
+    base frame's origin (a MoveIt scene's Panda) has none, in the exact check and in the planner's cover."""
+    from forte.model.body_spheres import robot_primitives
+    from forte.model.clearance import BASE_PART, ClearanceChecker
+    from forte.model.robot import MobileManipulator, default_robot
+    from forte.model.scene import Scene
+
+    bare = MobileManipulator(urdf="erd:panda_description/urdf/panda.urdf", ee_frame="panda_hand", base="fixed")
+    for robot, has_box in ((bare, False), (default_robot(), True)):
+        checker = ClearanceChecker(robot, Scene(objects=()))
+        assert (BASE_PART in [p.name for p in checker.parts]) == has_box
+        assert any(p.piece == "base" for p in robot_primitives(robot)) == has_box
+        assert len(checker.placements(robot.home())) == len(checker.parts)

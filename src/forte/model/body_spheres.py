@@ -30,7 +30,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT, PAYLOAD_RADIUS
+from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT, PAYLOAD_RADIUS, has_base_box
 from forte.validation import FloatArray
 
 #: Frame index of a primitive fixed to the base.
@@ -158,7 +158,8 @@ def robot_primitives(robot: Any) -> tuple[Primitive, ...]:
     key = robot.fingerprint + str(robot.urdf_path)
     if key not in _CACHE:
         height = max(float(robot.mount[2, 3]), BASE_BOX_MIN_HEIGHT)
-        _CACHE[key] = tuple(base_primitives(height) + arm_primitives(robot) + [payload_primitive(robot)])
+        base = base_primitives(height) if has_base_box(robot) else []
+        _CACHE[key] = tuple(base + arm_primitives(robot) + [payload_primitive(robot)])
     return _CACHE[key]
 
 

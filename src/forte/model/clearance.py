@@ -44,7 +44,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT, PAYLOAD_RADIUS
+from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT, PAYLOAD_RADIUS, has_base_box
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import FLOOR, Scene
 from forte.model.self_collision import ArmGeometry, locked_key
@@ -140,10 +140,11 @@ class ClearanceChecker:
         box, self._base_offset = base_box(robot)
         import coal
 
-        self.parts: tuple[Part, ...] = (*(self._arm.parts if self._arm else ()), _part(BASE_PART, box),
+        base = (_part(BASE_PART, box),) if has_base_box(robot) else ()
+        self.parts: tuple[Part, ...] = (*(self._arm.parts if self._arm else ()), *base,
                                         _part(PAYLOAD_PART, coal.Sphere(PAYLOAD_RADIUS)))
         #: Per part: rigid with the base (never checked against the floor).
-        self.grounded = np.array([*(self._arm.grounded if self._arm else ()), True, False])
+        self.grounded = np.array([*(self._arm.grounded if self._arm else ()), *(True for _ in base), False])
         self._part_centres = np.array([p.centre for p in self.parts])
         self._part_radii = np.array([p.radius for p in self.parts])
         bodies = [_part(o.name, o.collision_geometry()) for o in scene.objects]
@@ -176,8 +177,10 @@ class ClearanceChecker:
             model, geom = self._arm.model, self._arm.geom
             pin.forwardKinematics(model, self._data, np.ascontiguousarray(q[N_BASE:]))
             pin.updateGeometryPlacements(model, self._data, geom, self._geom_data)
-            out[:-2] = base @ self.robot.mount @ np.array([m.homogeneous for m in self._geom_data.oMg])
-        out[-2] = base @ self._base_offset
+            arm = len(self._geom_data.oMg)
+            out[:arm] = base @ self.robot.mount @ np.array([m.homogeneous for m in self._geom_data.oMg])
+        if len(self.parts) - 1 > (0 if self._arm is None else len(self._arm.parts)):  # the base box
+            out[-2] = base @ self._base_offset
         out[-1] = self.robot.ee_pose(q)
         return out
 

@@ -39,6 +39,13 @@ N_BASE = 3
 BASE_BOX_HALF_XY: tuple[float, float] = (0.3, 0.25)
 #: The base box's height when the mount is lower than this (m).
 BASE_BOX_MIN_HEIGHT = 0.05
+
+
+def has_base_box(robot: Any) -> bool:
+    """Whether the robot has forte's base box under the arm's mount: every mobile base, and a fixed
+    base whose arm is mounted above it; not an arm mounted at its base frame's origin with the
+    base fixed (a bare arm, e.g. a MoveIt scene's Panda, whose root link is its base)."""
+    return not (robot.base == "fixed" and float(robot.mount[2, 3]) <= 1e-3)
 #: Radius (m) of the payload's shape: a sphere centred at the end-effector frame, the body
 #: MuJoCo's hand holds and the part the planner's cover and the clearance check carry.
 PAYLOAD_RADIUS = 0.05

@@ -31,7 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from forte.model.clearance import BASE_PART, PAYLOAD_PART, ClearanceChecker, base_box
-from forte.model.description import PAYLOAD_RADIUS
+from forte.model.description import PAYLOAD_RADIUS, has_base_box
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import FLOOR, Scene
 from forte.model.self_collision import ArmGeometry, arm_geometry
@@ -77,15 +77,17 @@ class StateChecker:
     (module docstring). ``floor`` replaces the scene's floor when given. Two departures from
     :class:`ClearanceChecker`'s model, for measurements only (its ``why`` still reports on that
     model): ``locked`` holds joints outside the arm (the fingers) at given values instead of
-    neutral, and ``base_box=False`` leaves the base box out."""
+    neutral, and ``base_box`` overrides whether the base box is there (default: as forte's
+    model, :func:`~forte.model.description.has_base_box`)."""
 
     def __init__(self, robot: MobileManipulator, scene: Scene, clearance: float = 0.0, floor: float | None = None,
-                 *, locked: dict[str, float] | None = None, base_box: bool = True) -> None:
+                 *, locked: dict[str, float] | None = None, base_box: bool | None = None) -> None:
         self.robot, self.clearance = robot, float(clearance)
         self.scene = scene if floor is None else scene._replace(floor=float(floor))
         built = _robot_model(str(robot.urdf_path), tuple(robot.arm_joints), np.ascontiguousarray(robot.mount).tobytes(),
                              tuple(sorted((locked or {}).items())))
         self.model, self.geom = built.model, pin.GeometryModel(built.geom)  # parts and bodies go into a copy
+        base_box = has_base_box(robot) if base_box is None else base_box
         self._add_base_and_payload(built.frame, base_box)
         grounded = (*built.grounded, *((True,) if base_box else ()), False)
         bodies = self._add_bodies()
