@@ -1,0 +1,171 @@
+"""MotionBenchMaker's problems as forte goal tasks: plan, judge, simulate, and the table.
+
+Each problem (a MoveIt ``sceneNNNN.yaml`` + ``requestNNNN.yaml`` pair, one folder per scenario) is
+imported as ``forte import moveit`` does (the fixed-base Panda, the fingers at the request's start,
+``floor: none``: MotionBenchMaker's worlds have no floor), then:
+
+- ``--stage search``: only the configuration-space search (:func:`forte.planning.search.find_path`);
+- ``--stage plan`` (default): ``forte.plan`` (search when the straight motion collides, retiming,
+  the NLP with the scene's rows, the verdict), then MuJoCo with the scene (``--no-sim``: not).
+
+Success = a feasible verdict (it includes the exact clearance along the executed motion) and a
+MuJoCo run that touches nothing. Writes ``results.csv`` (one row per problem: verdict, failed
+requirements, wall time, the time of each stage, duration, path length, minimum clearance, the
+MuJoCo outcome) and ``summary.md`` (success per scenario, median and p95 time, failures by
+reason) into ``--out``. Usage::
+
+    python benchmarks/motionbenchmaker.py DIR [--out runs/mbm] [--payload 1.5] [--per-scenario N]
+        [--workers 2] [--stage plan|search] [--no-sim]
+
+``DIR`` holds one folder per scenario (e.g. ``bookshelf_small_panda/``). Times are per problem in
+a worker process, with the kernel cache warm (run once to fill it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import tempfile
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+FIELDS = ["scenario", "problem", "success", "verdict", "failed", "reason", "wall_s", "search_s", "nlp_s",
+          "verdict_s", "sim_s", "duration_s", "toppra_s", "limiting", "path_length_rad", "min_clearance_m",
+          "sim", "sim_detail", "searched", "iterations"]
+
+
+def problems(root: Path, per_scenario: int | None, scenarios: list[str] | None) -> list[tuple[str, Path, Path]]:
+    out = []
+    for folder in sorted(p for p in root.iterdir() if p.is_dir()):
+        if scenarios and folder.name not in scenarios:
+            continue
+        requests = sorted(folder.glob("request*.yaml"))[:per_scenario]
+        out += [(folder.name, r, folder / r.name.replace("request", "scene")) for r in requests]
+    return out
+
+
+def load(request: Path, scene: Path, folder: Path, payload: float | None) -> Any:
+    """The problem as forte's goal task (what ``forte import moveit --floor none`` writes)."""
+    from forte.io.moveit_import import task_document, write_task
+    from forte.planning.tasks.tasks import load_task
+
+    out = folder / "task.yaml"
+    doc, _ = task_document(request, scene, out, payload=payload, floor="none")
+    write_task(out, doc, (request, scene))
+    return load_task(out)
+
+
+def search_only(task: Any) -> dict[str, Any]:
+    from forte.planning.search import find_path
+
+    goal = task.goal.configuration if getattr(task, "goal", None) is not None else None
+    result = find_path(task.robot, task.scene, task.q_init, goal, task.clearance, seed=0)
+    return {"success": result.found, "verdict": "found" if result.found else "not found", "reason": result.reason,
+            "search_s": result.time_s, "searched": True}
+
+
+def plan_and_simulate(task: Any, folder: Path, simulate: bool) -> dict[str, Any]:
+    import forte
+    from forte.execution.run import simulate_plan
+    from forte.io.plandir import write_plan
+
+    begin = time.perf_counter()
+    plan = forte.plan(task)
+    wall = time.perf_counter() - begin
+    info = plan.solver
+    search = info.get("search", {})
+    row: dict[str, Any] = {
+        "verdict": plan.verdict.label, "failed": " ".join(plan.verdict.failed),
+        "reason": "" if plan.feasible else plan.verdict.reason()[:200], "wall_s": wall,
+        "search_s": search.get("time_s", 0.0), "searched": bool(search.get("searched", False)),
+        "nlp_s": info.get("solve_time_s", np.nan), "duration_s": float(plan.t[-1] - plan.t[0]),
+        "toppra_s": search.get("toppra_duration_s", np.nan), "limiting": search.get("limiting", ""),
+        "path_length_rad": float(np.abs(np.diff(plan.q[:, 3:], axis=0)).sum()),
+        "iterations": info.get("iterations", -1),
+        "min_clearance_m": np.nan if plan.verdict.clearance is None else plan.verdict.clearance.get("distance_m",
+                                                                                                   np.nan),
+    }
+    row["success"] = plan.feasible
+    if simulate and plan.feasible:
+        directory = folder / "plan"
+        write_plan(plan, directory)
+        begin = time.perf_counter()
+        result = simulate_plan(directory)
+        row["sim_s"] = time.perf_counter() - begin
+        row["sim"], row["sim_detail"] = ("ok" if result.success else "fail"), ("" if result.success else result.detail)
+        row["success"] = bool(result.success)
+    return row
+
+
+def run_one(args: tuple[str, Path, Path, float | None, str, bool]) -> dict[str, Any]:
+    scenario, request, scene, payload, stage, simulate = args
+    row: dict[str, Any] = {"scenario": scenario, "problem": request.stem.replace("request", "")}
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            task = load(request, scene, Path(tmp), payload)
+            row |= search_only(task) if stage == "search" else plan_and_simulate(task, Path(tmp), simulate)
+    except Exception as exc:  # a benchmark row, not a crash: the reason is the result
+        row |= {"success": False, "verdict": "error", "reason": f"{type(exc).__name__}: {exc}"[:300],
+                "sim_detail": traceback.format_exc(limit=2)[-300:]}
+    return row
+
+
+def summary(rows: list[dict[str, Any]], command: str) -> str:
+    lines = [f"Command: `{command}`", "", "| scenario | problems | success | median s | p95 s |", "|---|---|---|---|---|"]
+    for scenario in sorted({r["scenario"] for r in rows}) + ["all"]:
+        sel = [r for r in rows if scenario in ("all", r["scenario"])]
+        wall = np.array([float(r.get("wall_s", r.get("search_s", np.nan)) or np.nan) for r in sel])
+        ok = sum(bool(r["success"]) for r in sel)
+        lines.append(f"| {scenario} | {len(sel)} | {ok} ({100 * ok / len(sel):.0f} %) | "
+                     f"{np.nanmedian(wall):.2f} | {np.nanpercentile(wall, 95):.2f} |")
+    reasons: dict[str, int] = {}
+    for r in rows:
+        if not r["success"]:
+            key = r.get("failed") or r.get("verdict", "")
+            key = key if r.get("verdict") != "feasible" else f"MuJoCo: {r.get('sim_detail', '')[:60]}"
+            reasons[key] = reasons.get(key, 0) + 1
+    lines += ["", "| failure | problems |", "|---|---|"] + [f"| {k} | {v} |" for k, v in
+                                                          sorted(reasons.items(), key=lambda kv: -kv[1])]
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("root", type=Path)
+    ap.add_argument("--out", type=Path, default=Path("runs/mbm"))
+    ap.add_argument("--payload", type=float, default=None)
+    ap.add_argument("--per-scenario", type=int, default=None)
+    ap.add_argument("--scenarios", nargs="*")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--stage", choices=("plan", "search"), default="plan")
+    ap.add_argument("--no-sim", action="store_true")
+    args = ap.parse_args()
+    todo = [(s, r, sc, args.payload, args.stage, not args.no_sim)
+            for s, r, sc in problems(args.root, args.per_scenario, args.scenarios)]
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    with ProcessPoolExecutor(max_workers=args.workers) as pool, \
+            open(args.out / "results.csv", "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=FIELDS, extrasaction="ignore")
+        writer.writeheader()
+        for row in pool.map(run_one, todo):
+            rows.append(row)
+            writer.writerow(row)
+            handle.flush()
+            print(f"{row['scenario']:26s} {row['problem']} {row.get('verdict', ''):14s} "
+                  f"{float(row.get('wall_s', row.get('search_s', 0)) or 0):6.2f} s {row.get('failed', '')} "
+                  f"{row.get('reason', '')[:100]}", flush=True)
+    import sys
+
+    text = summary(rows, "python benchmarks/motionbenchmaker.py " + " ".join(sys.argv[1:]))
+    (args.out / "summary.md").write_text(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
