@@ -35,7 +35,7 @@ GOAL_POSITION_TOL, GOAL_ANGLE_TOL = 0.01, 0.05
 GOAL_CONFIGURATION_TOL = 1e-6
 #: The rule's duration: at least this long (s), and this many times the quintic's bound.
 MIN_GOAL_DURATION_S = 1.0
-DURATION_MARGIN = 1.5
+DURATION_MARGIN = 2.0
 #: Peak speed and acceleration of the quintic blend ``10 s^3 - 15 s^4 + 6 s^5`` over a unit step in
 #: unit time: ``max s' = 15 / 8``, ``max s'' = 10 sqrt(3) / 3``.
 QUINTIC_PEAK_SPEED, QUINTIC_PEAK_ACCELERATION = 15 / 8, 10 * np.sqrt(3) / 3
@@ -73,7 +73,7 @@ class Goal:
 def rule_duration(robot: MobileManipulator, limits: KinematicLimits, q0: FloatArray, q1: FloatArray) -> float:
     """A duration (s) for the straight line from ``q0`` to ``q1`` with a quintic time law:
 
-        ``T = max(1 s, 1.5 max_i max(15/8 |dq_i| / v_i, sqrt(10 sqrt(3)/3 |dq_i| / a_i)))``
+        ``T = max(1 s, 2 max_i max(15/8 |dq_i| / v_i, sqrt(10 sqrt(3)/3 |dq_i| / a_i)))``
 
     the time at which the quintic's peak velocity and acceleration meet the limits of the slowest
     coordinate (base velocity and arm velocity and acceleration; the base's acceleration limits are

@@ -310,9 +310,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     robot = robot_section(reader, base)
     mode = reader.choice("mode", MODES, "trajectory")
     q_init, knots = start_configuration(reader, robot, mode)
-    empty_hand = not any(reader.has(k) for k in ("payload", "force", "contact")) and mass is None
-    radius = reader.number("uncertainty_radius", 0.0 if empty_hand else DEFAULT_RADIUS, nonnegative=True,
-                           maximum=1e6, unit=" N")
+    radius = reader.number("uncertainty_radius", DEFAULT_RADIUS, nonnegative=True, maximum=1e6, unit=" N")
     radius_rule = reader.choice("uncertainty_rule", RADIUS_RULES, "fixed")
     force_model = reader.choice("force_model", FORCE_MODELS, "paper")
     teaching = None
@@ -329,8 +327,9 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     contact, carried = read_contact(reader, targets, mode, mass)
     payload = payload_section(reader, base, mass) if contact is None else carried
     force_at = force_profile(reader, t, radius)
-    if force_at is None and payload is None and contact is None:  # an empty hand: the tool's load only
-        payload = Payload(mass=0.0, source="none")
+    if force_at is None and contact is None and (payload is None or payload.mass == 0):
+        payload = payload or Payload(mass=0.0, source="none")  # an empty hand: the tool's load only
+        radius = radius if reader.has("uncertainty_radius") else 0.0  # no payload: no uncertainty about it
     if force_at is not None and reader.has("force_model"):
         raise reader.error("force_model", "sets a payload's force; this task gives its force profile directly")
     weights, settings = read_weights(reader, mode, robot)

@@ -196,22 +196,20 @@ class Tracking(Requirement):
 
 
 def goal_measures(ctx: Context) -> list[Measure]:
-    """A goal at the last sample (zero at the others): a configuration goal's worst coordinate
+    """A goal at the last waypoint (zero before it): a configuration goal's worst coordinate
     ``max_i |q_N,i - q_goal,i|`` within :data:`~forte.planning.tasks.goals.GOAL_CONFIGURATION_TOL`
     (named), a pose goal's position and angle errors within its tolerances."""
     goal, s = ctx.goal, ctx.samples
-    last = np.zeros(len(s.t))
+    end = int(s.waypoint[-1])
+    at_end = s.t >= s.t[end]  # the last waypoint's samples (the grid repeats it as the last interval's end)
     if goal.pose is None:
-        gap = np.abs(s.q[-1] - goal.q_end)
+        gap = np.abs(s.q[end] - goal.q_end)
         worst = int(np.argmax(gap))
-        value = last.copy()
-        value[-1] = gap[worst]
-        return [Measure(value, GOAL_CONFIGURATION_TOL, "rad or m", "the plan does not end at the goal configuration",
-                        [joint_names(ctx.robot)[worst]] * len(s.t))]
-    ee = s.ee[-1]
-    position, angle = last.copy(), last.copy()
-    position[-1] = np.linalg.norm(ee[:3, 3] - goal.pose[:3, 3])
-    angle[-1] = orientation_errors(ee[None], goal.pose[None])[0]
+        return [Measure(np.where(at_end, gap[worst], 0.0), GOAL_CONFIGURATION_TOL, "rad or m",
+                        "the plan does not end at the goal configuration", [joint_names(ctx.robot)[worst]] * len(s.t))]
+    ee = s.ee[end]
+    position = np.where(at_end, np.linalg.norm(ee[:3, 3] - goal.pose[:3, 3]), 0.0)
+    angle = np.where(at_end, orientation_errors(ee[None], goal.pose[None])[0], 0.0)
     return [Measure(position, goal.position_tol, "m", "the end effector ends away from the goal position"),
             Measure(angle, goal.angle_tol, "rad", "the end effector ends turned away from the goal orientation")]
 
