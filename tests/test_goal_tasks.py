@@ -15,13 +15,14 @@ import yaml
 
 from forte.capability.metrics import capability_cost, capability_margin, normalization
 from forte.cli.main import main
-from forte.exceptions import TaskFileError
+from forte.exceptions import InvalidInputError, TaskFileError
 from forte.io.plandir import read_plan_dir
 from forte.planning.nlp.optimizer import TrajectoryOptimizer
 from forte.planning.planner import plan
 from forte.planning.solve import goal_guess
 from forte.planning.tasks.tasks import task_from_dict
 from forte.planning.verdict.verdict import judge_plan
+from forte.settings import SolverOptions
 
 ROOT = Path(__file__).resolve().parents[1]
 PANDA = {"urdf": "erd:panda_description/urdf/panda.urdf", "ee_frame": "panda_hand", "base": "fixed"}
@@ -215,3 +216,11 @@ def test_the_example_plans_and_simulates_end_to_end(tmp_path, capsys):
     assert main(["simulate", str(out), "--quiet"]) == 0, capsys.readouterr().err
     sim = json.loads((out / "sim.json").read_text())
     assert sim["verdict"] == "success" and sim["payload_mass"] == 1.0
+
+
+def test_the_stagewise_solver_leaves_goal_tasks_to_ipopt():
+    task = panda_task({"kind": "goal", "configuration": GOAL})
+    opt = TrajectoryOptimizer(task.robot, task.n, goal="configuration", options=SolverOptions(backend="stagewise"))
+    assert opt.stagewise() is None
+    with pytest.raises(InvalidInputError, match="q_goal"):
+        opt.solve(task.t, task.targets, np.zeros((task.n, 3)), np.zeros(task.n), task.q_init, goal_guess(task))
