@@ -27,6 +27,8 @@ BOGUS = "zz_not_a_field"
 WAYPOINTS = [{"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 1.0, "position": [0.1, 0.0, 0.0]}]
 _HOME = default_robot().home().tolist()
 TAUGHT = [{"t": 0.0, "q": _HOME}, {"t": 1.0, "q": [_HOME[0] + 0.05, *_HOME[1:]]}]
+GOAL = {"kind": "goal", "samples": 5, "configuration": [*_HOME[:3], _HOME[3] + 0.1, *_HOME[4:]]}
+POSE_GOAL = {"kind": "goal", "samples": 5, "pose": {"position": [0.8, 0.0, 0.95]}}
 #: A valid task every probe starts from (the built-in robot, 5 samples).
 BASE: dict[str, Any] = {"path": {"relative": True, "samples": 5, "waypoints": WAYPOINTS}, "payload": {"mass": 1.0}}
 HOLD: dict[str, Any] = {"mode": "hold", "pose": {"position": [0.0, 0.0, 0.0], "relative": True},
@@ -61,6 +63,11 @@ def _probes() -> dict[str, dict[str, Any]]:
         "path|taught": _with(BASE, ("path",), {"kind": "taught", "samples": 5, "configurations": TAUGHT}),
         "path.waypoints[]": _with(BASE, ("path", "waypoints", 0), WAYPOINTS[0]),
         "path.orientation": _with(BASE, ("path", "orientation"), {"rpy": [0, 0, 0]}),
+        "path|goal": _with(BASE, ("path",), GOAL),
+        "path.pose": _with({**BASE, "path": POSE_GOAL}, ("path", "pose"), POSE_GOAL["pose"]),
+        "path.pose.orientation": _with({**BASE, "path": POSE_GOAL}, ("path", "pose", "orientation"),
+                                       {"rpy": [0, 0, 0]}),
+        "path.tolerance": _with({**BASE, "path": POSE_GOAL}, ("path", "tolerance"), {"position": 0.01}),
         "path.configurations[]": _with({**BASE, "path": {"kind": "taught", "configurations": [{}, {}]}},
                                        ("path", "configurations", 0), {"t": 0.0}),
         "pose": _with(HOLD, ("pose",), HOLD["pose"]),

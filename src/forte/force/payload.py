@@ -54,7 +54,7 @@ class Payload:
 
     def __post_init__(self) -> None:
         if self.mass is not None:
-            payload_mass(self.mass, "payload.mass")
+            payload_mass(self.mass, "payload.mass", allow_zero=True)  # 0: an empty hand
         if self.com is not None:
             object.__setattr__(self, "com", tuple(float(v) for v in check_com(self.com)))
         if self.inertia is not None:

@@ -101,7 +101,7 @@ def payload_force(
     Accelerations are the paper's backward differences with the trajectory starting at rest, or
     with the end effector's ``start`` motion (see :func:`forte.model.trajectory.backward_differences`).
     """
-    m = as_positive(mass, "mass")
+    m = as_positive(mass, "mass", allow_zero=True)  # 0: an empty hand without a tool load
     times = check_times(t)
     pos = as_array(positions, "positions", (times.size, 3))
     _, acc = backward_differences(pos, times, "positions", start)

@@ -137,8 +137,20 @@ def _tightened(limits: FloatArray, peaks: FloatArray, ratios: FloatArray) -> Flo
         return np.where(ratios > 1.0, np.minimum(limits, peaks) / (REFINE_MARGIN * ratios), limits)
 
 
+def judged(task: Task, q: FloatArray, force: TaskForce, solver: dict[str, Any] | None = None
+           ) -> tuple[Verdict, TaskForce]:
+    """The verdict of ``q`` planned for ``task`` with ``force``, and the force it was judged with: a
+    goal task's is the force along the plan's own end-effector motion (:meth:`Task.following
+    <forte.planning.tasks.tasks.Task.following>`), whatever force it was planned with."""
+    if task.goal is None:
+        return judge_plan(task, q, force, solver), force
+    own = task.following(q)
+    force = own.force()
+    return judge_plan(own, q, force, solver), force
+
+
 def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info: dict[str, Any],
-            verdict: Verdict) -> tuple[SolverResult, dict[str, Any], Verdict]:
+            verdict: Verdict) -> tuple[SolverResult, dict[str, Any], Verdict, TaskForce]:
     """Re-solve a converged plan whose verdict fails only where the NLP's discrete view of the
     motion falls short of the executed one.
 
@@ -158,11 +170,12 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
 
     The metrics, the cost terms and the verdict keep the task's own radii and limits. At most
     ``task.solver.refine_rounds`` rounds (0: none); the first feasible plan is kept, else the original.
-    ``info["refinement"]`` records the rounds.
+    ``info["refinement"]`` records the rounds. Returns the kept plan, its facts, its verdict and the
+    force it was judged with (:func:`judged`; a goal task's: its own motion's).
     """
     fixable = {"velocity", "acceleration"} | ({"capacity"} if uses_capability(spec) else set())
     if not sol.success or not verdict.failed or not set(verdict.failed) <= fixable or not task.solver.refine_rounds:
-        return sol, info, verdict
+        return sol, info, verdict, force
     radius = force.r.copy()
     vel, acc = (limit.copy() for limit in task.limits.resolve(task.robot))
     acc = acc[N_BASE:]
@@ -183,23 +196,23 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
                                                   base_velocity=tuple(vel[:N_BASE])))
         trial, trial_info = optimize(trial_task, spec, replace(force, r=radius), current.q,
                                      reported=force, self_rows=apart)
-        trial_verdict = judge_plan(task, trial.q, force, trial_info)
+        trial_verdict, trial_force = judged(task, trial.q, force, trial_info)
         rounds.append({"max_added_radius_n": float(np.max(radius - force.r)), "arm_acceleration": acc.tolist(),
                        "velocity": vel.tolist(), "verdict": trial_verdict.label,
                        "failed": list(trial_verdict.failed), "iterations": trial.iterations,
                        "solve_time_s": trial.solve_time})
         if trial_verdict.feasible:
             trial_info["refinement"] = {"rounds": rounds, "radius": radius.tolist()}
-            return trial, trial_info, trial_verdict
+            return trial, trial_info, trial_verdict, trial_force
         if not trial.success or not set(trial_verdict.failed) <= fixable:
             break
         current, current_verdict = trial, trial_verdict
     info["refinement"] = {"rounds": rounds, "kept": "original"}
-    return sol, info, verdict
+    return sol, info, verdict, force
 
 
 def _apart(task: Task, spec: Method, force: TaskForce, guess: FloatArray | None, sol: SolverResult,
-           info: dict[str, Any], verdict: Verdict) -> tuple[SolverResult, dict[str, Any], Verdict]:
+           info: dict[str, Any], verdict: Verdict) -> tuple[SolverResult, dict[str, Any], Verdict, TaskForce]:
     """Solve again with self-collision rows a plan without clearance rows whose arm runs into the robot.
 
     A task without scene bodies near the robot has no rows for the robot's own pairs (most tasks
@@ -207,18 +220,37 @@ def _apart(task: Task, spec: Method, force: TaskForce, guess: FloatArray | None,
     (exact meshes) is solved again, from the same guess, with rows for the robot's pairs near it
     (:func:`~forte.planning.scene.scene_solve.solve_in_scene`; a pair whose covers already overlap at
     the start keeps its start distance, :func:`~forte.planning.nlp.collision_slots.self_margins`).
-    The new plan is kept when it no longer collides; ``info["self_rows"]`` records the try.
+    The new plan is kept when it no longer collides; ``info["self_rows"]`` records the try. Returns
+    the force the kept plan was judged with too (:func:`judged`).
     """
     if "clearance_rows" in info or "self_collision" not in verdict.failed:
-        return sol, info, verdict
+        return sol, info, verdict, force
     trial, trial_info = optimize(task, spec, force, guess, self_rows=True)
-    trial_verdict = judge_plan(task, trial.q, force, trial_info)
+    trial_verdict, trial_force = judged(task, trial.q, force, trial_info)
     kept = "self_collision" not in trial_verdict.failed
     record = {"verdict": trial_verdict.label, "failed": list(trial_verdict.failed), "kept": kept,
               "iterations": trial.iterations, "solve_time_s": trial.solve_time}
     if kept:
-        return trial, trial_info | {"self_rows": record}, trial_verdict
-    return sol, info | {"self_rows": record}, verdict
+        return trial, trial_info | {"self_rows": record}, trial_verdict, trial_force
+    return sol, info | {"self_rows": record}, verdict, force
+
+
+def _own_force(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info: dict[str, Any],
+               verdict: Verdict) -> tuple[SolverResult, dict[str, Any], Verdict, TaskForce]:
+    """A goal task planned with its guess's force whose plan fails on a force requirement
+    (capacity, torque) with its own motion's ``force``: solved once more, from the plan, with that
+    force; the new plan is kept when it converged (``info["own_force"]`` records the try)."""
+    by_force = {"capacity", "torque"}
+    if task.goal is None or not sol.success or not set(verdict.failed) & by_force:
+        return sol, info, verdict, force
+    own = task.following(sol.q)
+    trial, trial_info = optimize(own, spec, force, sol.q)
+    trial_verdict, trial_force = judged(own, trial.q, force, trial_info)
+    record = {"verdict": trial_verdict.label, "failed": list(trial_verdict.failed), "kept": trial.success,
+              "iterations": trial.iterations, "solve_time_s": trial.solve_time}
+    if trial.success:
+        return trial, trial_info | {"own_force": record}, trial_verdict, trial_force
+    return sol, info | {"own_force": record}, verdict, force
 
 
 def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,
@@ -240,6 +272,8 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         raise InvalidInputError(f"method: '{spec.name}' does not apply to mode '{task.mode}'; "
                                 f"expected one of {', '.join(methods_for(task))}")
     task = resolve_payload(task, estimator_options)
+    if task.goal is not None:  # planned with the force along its initial guess's motion
+        task = task.following(start_guess(task) if guess is None else guess)
     force = task.force()
     start = time.perf_counter()
     info: dict[str, Any] = {}
@@ -247,19 +281,24 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
     if blocked is not None:  # no motion can clear the scene: nothing to optimize
         q, solved, status = start_guess(task) if guess is None else guess, False, blocked
         info = {"status": status, "success": False, "path_blocked": True}
-        verdict = judge_plan(task, q, force)
+        verdict, force = judged(task, q, force)
     elif spec.optimized:
         # J1 on the wrench when the payload needs a moment; the task's own terms (e.g. tipover) added
         solved_as = with_task_terms(for_requirement(spec, force), task.terms)
         sol, info = optimize(task, solved_as, force, guess)
-        verdict = judge_plan(task, sol.q, force, info)
-        sol, info, verdict = _apart(task, solved_as, force, guess, sol, info, verdict)
-        sol, info, verdict = _refine(task, solved_as, force, sol, info, verdict)
+        verdict, force = judged(task, sol.q, force, info)
+        sol, info, verdict, force = _own_force(task, solved_as, force, sol, info, verdict)
+        sol, info, verdict, force = _apart(task, solved_as, force, guess, sol, info, verdict)
+        sol, info, verdict, force = _refine(task, solved_as, force, sol, info, verdict)
         q, solved, status = sol.q, sol.success, sol.status
     else:
         q, solved, status = spec.produce(task), True, spec.status
-        verdict = judge_plan(task, q, force)
+        verdict, force = judged(task, q, force)
     info["wall_time_s"] = time.perf_counter() - start
+    if task.goal is not None:  # the plan's own end-effector motion (its force is the judged one)
+        task = task.following(q)
+        info["goal"] = {"kind": task.goal.kind, "duration_s": float(task.t[-1] - task.t[0]),
+                        "duration_given": task.goal.duration_given}
     metrics = evaluate(task.robot, q, task.t, force, task.settings.capability_params, task.scene,
                        task.start_motion)
     return Plan(method=spec.name, robot=task.robot, t=task.t, q=q, force=force, payload=task.payload,

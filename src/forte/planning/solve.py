@@ -16,7 +16,8 @@ from forte.planning.methods.catalog import Method
 from forte.planning.nlp.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
 from forte.planning.scene.diagnosis import failed_rows
 from forte.planning.scene.scene_guess import clear_start
-from forte.planning.scene.scene_solve import floor_near, needs_rows, solve_in_scene
+from forte.planning.scene.scene_solve import floor_near, goal_configuration, goal_kind, needs_rows, solve_in_scene
+from forte.planning.tasks.goals import straight_line
 from forte.planning.tasks.ik import initial_guess
 from forte.planning.tasks.tasks import Task
 from forte.planning.tasks.terms_section import term_settings, term_values
@@ -48,12 +49,22 @@ def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]
     return q, {"waypoints": coarse.n, "iterations": sol.iterations, "solve_time_s": sol.solve_time}
 
 
+def goal_guess(task: Task) -> FloatArray:
+    """A goal task's initial guess (N x nq): the straight line in configuration space from the start
+    to the goal configuration (a pose goal: its IK solution from the start) at the sample times,
+    with a quintic time law that rests at both ends (:func:`~forte.planning.tasks.goals.straight_line`).
+    The one place a path search's motion would come in."""
+    return straight_line(task.q_init, task.goal.q_end, task.t)
+
+
 def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:
     """The optimizer's initial guess: the nominal trajectory for taught configurations (the
-    authors' joint-space interpolation), else IK along the path / onto the pose; with a scene,
-    base poses that keep the robot clear of it where :func:`~forte.planning.scene.scene_guess.clear_start`
-    finds them."""
-    if task.knots is not None:
+    authors' joint-space interpolation), a goal task's :func:`goal_guess`, else IK along the path /
+    onto the pose; with a scene, base poses that keep the robot clear of it where
+    :func:`~forte.planning.scene.scene_guess.clear_start` finds them."""
+    if task.goal is not None:
+        guess = goal_guess(task)
+    elif task.knots is not None:
         guess = task.nominal() if nominal is None else nominal
     else:
         guess = initial_guess(task)
@@ -65,7 +76,8 @@ def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:
 
 def _solve(opt: TrajectoryOptimizer, task: Task, force: TaskForce, q: FloatArray, nominal: FloatArray) -> SolverResult:
     return opt.solve(task.t, task.targets, force.f, force.r, task.q_init, q, nominal,
-                     term_values=term_values(opt.method_spec, force, task.terms), start=task.start_motion)
+                     term_values=term_values(opt.method_spec, force, task.terms), start=task.start_motion,
+                     q_goal=goal_configuration(task))
 
 
 def solve_clear(task: Task, method: Method, force: TaskForce, q: FloatArray, nominal: FloatArray, options: Any,
@@ -80,7 +92,8 @@ def solve_clear(task: Task, method: Method, force: TaskForce, q: FloatArray, nom
         return solve_in_scene(task, method, force, q, nominal, options)
     if opt is None:
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
-                                  options=options, limits=task.limits, settings=task.settings)
+                                  options=options, limits=task.limits, settings=task.settings,
+                                  goal=goal_kind(task))
     sol = _solve(opt, task, force, q, nominal)
     if sol.success and floor_near(task, sol.q, task.clearance):
         return solve_in_scene(task, method, force, sol.q, nominal, options)

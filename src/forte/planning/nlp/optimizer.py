@@ -5,6 +5,9 @@
            q_a^min <= q_a,k <= q_a^max
            q_1 = q_init          (trajectory mode; free in single-point holding mode)
 
+A goal task (``goal``) has a free path: its pose rows are the goal's alone (a pose goal:
+``x(q_N) = x_goal``; a configuration goal: none, ``q_N = q_goal`` by the variables' bounds).
+
 Design:
 
 - the objective is the method's cost terms (:mod:`forte.planning.methods.catalog`): the stage terms are
@@ -93,6 +96,9 @@ class TrajectoryOptimizer:
         settings: The cost terms' parameters (:class:`~forte.settings.TermSettings`, term ->
             {setting: value}); default: the set's when ``weights`` is a
             :class:`~forte.settings.WeightSet`, else the terms' declared defaults.
+        goal: ``None`` (a pose equality at every waypoint after the first), ``pose`` (at the last
+            waypoint only) or ``configuration`` (none: :meth:`solve`'s ``q_goal`` bounds the last
+            configuration), :mod:`forte.planning.tasks.goals`.
     """
 
     def __init__(
@@ -100,6 +106,7 @@ class TrajectoryOptimizer:
         weights: CostWeights | WeightSet = DEFAULT_TRAJECTORY_WEIGHTS, fix_initial: bool = True,
         options: SolverOptions = SolverOptions(), limits: KinematicLimits = KinematicLimits(),
         keep_multipliers: bool = False, slots: Slots | None = None, settings: TermSettings | None = None,
+        goal: str | None = None,
     ) -> None:
         resolved = get_method(method) if isinstance(method, Method) or method in method_names() else None
         if resolved is None or not resolved.optimized:
@@ -114,6 +121,9 @@ class TrajectoryOptimizer:
         weights, settings = resolved.resolve(weights, settings)
         self.weights, self.settings, self.fix_initial, self.options = weights, settings, fix_initial, options
         self.limits, self.keep_multipliers = limits, keep_multipliers
+        if goal not in (None, "pose", "configuration"):
+            raise InvalidInputError(f"goal: expected 'pose' or 'configuration', got {goal!r}")
+        self.goal = goal
         self._warm_solver: Any = None
         self._vel, self._acc = limits.resolve(robot)
         terms = resolved.cost_terms(settings)
@@ -170,13 +180,19 @@ class TrajectoryOptimizer:
         ``z = A vec(q)`` (:mod:`forte.planning.nlp.layout`)."""
         return layout.full_x(q, self._lift)
 
-    def bounds(self, t: Any, q_init: FloatArray, start: StartMotion | None = None) -> layout.Bounds:
+    def bounds(self, t: Any, q_init: FloatArray, start: StartMotion | None = None,
+               q_goal: FloatArray | None = None) -> layout.Bounds:
         """Bounds of a solve at times ``t``: joint limits, ``q_1 = q_init`` (trajectory mode), free
         lifted variables; pose and lifting rows equal 0, kinematic rows within ``v dt``, ``a dt``
-        (the first acceleration rows moved by the ``start`` velocity, :mod:`forte.planning.nlp.history`)."""
+        (the first acceleration rows moved by the ``start`` velocity, :mod:`forte.planning.nlp.history`);
+        ``q_N = q_goal`` when given (a configuration goal)."""
         lifted = self._lift.shape[0]
         lbx, ubx = layout.variable_bounds(self.robot, self.n, lifted, q_init if self.fix_initial else None)
         pin_base(self.robot, self.n, lbx, ubx, q_init)
+        if q_goal is not None:
+            nq = self.robot.nq
+            last = slice((self.n - 1) * nq, self.n * nq)
+            lbx[last] = ubx[last] = np.asarray(q_goal, dtype=float)
         kinematic = layout.kinematic_bounds(self._vel[self._vel_rows], self._acc[self._acc_rows], t,
                                             2 * self.robot.nq if self.rests_at_end else 0)
         kinematic = shifted_acceleration_bounds(kinematic, start, self._vel_rows.size * (self.n - 1), self._acc_rows)
@@ -268,6 +284,8 @@ class TrajectoryOptimizer:
         whose configurations equal the last one, so their poses are implied (the task holds its
         final pose over them, :func:`forte.planning.tasks.paths.ending_at_rest`)."""
         steps = np.arange(first, self.n)
+        if self.goal is not None:  # a free path: the goal's pose only
+            return steps[-1:] if self.goal == "pose" else steps[:0]
         if self.rests_at_end:
             steps = steps[(steps < self.n - 3) | (steps == self.n - 1)]
         return steps
@@ -314,7 +332,8 @@ class TrajectoryOptimizer:
 
     def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,
               nominal: FloatArray | None = None, warm: tuple[FloatArray, FloatArray] | Any | None = None,
-              term_values: dict[str, Any] | None = None, start: StartMotion | None = None) -> SolverResult:
+              term_values: dict[str, Any] | None = None, start: StartMotion | None = None,
+              q_goal: FloatArray | None = None) -> SolverResult:
         """Solve for the whole-body trajectory (N x nq) from the initial guess ``q_guess``.
 
         ``nominal`` (N x nq) is the nominal trajectory of the nominal and base joint-limit terms
@@ -322,8 +341,10 @@ class TrajectoryOptimizer:
         this problem (see ``keep_multipliers``), starts IPOPT from that primal-dual point with a
         small barrier parameter instead of from scratch. ``term_values``: see :meth:`parameters`.
         ``start``: the first waypoint's velocity and acceleration (default: at rest;
-        :mod:`forte.planning.nlp.history`).
+        :mod:`forte.planning.nlp.history`). ``q_goal``: the last configuration of a configuration goal.
         """
+        if (q_goal is not None) != (self.goal == "configuration"):
+            raise InvalidInputError("q_goal: given exactly for a problem built with goal='configuration'")
         n, nq = self.n, self.robot.nq
         targets = np.asarray(targets, dtype=float)
         self._nominal = np.asarray(q_guess if nominal is None else nominal, dtype=float).reshape(n, nq)
@@ -334,7 +355,7 @@ class TrajectoryOptimizer:
         if warm is not None and not isinstance(warm, tuple):
             warm = None  # a stagewise iterate does not warm-start IPOPT
         p = self.parameters(t, targets, f, r, self._nominal, term_values, start)
-        lbx, ubx, lbg, ubg = self.bounds(t, q_init, start)
+        lbx, ubx, lbg, ubg = self.bounds(t, q_init, start, q_goal)
         x0 = self.full_x(np.clip(np.asarray(q_guess, dtype=float).ravel(), lbx[: n * nq], ubx[: n * nq]))
         start = time.perf_counter()
         solver, extra = self.solver, {}
@@ -374,7 +395,7 @@ class TrajectoryOptimizer:
             from forte.planning.nlp.solvers.stagewise import StagewiseSolver
 
             nlp = self.stage_nlp()
-            why = supported(nlp)
+            why = "goal tasks" if self.goal is not None else supported(nlp)
             self._stagewise = StagewiseSolver(nlp) if why is None else None
             if why is not None:
                 notice(f"the stagewise solver does not handle {why}; solving with IPOPT")

@@ -39,12 +39,25 @@ def blocked_path(task: Task) -> str | None:
         return None
     from forte.model.clearance import path_clearances
 
-    found = path_clearances(task.robot, task.scene, task.targets)
+    first = task.n - 1 if task.goal is not None else 0  # a goal task's path is free: its goal pose only
+    found = path_clearances(task.robot, task.scene, task.targets[first:])
     k = found.closest()
     if found.distance[k] >= task.clearance:
         return None
-    return (f"path blocked: at t = {task.t[k]:.3g} s the path puts {found.robot[k]} {found.distance[k]:.3g} m "
+    what = "goal" if task.goal is not None else "path"
+    return (f"{what} blocked: at t = {task.t[first + k]:.3g} s the {what} puts {found.robot[k]} "
+            f"{found.distance[k]:.3g} m "
             f"from {found.body[k]} (clearance {task.clearance:g} m)")
+
+
+def goal_kind(task: Task) -> str | None:
+    """The NLP's goal of ``task`` (:class:`~forte.planning.nlp.optimizer.TrajectoryOptimizer`'s ``goal``)."""
+    return None if task.goal is None else task.goal.kind
+
+
+def goal_configuration(task: Task) -> FloatArray | None:
+    """The last configuration of a configuration goal (the NLP's ``q_goal``), else ``None``."""
+    return None if task.goal is None else task.goal.configuration
 
 
 def floor_near(task: Task, q: FloatArray, within: float) -> bool:
@@ -83,9 +96,10 @@ def solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatA
         slots = assign_slots(task.robot, start, task.scene, task.clearance, fix, extra)
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=fix, options=options,
                                   limits=task.limits, slots=slots, keep_multipliers=keep_multipliers,
-                                  settings=task.settings)
+                                  settings=task.settings, goal=goal_kind(task))
         sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, start, nominal,
-                        term_values=term_values(method, force, task.terms), start=task.start_motion)
+                        term_values=term_values(method, force, task.terms), start=task.start_motion,
+                        q_goal=goal_configuration(task))
         missing = missing_pairs(task.robot, sol.q, task.scene, task.clearance, slots, fix_initial=fix)
         rounds.append({"rows": slots.rows, "slots": {ck.name: ck.slots for ck in opt._clear},
                        "iterations": sol.iterations, "missing_pairs": len(missing)})

@@ -118,7 +118,7 @@ def build_path(reader: Reader, T0: FloatArray, waypoints: int | None,
     r = reader.sub("path")
     kind = r.get("kind", "waypoints")
     if kind not in PATH_KIND_FIELDS:
-        raise r.error("kind", f"expected 'waypoints', 'windowed-sine' or 'taught', got {kind!r}")
+        raise r.error("kind", f"expected 'waypoints', 'windowed-sine', 'taught' or 'goal', got {kind!r}")
     r.unknown(PATH_FIELDS | PATH_KIND_FIELDS[kind])  # another kind's field is refused, not ignored
     R = rotation(r, "orientation", T0[:3, :3])
     if kind == "taught" and robot is not None:
@@ -156,7 +156,7 @@ def build_path(reader: Reader, T0: FloatArray, waypoints: int | None,
         def position_at(ts: FloatArray) -> FloatArray:
             return T0[:3, 3] + windowed_sine(ts, duration, *sine)
     else:
-        raise r.error("kind", f"expected 'waypoints', 'windowed-sine' or 'taught', got {kind!r}")
+        raise r.error("kind", f"expected 'waypoints', 'windowed-sine', 'taught' or 'goal', got {kind!r}")
 
     def targets_at(ts: FloatArray) -> FloatArray:
         targets = np.repeat(np.eye(4)[None], len(ts), axis=0)

@@ -31,7 +31,7 @@ def payload_section(reader: Reader, base: Path, mass: float | None) -> Payload |
             located = image if image.is_absolute() else base / image
             if not located.is_file():
                 raise pr.error("image", f"{located}: file does not exist (expected a PNG, JPEG, WebP or GIF image)")
-        found = Payload(mass=pr.number("mass", positive=True, maximum=MAX_MASS_KG, unit=" kg")
+        found = Payload(mass=pr.number("mass", nonnegative=True, maximum=MAX_MASS_KG, unit=" kg")
                         if pr.has("mass") else None,
                         description=str(pr.get("description")) if pr.has("description") else None,
                         image=None if image is None else str(image if image.is_absolute() else base / image),

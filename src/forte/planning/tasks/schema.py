@@ -139,9 +139,15 @@ def rotation(reader: Reader, name: str, default: FloatArray) -> FloatArray:
     value = reader.get(name)
     if isinstance(value, dict):
         r = reader.sub(name)
-        r.unknown({"rpy", "matrix"})
+        r.unknown({"rpy", "quaternion", "matrix"})
         if r.has("rpy"):
             return pin.rpy.rpyToMatrix(*r.vector("rpy", 3))
+        if r.has("quaternion"):  # [x, y, z, w], as ROS and MoveIt write it
+            xyzw = r.vector("quaternion", 4)
+            norm = float(np.linalg.norm(xyzw))
+            if abs(norm - 1.0) > 1e-3:
+                raise r.error("quaternion", f"expected a unit quaternion [x, y, z, w], got norm {norm:.6g}")
+            return pin.Quaternion(xyzw[3], *xyzw[:3]).normalized().toRotationMatrix()
         try:
             R = np.asarray(r.get("matrix"), dtype=float)
         except (TypeError, ValueError):
@@ -149,7 +155,7 @@ def rotation(reader: Reader, name: str, default: FloatArray) -> FloatArray:
         if R.shape != (3, 3) or not np.all(np.isfinite(R)) or not np.allclose(R @ R.T, np.eye(3), atol=1e-6):
             raise r.error("matrix", "expected an orthonormal 3x3 rotation matrix")
         return R
-    raise reader.error(name, "expected a mapping with 'rpy' (radians) or 'matrix'")
+    raise reader.error(name, "expected a mapping with 'rpy' (radians), 'quaternion' ([x, y, z, w]) or 'matrix'")
 
 
 def _mount(m: Reader) -> FloatArray:

@@ -27,6 +27,7 @@ from forte.planning.tasks.contact_section import (
     MAX_FRICTION_FORCE,
     MAX_STIFFNESS,
 )
+from forte.planning.tasks.goals import DEFAULT_GOAL_SAMPLES, GOAL_ANGLE_TOL, GOAL_POSITION_TOL
 from forte.planning.tasks.scene_section import DEFAULT_CLEARANCE, MAX_LENGTH_M
 from forte.planning.tasks.task_types import (
     BOOL,
@@ -79,11 +80,12 @@ _TOP = [
     Field("pose", MAPPING, "the end-effector pose to hold (mode hold; or teaching_configuration)", when=HOLD),
     Field("teaching_configuration", vector(), f"a configuration reaching the hold pose ({PER_DOF})",
           "m, m, rad, rad...", when=HOLD),
-    Field("payload", MAPPING, "the payload: a mass, or a description and an image for the estimator"),
+    Field("payload", MAPPING, "the payload: a mass, or a description and an image for the estimator",
+          default=Prose("none: an empty hand (the robot's tool load only)")),
     Field("force", MAPPING, "a force profile given directly (with a payload too: the profile plus its force)"),
     Field("contact", MAPPING, "a contact-rich task (push a box, open a drawer, carry with a partner)"),
     Field("uncertainty_radius", number(low=0, high=1e6), "radius r of the force uncertainty ball", "N",
-          DEFAULT_RADIUS),
+          Prose(f"{DEFAULT_RADIUS:g}; 0 with an empty hand (no payload, force or contact)")),
     Field("uncertainty_rule", choice(RADIUS_RULES), "fixed: r everywhere; mass-range: the ball covers the mass "
           "estimate's range (never below r)", default="fixed"),
     Field("force_model", choice(FORCE_MODELS), "paper: (m + m_tool)(p'' - g) from t = 0; authors: (m + m_tool) g "
@@ -143,16 +145,20 @@ _ROBOT = [
 ]
 
 
-def _rotation(prefix: str, default: str) -> list[Field]:
-    return [Field(f"{prefix}.orientation", ROTATION, "the end effector's orientation: rpy or matrix",
-                  default=Prose(default)),
-            Field(f"{prefix}.orientation.rpy", VEC3, "roll, pitch, yaw (used when given)", "rad"),
+def _rotation(prefix: str, default: str, when: Any = None) -> list[Field]:
+    """``orientation`` of ``prefix`` (declared once per variant in ``when``, a list, when given)."""
+    heads = [Field(f"{prefix}.orientation", ROTATION, "the end effector's orientation: rpy, quaternion or matrix",
+                   default=Prose(default), when=w) for w in (when or [None])]
+    return [*heads, Field(f"{prefix}.orientation.rpy", VEC3, "roll, pitch, yaw (used when given)", "rad"),
+            Field(f"{prefix}.orientation.quaternion", vector(4), "a unit quaternion [x, y, z, w] (used when "
+                  "given and rpy is not)"),
             Field(f"{prefix}.orientation.matrix", matrix(3, 3), "an orthonormal 3 x 3 rotation matrix")]
 
 
-WAYPOINTS, SINE, TAUGHT = (("kind", k) for k in ("waypoints", "windowed-sine", "taught"))
+WAYPOINTS, SINE, TAUGHT, GOAL = (("kind", k) for k in ("waypoints", "windowed-sine", "taught", "goal"))
 _PATH = [
-    Field("path.kind", choice(("waypoints", "windowed-sine", "taught")), "how the path is given", default="waypoints"),
+    Field("path.kind", choice(("waypoints", "windowed-sine", "taught", "goal")), "how the path is given (goal: "
+          "from the start to a configuration or pose, the path between them free)", default="waypoints"),
     Field("path.waypoints", items_of(min_items=2), "timed positions joined by quintic blends", required=True,
           when=WAYPOINTS),
     Field("path.waypoints[].t", TIME, "the time of the waypoint (increasing)", "s", required=True),
@@ -163,9 +169,21 @@ _PATH = [
           "kinematics, joined by quintic blends and slerp)", required=True, when=TAUGHT),
     Field("path.configurations[].t", TIME, "the time of the configuration (increasing)", "s", required=True),
     Field("path.configurations[].q", vector(), f"the configuration ({PER_DOF})", "m, m, rad, rad...", required=True),
-    Field("path.samples", integer(2, MAX_WAYPOINTS), "number of waypoints N", default=Prose("50, or from rate")),
+    Field("path.samples", integer(2, MAX_WAYPOINTS), "number of waypoints N (a goal: at least 4)",
+          default=Prose(f"50 (a goal: {DEFAULT_GOAL_SAMPLES}), or from rate")),
     Field("path.rate", number(above=0), "waypoints per second (when samples is absent)", "1/s"),
-    *_rotation("path", "the initial end-effector orientation"),
+    *_rotation("path", "the initial end-effector orientation", [WAYPOINTS, SINE, TAUGHT]),
+    Field("path.configuration", vector(), f"the goal configuration ({PER_DOF}; a fixed base: the start's base)",
+          "m, m, rad, rad...", when=GOAL),
+    Field("path.pose", MAPPING, "the goal pose of the end effector (instead of configuration)", when=GOAL),
+    Field("path.pose.position", VEC3, "the goal position (world)", "m", required=True),
+    *_rotation("path.pose", "the initial end-effector orientation"),
+    Field("path.tolerance", MAPPING, "how close the plan must end to a goal pose", when=GOAL),
+    Field("path.tolerance.position", number(above=0, high=1.0), "position tolerance", "m", GOAL_POSITION_TOL),
+    Field("path.tolerance.angle", number(above=0, high=3.141592653589793), "orientation tolerance", "rad",
+          GOAL_ANGLE_TOL),
+    Field("path.duration", DURATION, "the motion's duration", "s", Prose("from the joints' velocity and "
+          "acceleration limits, at least 1 s"), when=GOAL),
     Field("path.duration", DURATION, "the sine path's duration", "s", required=True, when=SINE),
     Field("path.offset", VEC3, "c in w(t) (c + a sin(2 pi f t + phi))", "m", ZERO3, when=SINE),
     Field("path.amplitude", VEC3, "a in w(t) (c + a sin(2 pi f t + phi))", "m", required=True, when=SINE),
@@ -180,7 +198,8 @@ _POSE = [
 ]
 
 _PAYLOAD = [
-    Field("payload.mass", MASS, "the payload's mass (--mass overrides it)", "kg"),
+    Field("payload.mass", number(low=0, high=MAX_MASS_KG), "the payload's mass (--mass overrides it; 0: an empty "
+          "hand)", "kg"),
     Field("payload.description", STRING, "words for the mass estimator (forte estimate)"),
     Field("payload.image", STRING, "an image for the mass estimator (PNG, JPEG, WebP or GIF; relative to the task "
           "file)"),

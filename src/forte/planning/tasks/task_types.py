@@ -64,8 +64,8 @@ def integer(low: int, high: int) -> Type:
 BOOL = Type("true or false", {"type": "boolean"})
 STRING = Type("string", {"type": "string"})
 MAPPING = Type("mapping", {"type": "object"})
-ROTATION = Type("mapping", {"type": "object", "anyOf": [{"required": ["rpy"]}, {"required": ["matrix"]}]},
-                "rpy or matrix")
+ROTATION = Type("mapping", {"type": "object", "anyOf": [{"required": ["rpy"]}, {"required": ["quaternion"]},
+                                                       {"required": ["matrix"]}]}, "rpy, quaternion or matrix")
 
 
 def choice(values: tuple[str, ...] | list[str]) -> Type:

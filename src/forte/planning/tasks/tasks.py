@@ -34,6 +34,7 @@ from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import StartMotion, quintic_path, start_through
 from forte.planning.tasks.contact_section import read_contact
+from forte.planning.tasks.goals import Goal, goal_section, goal_targets, straight_line
 from forte.planning.tasks.motion_section import force_profile, limits_section, path_targets, start_configuration
 from forte.planning.tasks.paths import (
     ForceAt,
@@ -121,6 +122,9 @@ class Task:
     #: The first waypoint's velocity and acceleration (a horizon spliced into a moving plan,
     #: :mod:`forte.planning.nlp.history`); ``None``: at rest, as a task file's.
     start_motion: StartMotion | None = None
+    #: A goal task's goal (``path.kind: goal``, :mod:`forte.planning.tasks.goals`): its path is
+    #: free and its targets are the forward kinematics of a motion (:meth:`following`).
+    goal: Goal | None = None
 
     def with_weights(self, weight_set: WeightSet) -> Task:
         """The task with a named set's weights and term settings (the task's own ``terms:``
@@ -143,12 +147,19 @@ class Task:
             return quintic_path(self.knots[0], self.knots[1], np.minimum(self.t, self.knots[0][-1]))
         if self.mode == "hold" and self.teaching is not None:
             return self.teaching[None].copy()
+        if self.goal is not None:  # the straight line to the goal
+            return straight_line(self.q_init, self.goal.q_end, self.t)
         from forte.planning.tasks.ik import initial_guess
 
         return initial_guess(self)
 
     def resampled(self, n: int) -> Task:
-        """The same task on ``n`` equally spaced samples of its time span (trajectory mode)."""
+        """The same task on ``n`` equally spaced samples of its time span (trajectory mode; a goal
+        task: its targets along the straight line on the new samples)."""
+        if self.goal is not None and 4 <= n <= MAX_WAYPOINTS:
+            t = np.linspace(self.t[0], self.t[-1], n)
+            return replace(self, t=t, targets=goal_targets(self.robot, self.goal,
+                                                           straight_line(self.q_init, self.goal.q_end, t)))
         if self.mode != "trajectory" or self.targets_at is None:
             raise TaskFileError(f"{self._where('path')}: only a trajectory task can be resampled")
         if n < 2 or n > MAX_WAYPOINTS:
@@ -161,6 +172,15 @@ class Task:
             t = np.linspace(self.t[0], self.t[-1], n)
         profile = force_at(t) if force_at is not None else None
         return replace(self, t=t, targets=path(t), targets_at=path, force_at=force_at, force_profile=profile)
+
+    def following(self, q: FloatArray) -> Task:
+        """A goal task with its targets the end-effector poses of the motion ``q`` (N x nq; the
+        last one the goal pose of a pose goal), so :meth:`force` is the force along that motion
+        (a plan's own, or its initial guess's). A task with a given path is returned unchanged:
+        its force is its path's."""
+        if self.goal is None:
+            return self
+        return replace(self, targets=goal_targets(self.robot, self.goal, q))
 
     def with_payload(self, payload: Payload) -> Task:
         """The same task carrying ``payload``."""
@@ -198,7 +218,8 @@ class Task:
         else:
             force = payload_force(self.t, self.targets[:, :3, 3], total, self.radius, self.robot.gravity,
                                   self.ee_start())
-        share = force.f * (m / total)  # the payload's own share: the tool load has no lever arm
+        # the payload's own share (the tool load has no lever arm); an empty hand without a tool: none
+        share = force.f * (m / total) if total > 0 else np.zeros_like(force.f)
         if profile is not None:
             force = TaskForce(self.t, profile.f + force.f, profile.r)
         elif self.radius_rule == "mass-range" and mass is None and self.payload.mass_range is not None:
@@ -296,17 +317,23 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     if reader.has("teaching_configuration"):
         teaching = reader.vector("teaching_configuration", robot.nq)
         check_joint_limits(reader, "teaching_configuration", robot, teaching)
-    t, targets, targets_at = path_targets(reader, robot, mode, robot.ee_pose(q_init), waypoints, teaching)
+    limits = limits_section(reader, robot)
+    goal_task = goal_section(reader, robot, mode, q_init, limits, waypoints)
+    if goal_task is not None:
+        (t, targets, goal), targets_at = goal_task, None
+    else:
+        t, targets, targets_at = path_targets(reader, robot, mode, robot.ee_pose(q_init), waypoints, teaching)
+        goal = None
     contact, carried = read_contact(reader, targets, mode, mass)
     payload = payload_section(reader, base, mass) if contact is None else carried
     force_at = force_profile(reader, t, radius)
-    if force_at is None and payload is None and contact is None:
-        raise reader.error("payload", "give a payload (mass, or description/image) or a force profile")
+    if force_at is None and contact is None and (payload is None or payload.mass == 0):
+        payload = payload or Payload(mass=0.0, source="none")  # an empty hand: the tool's load only
+        radius = radius if reader.has("uncertainty_radius") else 0.0  # no payload: no uncertainty about it
     if force_at is not None and reader.has("force_model"):
         raise reader.error("force_model", "sets a payload's force; this task gives its force profile directly")
     weights, settings = read_weights(reader, mode, robot)
     solver = dataclass_from(reader, "solver", SolverOptions, SolverOptions())
-    limits = limits_section(reader, robot)
     if targets_at is not None and limits.end_at_rest:
         t, targets_at = ending_at_rest(targets_at, t)
         targets = targets_at(t)
@@ -325,6 +352,6 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                 solver=solver, teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
                 targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots,
                 radius_rule=radius_rule, force_model=force_model, scene=scene,
-                clearance=clearance, terms=terms_section(reader), contact=contact)
+                clearance=clearance, terms=terms_section(reader), contact=contact, goal=goal)
 
 

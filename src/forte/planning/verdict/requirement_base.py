@@ -56,6 +56,8 @@ class Context(NamedTuple):
         scene, clearance: the static bodies around the robot and the distance (m) to keep from them.
         distances: the exact robot-scene clearance at every sample (``None``: not computed yet;
             :class:`Clearance` computes it when the scene is not empty).
+        goal: a goal task's goal (:class:`~forte.planning.tasks.goals.Goal`): tracking judges the
+            last configuration against it alone; ``None``: the task's path (``targets``).
     """
 
     robot: MobileManipulator
@@ -70,6 +72,7 @@ class Context(NamedTuple):
     scene: Scene = Scene()
     clearance: float = DEFAULT_CLEARANCE
     distances: Clearances | None = None
+    goal: Any = None
 
 
 def exceeded(ctx: Context, name: str, value: FloatArray, limit: float, units: str, what: str,

@@ -39,6 +39,7 @@ from forte.force.taskforce import force_directions
 from forte.model.clearance import Clearances, clearances
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.self_collision import arm_geometry
+from forte.planning.tasks.goals import GOAL_CONFIGURATION_TOL
 from forte.planning.verdict.base_requirements import (
     FIXED_BASE_TOL,
     LATERAL_SPEED_TOL,
@@ -177,11 +178,14 @@ def orientation_errors(ee: FloatArray, targets: FloatArray) -> FloatArray:
 @dataclass(frozen=True)
 class Tracking(Requirement):
     """The end effector within :data:`TRACKING_POSITION_TOL` (m) and
-    :data:`TRACKING_ORIENTATION_TOL` (rad) of the task's path at every sample."""
+    :data:`TRACKING_ORIENTATION_TOL` (rad) of the task's path at every sample; a goal task (its
+    path free): the last sample at the goal (:func:`goal_measures`)."""
 
     name: ClassVar[str] = "tracking"
 
     def measures(self, ctx: Context) -> list[Measure]:
+        if ctx.goal is not None:
+            return goal_measures(ctx)
         if ctx.targets is None:
             return []
         ee = ctx.samples.ee
@@ -189,6 +193,25 @@ class Tracking(Requirement):
         return [Measure(pos, TRACKING_POSITION_TOL, "m", "the end effector leaves the task's path"),
                 Measure(orientation_errors(ee, ctx.targets), TRACKING_ORIENTATION_TOL, "rad",
                         "the end effector turns away from the task's orientation")]
+
+
+def goal_measures(ctx: Context) -> list[Measure]:
+    """A goal at the last waypoint (zero before it): a configuration goal's worst coordinate
+    ``max_i |q_N,i - q_goal,i|`` within :data:`~forte.planning.tasks.goals.GOAL_CONFIGURATION_TOL`
+    (named), a pose goal's position and angle errors within its tolerances."""
+    goal, s = ctx.goal, ctx.samples
+    end = int(s.waypoint[-1])
+    at_end = s.t >= s.t[end]  # the last waypoint's samples (the grid repeats it as the last interval's end)
+    if goal.pose is None:
+        gap = np.abs(s.q[end] - goal.q_end)
+        worst = int(np.argmax(gap))
+        return [Measure(np.where(at_end, gap[worst], 0.0), GOAL_CONFIGURATION_TOL, "rad or m",
+                        "the plan does not end at the goal configuration", [joint_names(ctx.robot)[worst]] * len(s.t))]
+    ee = s.ee[end]
+    position = np.where(at_end, np.linalg.norm(ee[:3, 3] - goal.pose[:3, 3]), 0.0)
+    angle = np.where(at_end, orientation_errors(ee[None], goal.pose[None])[0], 0.0)
+    return [Measure(position, goal.position_tol, "m", "the end effector ends away from the goal position"),
+            Measure(angle, goal.angle_tol, "rad", "the end effector ends turned away from the goal orientation")]
 
 
 @dataclass(frozen=True)

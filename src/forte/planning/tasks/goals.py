@@ -1,0 +1,187 @@
+"""Goal tasks: ``path: {kind: goal, ...}``, a motion from the start to a goal whose end-effector
+path between them is free (the optimizer chooses it).
+
+Two goals: a whole-body ``configuration`` (base x, y, yaw, then the arm; a fixed base keeps the
+start's base entries) or an end-effector ``pose`` (position and orientation, reached within
+``tolerance``). The task's sample times come from ``duration`` (s) when given, else from
+:func:`rule_duration`; its targets are the forward kinematics of a whole-body motion (first the
+straight line of :func:`straight_line`, then the plan's own, :meth:`Task.following
+<forte.planning.tasks.tasks.Task.following>`), so the payload's force ``m (p'' - g)`` is the force
+along that motion. Only the goal is a pose equality of the NLP (a pose goal: the last waypoint;
+a configuration goal: none, the last configuration is bounded to the goal).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from forte.model.robot import N_BASE, MobileManipulator
+from forte.model.trajectory import quintic_blend
+from forte.planning.tasks.ik import reachable_pose
+from forte.planning.tasks.schema import Reader, check_joint_limits, rotation
+from forte.settings import KinematicLimits
+from forte.validation import MAX_DURATION_S, MAX_WAYPOINTS, FloatArray
+
+#: The fields of a goal path besides ``kind``, ``samples`` and ``rate``.
+GOAL_FIELDS = frozenset({"configuration", "pose", "tolerance", "duration"})
+#: Waypoints of a goal task when neither ``samples`` nor ``rate`` is given.
+DEFAULT_GOAL_SAMPLES = 30
+#: A pose goal's default tolerance: the verdict's tracking tolerances (m, rad).
+GOAL_POSITION_TOL, GOAL_ANGLE_TOL = 0.01, 0.05
+#: A configuration goal is met when the last configuration is this close (rad, m) at every coordinate.
+GOAL_CONFIGURATION_TOL = 1e-6
+#: The rule's duration: at least this long (s), and this many times the quintic's bound.
+MIN_GOAL_DURATION_S = 1.0
+DURATION_MARGIN = 2.0
+#: Peak speed and acceleration of the quintic blend ``10 s^3 - 15 s^4 + 6 s^5`` over a unit step in
+#: unit time: ``max s' = 15 / 8``, ``max s'' = 10 sqrt(3) / 3``.
+QUINTIC_PEAK_SPEED, QUINTIC_PEAK_ACCELERATION = 15 / 8, 10 * np.sqrt(3) / 3
+
+
+@dataclass(frozen=True)
+class Goal:
+    """Where a goal task ends.
+
+    Attributes:
+        q_end: the whole-body configuration the straight-line guess ends at (the goal
+            configuration, or the IK solution of the goal pose from the start).
+        pose: the goal pose (4 x 4, world) of a pose goal; ``None`` for a configuration goal.
+        position_tol, angle_tol: how close (m, rad) the plan's last pose must come to ``pose``.
+        duration_given: whether the task file gave ``duration`` (else :func:`rule_duration`'s).
+    """
+
+    q_end: FloatArray
+    pose: FloatArray | None = None
+    position_tol: float = GOAL_POSITION_TOL
+    angle_tol: float = GOAL_ANGLE_TOL
+    duration_given: bool = False
+
+    @property
+    def kind(self) -> str:
+        """``configuration`` or ``pose``."""
+        return "configuration" if self.pose is None else "pose"
+
+    @property
+    def configuration(self) -> FloatArray | None:
+        """The goal configuration of a configuration goal (``None`` for a pose goal)."""
+        return self.q_end if self.pose is None else None
+
+
+def rule_duration(robot: MobileManipulator, limits: KinematicLimits, q0: FloatArray, q1: FloatArray) -> float:
+    """A duration (s) for the straight line from ``q0`` to ``q1`` with a quintic time law:
+
+        ``T = max(1 s, 2 max_i max(15/8 |dq_i| / v_i, sqrt(10 sqrt(3)/3 |dq_i| / a_i)))``
+
+    the time at which the quintic's peak velocity and acceleration meet the limits of the slowest
+    coordinate (base velocity and arm velocity and acceleration; the base's acceleration limits are
+    the planner's), with a margin for the payload's torques. A placeholder for a time-optimal rule."""
+    vel, acc = limits.resolve(robot)
+    acc = np.r_[np.full(N_BASE, np.inf), acc[N_BASE:]]
+    step = np.abs(np.asarray(q1, dtype=float) - np.asarray(q0, dtype=float))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_vel = np.where(np.isfinite(vel), QUINTIC_PEAK_SPEED * step / vel, 0.0)
+        t_acc = np.where(np.isfinite(acc), np.sqrt(QUINTIC_PEAK_ACCELERATION * step / acc), 0.0)
+    bound = float(np.max(np.maximum(np.nan_to_num(t_vel), np.nan_to_num(t_acc)), initial=0.0))
+    return float(min(max(MIN_GOAL_DURATION_S, DURATION_MARGIN * bound), MAX_DURATION_S))
+
+
+def straight_line(q0: FloatArray, q1: FloatArray, t: FloatArray) -> FloatArray:
+    """The straight line from ``q0`` to ``q1`` in configuration space at the times ``t`` (N x nq):
+    ``q_k = q0 + s_k (q1 - q0)`` with the quintic blend ``s_k`` reaching 1 at ``t_{N-3}`` (N >= 4),
+    so the motion starts at rest and rests over the last two samples (the end at rest of the NLP)."""
+    t = np.asarray(t, dtype=float)
+    arrive = t[-3] if t.size >= 4 else t[-1]
+    span = max(float(arrive - t[0]), 1e-12)
+    s = quintic_blend(np.clip((t - t[0]) / span, 0.0, 1.0))
+    return np.asarray(q0, dtype=float)[None] + s[:, None] * (np.asarray(q1, dtype=float) - q0)[None]
+
+
+def goal_targets(robot: MobileManipulator, goal: Goal, q: FloatArray) -> FloatArray:
+    """The end-effector poses of the motion ``q`` (N x nq), the last one the goal pose of a pose goal
+    (the NLP's one pose equality)."""
+    targets = np.array([robot.ee_pose(qk) for qk in np.asarray(q, dtype=float)])
+    if goal.pose is not None:
+        targets[-1] = goal.pose
+    return targets
+
+
+def _configuration(r: Reader, robot: MobileManipulator, q_init: FloatArray) -> FloatArray:
+    value = r.get("configuration")
+    if not isinstance(value, list | tuple) or len(value) != robot.nq:
+        got = f"{len(value)}" if isinstance(value, list | tuple) else repr(value)
+        raise r.error("configuration", f"expected {robot.nq} numbers (base x, y, yaw, then the arm), got {got}")
+    q = r.vector("configuration", robot.nq)
+    check_joint_limits(r, "configuration", robot, q)
+    if robot.base == "fixed" and not np.allclose(q[:N_BASE], q_init[:N_BASE], atol=1e-9, rtol=0):
+        raise r.error("configuration", f"base entries {q[:N_BASE].tolist()!r} differ from the start's "
+                      f"{q_init[:N_BASE].tolist()!r}; robot.base is fixed")
+    return q
+
+
+def _pose(r: Reader, robot: MobileManipulator, q_init: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The goal pose and the IK configuration that reaches it from the start."""
+    p = r.sub("pose")
+    p.unknown({"position", "orientation"})
+    T = np.eye(4)
+    T[:3, 3] = p.vector("position", 3)
+    T[:3, :3] = rotation(p, "orientation", robot.ee_pose(q_init)[:3, :3])
+    q, err, ok = reachable_pose(robot, T, q_init)
+    if not ok:
+        raise r.error("pose", f"unreachable from the start: the best IK leaves {np.linalg.norm(err[:3]):.4g} m "
+                      f"and {np.linalg.norm(err[3:]):.4g} rad" + (" with the base fixed" if robot.base == "fixed"
+                                                                 else ""))
+    return T, q
+
+
+def read_goal(r: Reader, robot: MobileManipulator, q_init: FloatArray, limits: KinematicLimits,
+              waypoints: int | None) -> tuple[FloatArray, Goal]:
+    """``path: {kind: goal, ...}``: the sample times and the :class:`Goal`."""
+    r.unknown({"kind", "samples", "rate"} | GOAL_FIELDS)
+    if r.has("configuration") == r.has("pose"):
+        raise r.error("configuration", "give exactly one of configuration (whole-body) and pose")
+    pose = None
+    if r.has("configuration"):
+        if r.has("tolerance"):
+            raise r.error("tolerance", "applies to a pose goal; a configuration goal is met exactly")
+        q_end = _configuration(r, robot, q_init)
+    else:
+        pose, q_end = _pose(r, robot, q_init)
+    tol = r.sub("tolerance") if r.has("tolerance") else Reader({}, r.path, f"{r.key('tolerance')}.")
+    tol.unknown({"position", "angle"})
+    position_tol = tol.number("position", GOAL_POSITION_TOL, positive=True, maximum=1.0, unit=" m")
+    angle_tol = tol.number("angle", GOAL_ANGLE_TOL, positive=True, maximum=np.pi, unit=" rad")
+    given = r.has("duration")
+    duration = r.number("duration", positive=True, maximum=MAX_DURATION_S, unit=" s") if given \
+        else rule_duration(robot, limits, q_init, q_end)
+    if waypoints is not None:
+        n = waypoints
+    elif r.has("samples"):
+        n = r.integer("samples", minimum=4, maximum=MAX_WAYPOINTS)
+    elif r.has("rate"):
+        n = int(np.clip(round(duration * r.number("rate", positive=True) + 1), 4, MAX_WAYPOINTS))
+    else:
+        n = DEFAULT_GOAL_SAMPLES
+    return np.linspace(0.0, duration, n), Goal(q_end, pose, position_tol, angle_tol, given)
+
+
+def goal_errors(robot: MobileManipulator, goal: Goal, q_last: FloatArray) -> tuple[float, float]:
+    """The position (m) and orientation (rad) error of the configuration ``q_last`` against a pose goal."""
+    T = robot.ee_pose(q_last)
+    return (float(np.linalg.norm(T[:3, 3] - goal.pose[:3, 3])),
+            float(np.linalg.norm(pin.log3(goal.pose[:3, :3].T @ T[:3, :3]))))
+
+
+def goal_section(reader: Reader, robot: MobileManipulator, mode: str, q_init: FloatArray, limits: KinematicLimits,
+                 waypoints: int | None) -> tuple[FloatArray, FloatArray, Goal] | None:
+    """A goal task's sample times, its targets along the straight line and its :class:`Goal`;
+    ``None`` when the task's path is not a goal."""
+    path = reader.get("path")
+    if mode != "trajectory" or not isinstance(path, dict) or path.get("kind") != "goal":
+        return None
+    if waypoints is not None and not 4 <= waypoints <= MAX_WAYPOINTS:
+        raise reader.error("path", f"--waypoints: expected 4 to {MAX_WAYPOINTS} for a goal task, got {waypoints}")
+    t, goal = read_goal(reader.sub("path"), robot, q_init, limits, waypoints)
+    return t, goal_targets(robot, goal, straight_line(q_init, goal.q_end, t)), goal
