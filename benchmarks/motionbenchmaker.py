@@ -49,13 +49,20 @@ def problems(root: Path, per_scenario: int | None, scenarios: list[str] | None) 
     return out
 
 
+#: The clearance the tasks keep (m): MotionBenchMaker's goals are grasps, the fingers within 1-2 cm
+#: of the object, and its success is no collision (MoveIt's padding 0).
+CLEARANCE = 0.0
+
+
 def load(request: Path, scene: Path, folder: Path, payload: float | None) -> Any:
-    """The problem as forte's goal task (what ``forte import moveit --floor none`` writes)."""
+    """The problem as forte's goal task (what ``forte import moveit --floor none`` writes, with
+    ``clearance:`` :data:`CLEARANCE`)."""
     from forte.io.moveit_import import task_document, write_task
     from forte.planning.tasks.tasks import load_task
 
     out = folder / "task.yaml"
     doc, _ = task_document(request, scene, out, payload=payload, floor="none")
+    doc["clearance"] = CLEARANCE
     write_task(out, doc, (request, scene))
     return load_task(out)
 
@@ -116,7 +123,8 @@ def run_one(args: tuple[str, Path, Path, float | None, str, bool]) -> dict[str, 
 
 
 def summary(rows: list[dict[str, Any]], command: str) -> str:
-    lines = [f"Command: `{command}`", "", "| scenario | problems | success | median s | p95 s |", "|---|---|---|---|---|"]
+    lines = [f"Command: `{command}`", "", "| scenario | problems | success | median s | p95 s |",
+             "|---|---|---|---|---|"]
     for scenario in sorted({r["scenario"] for r in rows}) + ["all"]:
         sel = [r for r in rows if scenario in ("all", r["scenario"])]
         wall = np.array([float(r.get("wall_s", r.get("search_s", np.nan)) or np.nan) for r in sel])

@@ -24,6 +24,7 @@ from forte.model.trajectory import backward_differences
 from forte.planning.methods.catalog import METHODS, Method, get_method, method_names
 from forte.planning.nlp.optimizer import SolverResult
 from forte.planning.scene.scene_solve import blocked_path
+from forte.planning.search.route import routed
 from forte.planning.solve import optimize, start_guess
 from forte.planning.tasks.tasks import Task
 from forte.planning.tasks.terms_section import with_task_terms
@@ -253,6 +254,40 @@ def _own_force(task: Task, spec: Method, force: TaskForce, sol: SolverResult, in
     return sol, info | {"own_force": record}, verdict, force
 
 
+#: What a longer duration can fix, and how much longer each round makes it.
+BY_DURATION = frozenset({"velocity", "acceleration", "torque", "capacity"})
+SLOWER, SLOWER_ROUNDS = 1.5, 3
+
+
+def _slower(unrouted: Task, spec: Method, task: Task, sol: SolverResult, info: dict[str, Any], verdict: Verdict,
+            force: TaskForce, route: dict[str, Any]) -> tuple[Task, SolverResult, dict[str, Any], Verdict, TaskForce]:
+    """A goal task whose duration forte chose (toppra's, :mod:`forte.planning.search.route`) and whose
+    converged plan fails only on what a slower motion fixes (:data:`BY_DURATION`: the payload's
+    torques and the capacity margin are not in toppra's problem): planned again on a route
+    :data:`SLOWER` times longer, at most :data:`SLOWER_ROUNDS` times; the first feasible plan is kept.
+    ``info["search"]`` records the route, the duration and the limit that set it."""
+    rounds: list[dict[str, Any]] = []
+    limiting = route.get("limiting", "")
+    stretch = 1.0
+    while (not task.goal.duration_given and sol.success and not verdict.feasible and len(rounds) < SLOWER_ROUNDS
+           and set(verdict.failed) <= BY_DURATION):
+        stretch *= SLOWER
+        trial_task, _ = routed(unrouted, stretch)
+        trial_task = trial_task.following(trial_task.goal.route)
+        trial, trial_info = optimize(trial_task, spec, trial_task.force(), None)
+        trial_verdict, trial_force = judged(trial_task, trial.q, trial_task.force(), trial_info)
+        rounds.append({"duration_s": float(trial_task.t[-1]), "verdict": trial_verdict.label,
+                       "failed": list(trial_verdict.failed), "iterations": trial.iterations})
+        if trial_verdict.feasible or not trial.success:
+            limiting = f"{', '.join(verdict.failed)} with the task's force" if trial_verdict.feasible else limiting
+            if trial_verdict.feasible:
+                task, sol, info, verdict, force = trial_task, trial, trial_info, trial_verdict, trial_force
+            break
+    info["search"] = route | {"duration_s": float(task.t[-1] - task.t[0]), "limiting": limiting,
+                              "slower_rounds": rounds}
+    return task, sol, info, verdict, force
+
+
 def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,
          guess: FloatArray | None = None) -> Plan:
     """Plan ``task`` with ``method`` and judge it; never raises for a solver failure or an
@@ -272,15 +307,18 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         raise InvalidInputError(f"method: '{spec.name}' does not apply to mode '{task.mode}'; "
                                 f"expected one of {', '.join(methods_for(task))}")
     task = resolve_payload(task, estimator_options)
+    start = time.perf_counter()
+    unrouted, route = task, {}
+    if task.goal is not None and spec.optimized and guess is None:  # found and timed (search, toppra)
+        task, route = routed(task)
     if task.goal is not None:  # planned with the force along its initial guess's motion
         task = task.following(start_guess(task) if guess is None else guess)
     force = task.force()
-    start = time.perf_counter()
     info: dict[str, Any] = {}
-    blocked = blocked_path(task) if spec.optimized else None
+    blocked = (route.get("reason") or blocked_path(task)) if spec.optimized else None
     if blocked is not None:  # no motion can clear the scene: nothing to optimize
         q, solved, status = start_guess(task) if guess is None else guess, False, blocked
-        info = {"status": status, "success": False, "path_blocked": True}
+        info = {"status": status, "success": False, "path_blocked": True, **({"search": route} if route else {})}
         verdict, force = judged(task, q, force)
     elif spec.optimized:
         # J1 on the wrench when the payload needs a moment; the task's own terms (e.g. tipover) added
@@ -290,6 +328,8 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         sol, info, verdict, force = _own_force(task, solved_as, force, sol, info, verdict)
         sol, info, verdict, force = _apart(task, solved_as, force, guess, sol, info, verdict)
         sol, info, verdict, force = _refine(task, solved_as, force, sol, info, verdict)
+        if route:
+            task, sol, info, verdict, force = _slower(unrouted, solved_as, task, sol, info, verdict, force, route)
         q, solved, status = sol.q, sol.success, sol.status
     else:
         q, solved, status = spec.produce(task), True, spec.status

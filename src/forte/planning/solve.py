@@ -17,7 +17,6 @@ from forte.planning.nlp.optimizer import SolverResult, TrajectoryOptimizer, acce
 from forte.planning.scene.diagnosis import failed_rows
 from forte.planning.scene.scene_guess import clear_start
 from forte.planning.scene.scene_solve import floor_near, goal_configuration, goal_kind, needs_rows, solve_in_scene
-from forte.planning.tasks.goals import straight_line
 from forte.planning.tasks.ik import initial_guess
 from forte.planning.tasks.tasks import Task
 from forte.planning.tasks.terms_section import term_settings, term_values
@@ -54,7 +53,7 @@ def goal_guess(task: Task) -> FloatArray:
     to the goal configuration (a pose goal: its IK solution from the start) at the sample times,
     with a quintic time law that rests at both ends (:func:`~forte.planning.tasks.goals.straight_line`).
     The one place a path search's motion would come in."""
-    return straight_line(task.q_init, task.goal.q_end, task.t)
+    return task.goal.motion(task.q_init, task.t)
 
 
 def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:

@@ -150,15 +150,19 @@ def _centres(robot: object, q: FloatArray, primitives: tuple[Primitive, ...]) ->
 
 
 def assign_slots(robot: object, q: FloatArray, scene: Scene, clearance: float, fix_initial: bool,
-                 extra: set[tuple[int, int, int]] | None = None) -> Slots:
+                 extra: set[tuple[int, int, int]] | None = None, clear: FloatArray | None = None) -> Slots:
     """Slots for the solve that starts from ``q`` (N x nq): the scene pairs within the clearance
     plus :data:`ACTIVATION`, the robot's own pairs (:func:`forte.planning.nlp.self_pairs.self_pairs`)
     within :data:`~forte.planning.nlp.self_pairs.SELF_ACTIVATION`; ``extra``: ``(k, primitive, body)``
     triples that must get rows (found on an earlier solution; a self pair's ``body`` is
-    ``-1 - primitive``)."""
+    ``-1 - primitive``); ``clear``: a motion (N x nq) known clear of the scene on the exact
+    geometry (a goal task's route), whose covers may overlap a body (the covers are thicker than
+    the meshes: a grasp's fingers around an object): a scene pair keeps at waypoint k at most its
+    cover distance there less :data:`START_OVERLAP_SLACK` (:func:`scene_margins`)."""
     primitives = robot_primitives(robot)
     centres = _centres(robot, q, primitives)
     D = scene_distances(centres, primitives, scene, clearance + 2 * ACTIVATION)
+    kept = scene_margins(robot, scene, clearance, D.shape, clear, primitives)
     pairs_self = self_pairs(robot)
     S = self_distances(centres, primitives, pairs_self)
     margins = self_margins(S, fix_initial)
@@ -192,13 +196,25 @@ def assign_slots(robot: object, q: FloatArray, scene: Scene, clearance: float, f
         pairs = {}
         for k, groups in enumerate(chosen):
             for j, (_, p, m) in enumerate(sorted(groups.get(key, ()))[:size]):
-                values[k, j * width:(j + 1) * width] = _slot(primitives[p], proxies[m], clearance) if m >= 0 \
+                values[k, j * width:(j + 1) * width] = _slot(primitives[p], proxies[m], kept[k, p, m]) if m >= 0 \
                     else _self_slot(primitives[p], primitives[-1 - m], margins[index_self[(p, -1 - m)]])
                 keep[k, 2 * j] = True
                 keep[k, 2 * j + 1] = n > 1  # one waypoint (holding): no interval, one row
                 pairs[(k, j)] = (p, m)
         frames.append(FrameSlots(key[0], size, values, keep, pairs, None if key[1] < 0 else key[1]))
     return Slots(tuple(frames))
+
+
+def scene_margins(robot: object, scene: Scene, clearance: float, shape: tuple[int, ...], clear: FloatArray | None,
+                  primitives: tuple[Primitive, ...]) -> FloatArray:
+    """The cover distance each scene pair keeps at each waypoint (N x primitives x bodies): the
+    clearance, or where the covers of a motion ``clear`` of the scene (exact geometry) come closer,
+    their distance there less :data:`START_OVERLAP_SLACK` (see :func:`assign_slots`)."""
+    kept = np.full(shape, float(clearance))
+    if clear is not None and len(clear) == shape[0]:
+        reference = scene_distances(_centres(robot, clear, primitives), primitives, scene, clearance + ACTIVATION)
+        kept = np.minimum(kept, reference - START_OVERLAP_SLACK)
+    return kept
 
 
 def _slot(primitive: Primitive, proxy: Proxy, clearance: float) -> FloatArray:

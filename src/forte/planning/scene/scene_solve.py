@@ -93,7 +93,8 @@ def solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatA
     extra: set[tuple[int, int, int]] = set()
     start, rounds = q_guess, []
     for _ in range(SCENE_ROUNDS + 1):
-        slots = assign_slots(task.robot, start, task.scene, task.clearance, fix, extra)
+        slots = assign_slots(task.robot, start, task.scene, task.clearance, fix, extra,
+                             clear=None if task.goal is None else task.goal.route)
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=fix, options=options,
                                   limits=task.limits, slots=slots, keep_multipliers=keep_multipliers,
                                   settings=task.settings, goal=goal_kind(task))

@@ -77,7 +77,7 @@ class StateChecker:
     (module docstring). ``floor`` replaces the scene's floor when given. Two departures from
     :class:`ClearanceChecker`'s model, for measurements only (its ``why`` still reports on that
     model): ``locked`` holds joints outside the arm (the fingers) at given values instead of
-    neutral, and ``base_box`` overrides whether the base box is there (default: as forte's
+    the robot's ``locked_joints``, and ``base_box`` overrides whether the base box is there (default: as forte's
     model, :func:`~forte.model.description.has_base_box`)."""
 
     def __init__(self, robot: MobileManipulator, scene: Scene, clearance: float = 0.0, floor: float | None = None,
@@ -85,7 +85,7 @@ class StateChecker:
         self.robot, self.clearance = robot, float(clearance)
         self.scene = scene if floor is None else scene._replace(floor=float(floor))
         built = _robot_model(str(robot.urdf_path), tuple(robot.arm_joints), np.ascontiguousarray(robot.mount).tobytes(),
-                             tuple(sorted((locked or {}).items())))
+                             tuple(sorted((robot.locked_joints if locked is None else locked).items())))
         self.model, self.geom = built.model, pin.GeometryModel(built.geom)  # parts and bodies go into a copy
         base_box = has_base_box(robot) if base_box is None else base_box
         self._add_base_and_payload(built.frame, base_box)

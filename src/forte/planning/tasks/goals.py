@@ -51,6 +51,9 @@ class Goal:
         pose: the goal pose (4 x 4, world) of a pose goal; ``None`` for a configuration goal.
         position_tol, angle_tol: how close (m, rad) the plan's last pose must come to ``pose``.
         duration_given: whether the task file gave ``duration`` (else :func:`rule_duration`'s).
+        route: the motion (N x nq, at the task's times) the planner found to the goal
+            (:mod:`forte.planning.search.route`), the NLP's guess and nominal; ``None``: the
+            straight line.
     """
 
     q_end: FloatArray
@@ -58,6 +61,11 @@ class Goal:
     position_tol: float = GOAL_POSITION_TOL
     angle_tol: float = GOAL_ANGLE_TOL
     duration_given: bool = False
+    route: FloatArray | None = None
+
+    def motion(self, q0: FloatArray, t: FloatArray) -> FloatArray:
+        """The guess along ``t``: the route when found, else the straight line from ``q0``."""
+        return self.route if self.route is not None and len(self.route) == len(t) else straight_line(q0, self.q_end, t)
 
     @property
     def kind(self) -> str:

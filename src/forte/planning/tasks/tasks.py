@@ -34,7 +34,7 @@ from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import StartMotion, quintic_path, start_through
 from forte.planning.tasks.contact_section import read_contact
-from forte.planning.tasks.goals import Goal, goal_section, goal_targets, straight_line
+from forte.planning.tasks.goals import Goal, goal_section, goal_targets
 from forte.planning.tasks.motion_section import force_profile, limits_section, path_targets, start_configuration
 from forte.planning.tasks.paths import (
     ForceAt,
@@ -147,8 +147,8 @@ class Task:
             return quintic_path(self.knots[0], self.knots[1], np.minimum(self.t, self.knots[0][-1]))
         if self.mode == "hold" and self.teaching is not None:
             return self.teaching[None].copy()
-        if self.goal is not None:  # the straight line to the goal
-            return straight_line(self.q_init, self.goal.q_end, self.t)
+        if self.goal is not None:  # the route to the goal, else the straight line
+            return self.goal.motion(self.q_init, self.t)
         from forte.planning.tasks.ik import initial_guess
 
         return initial_guess(self)
@@ -158,8 +158,10 @@ class Task:
         task: its targets along the straight line on the new samples)."""
         if self.goal is not None and 4 <= n <= MAX_WAYPOINTS:
             t = np.linspace(self.t[0], self.t[-1], n)
-            return replace(self, t=t, targets=goal_targets(self.robot, self.goal,
-                                                           straight_line(self.q_init, self.goal.q_end, t)))
+            goal = self.goal
+            if goal.route is not None:  # the route on the new samples
+                goal = replace(goal, route=np.column_stack([np.interp(t, self.t, c) for c in goal.route.T]))
+            return replace(self, t=t, goal=goal, targets=goal_targets(self.robot, goal, goal.motion(self.q_init, t)))
         if self.mode != "trajectory" or self.targets_at is None:
             raise TaskFileError(f"{self._where('path')}: only a trajectory task can be resampled")
         if n < 2 or n > MAX_WAYPOINTS:

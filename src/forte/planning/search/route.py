@@ -1,0 +1,103 @@
+"""A goal task's route: the motion its NLP starts from, found and timed before the solve.
+
+For a goal task (:mod:`forte.planning.tasks.goals`) the end effector's path is free. Its route is:
+
+1. the straight line in configuration space from the start to the goal when it keeps the task's
+   clearance from the scene (every state at :data:`SEGMENT_RESOLUTION`, forte's exact model:
+   :func:`~forte.planning.search.validity.segment_free`), else the path of a sampling-based
+   search (:func:`~forte.planning.search.sampling.find_path`: RRT-Connect, shortcut);
+2. timed by the time-optimal law along it under the velocity and acceleration limits
+   (:func:`~forte.planning.search.timing.retime`, toppra): without ``duration:`` in the task, the
+   plan's duration is toppra's times :data:`DURATION_MARGIN` (at least
+   :data:`~forte.planning.tasks.goals.MIN_GOAL_DURATION_S`; the payload's torques and the capacity
+   margin are not in toppra's problem, the planner lengthens a plan that fails on them); with it,
+   the route keeps its shape on the given time span. The route arrives at ``t_{N-3}`` and rests over
+   the last two samples, as the NLP's end at rest asks.
+
+The route is the NLP's initial guess and its nominal trajectory (the ``nominal`` term pulls toward
+it, not toward a straight line through an obstacle). :func:`routed` returns the task with its route
+and times, and the facts the plan records (``solver.search``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from forte.planning.search.sampling import find_path
+from forte.planning.search.timing import retime
+from forte.planning.search.validity import StateChecker, segment_free
+from forte.planning.tasks.goals import MIN_GOAL_DURATION_S, goal_targets
+from forte.planning.tasks.tasks import Task
+from forte.validation import FloatArray
+
+#: The planned duration over toppra's time-optimal one when the task gives none.
+DURATION_MARGIN = 1.5
+#: C-space step (rad or m) of the straight segment's check.
+SEGMENT_RESOLUTION = 0.02
+#: Seconds the search may take.
+SEARCH_TIME_LIMIT = 5.0
+#: Dense samples of the timed path, interpolated onto the task's times.
+DENSE_SAMPLES = 400
+
+
+def needs_search(task: Task) -> bool:
+    """Whether the world can be in the way: scene bodies, or a floor."""
+    return bool(task.scene.objects) or task.scene.floor is not None
+
+
+def arriving(t: FloatArray, dense_t: FloatArray, dense_q: FloatArray) -> FloatArray:
+    """The timed motion (``dense_t``, ``dense_q``) stretched onto ``t`` so that it arrives at
+    ``t_{N-3}`` and rests over the last two samples."""
+    t = np.asarray(t, dtype=float)
+    arrive = t[-3] if t.size >= 4 else t[-1]
+    scale = dense_t[-1] / max(float(arrive - t[0]), 1e-12)
+    s = np.clip((t - t[0]) * scale, 0.0, dense_t[-1])
+    return np.column_stack([np.interp(s, dense_t, dense_q[:, j]) for j in range(dense_q.shape[1])])
+
+
+def route_path(task: Task) -> tuple[FloatArray | None, dict[str, Any]]:
+    """The collision-free path (M x nq) from the start to the goal, and what finding it took."""
+    q0, q1 = np.asarray(task.q_init, dtype=float), np.asarray(task.goal.q_end, dtype=float)
+    begin = time.perf_counter()
+    facts: dict[str, Any] = {"searched": False}
+    if needs_search(task):
+        checker = StateChecker(task.robot, task.scene, task.clearance)
+        if not segment_free(checker, q0, q1, SEGMENT_RESOLUTION):
+            found = find_path(task.robot, task.scene, q0, q1, task.clearance, time_limit=SEARCH_TIME_LIMIT,
+                              seed=task.solver.hold_seed)
+            facts |= {"searched": True, "states": found.states, "checks": found.checks}
+            if not found.found:
+                return None, facts | {"time_s": time.perf_counter() - begin, "reason": f"search: {found.reason}"}
+            facts["time_s"] = time.perf_counter() - begin
+            return found.q, facts
+    facts["time_s"] = time.perf_counter() - begin
+    return np.vstack([q0, q1]), facts
+
+
+def routed(task: Task, stretch: float = 1.0) -> tuple[Task, dict[str, Any]]:
+    """``task`` with its route (initial guess and nominal) and its times; the facts (search, toppra's
+    duration and the limit that sets it). ``stretch`` (>= 1) lengthens a chosen duration. A task
+    that is not a goal task is returned as it is; a route that cannot be found leaves the task as
+    it is with ``facts["reason"]``."""
+    if task.goal is None:
+        return task, {}
+    path, facts = route_path(task)
+    if path is None:
+        return task, facts
+    begin = time.perf_counter()
+    dense = retime(task.robot, path, samples=DENSE_SAMPLES, limits=task.limits)
+    facts |= {"toppra_duration_s": dense.duration, "limiting": dense.limiting, "waypoints": len(path),
+              "retime_s": time.perf_counter() - begin}
+    if task.goal.duration_given:
+        t = task.t
+    else:
+        duration = max(MIN_GOAL_DURATION_S, DURATION_MARGIN * stretch * dense.duration)
+        t = np.linspace(0.0, duration, task.n)
+    route = arriving(t, dense.t, dense.q)
+    route[0] = task.q_init
+    goal = replace(task.goal, route=route)
+    return replace(task, t=t, goal=goal, targets=goal_targets(task.robot, goal, route)), facts

@@ -1,0 +1,59 @@
+"""Goal tasks through clutter (issue 38): a route found around what is in the way, timed, kept clear
+by the NLP, and executed in MuJoCo; a goal that cannot be reached says which stage failed."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import forte
+from forte.model.clearance import clearances
+from forte.planning.search.route import arriving
+from forte.planning.search.validity import StateChecker, segment_free
+from forte.planning.tasks.tasks import task_from_dict
+
+WALL = Path("examples/tasks/around-the-wall.yaml")
+PANDA = {"urdf": "erd:panda_description/urdf/panda.urdf", "ee_frame": "panda_hand", "base": "fixed"}
+
+
+def test_arriving_rests_over_the_last_two_samples_and_keeps_the_motion():
+    dense_t = np.linspace(0.0, 2.0, 201)
+    dense_q = np.column_stack([dense_t ** 2, np.sin(dense_t)])
+    t = np.linspace(0.0, 3.0, 11)
+    q = arriving(t, dense_t, dense_q)
+    assert np.allclose(q[0], dense_q[0]) and np.allclose(q[-3:], dense_q[-1])
+    s = t[:-2] * 2.0 / t[-3]  # the motion's own time at each sample before the rest
+    assert np.allclose(q[:-2, 1], np.sin(s), atol=1e-4)
+
+
+@pytest.mark.slow
+def test_a_goal_behind_a_wall_is_reached_around_it_and_executes(tmp_path):
+    task = forte.load_task(WALL)
+    checker = StateChecker(task.robot, task.scene, task.clearance)
+    assert not segment_free(checker, task.q_init, task.goal.q_end)  # the straight motion hits the wall
+    plan = forte.plan(task)
+    assert plan.feasible, plan.verdict.reason()
+    search = plan.solver["search"]
+    assert search["searched"] and search["toppra_duration_s"] <= plan.t[-1]
+    assert np.allclose(plan.q[-1], task.goal.q_end, atol=1e-6)
+    # the exact clearance at the waypoints and between them (an independent dense check)
+    dense = np.vstack([plan.q[:-1] + s * np.diff(plan.q, axis=0) for s in np.linspace(0, 1, 5)])
+    assert clearances(task.robot, task.scene, dense).distance.min() >= task.clearance - 1e-3
+    from forte.execution.run import simulate_plan
+    from forte.io.plandir import write_plan
+
+    write_plan(plan, tmp_path / "wall")
+    result = simulate_plan(tmp_path / "wall")
+    assert result.success, result.detail
+
+
+def test_a_goal_inside_a_body_fails_at_the_search_and_says_so():
+    task = task_from_dict({
+        "robot": PANDA, "initial_configuration": [0, 0, 0, -1.0, 0.3, 0.0, -1.8, 0.0, 2.1, 0.785],
+        "path": {"kind": "goal", "configuration": [0, 0, 0, 1.0, 0.3, 0.0, -1.8, 0.0, 2.1, 0.785]},
+        "scene": [{"name": "crate", "box": {"size": [0.4, 0.4, 0.8]}, "pose": [0.3, 0.55, 0.4, 0, 0, 0]}]})
+    plan = forte.plan(task)
+    assert not plan.feasible
+    assert plan.status.startswith("search: goal configuration in collision: ") and "crate" in plan.status
