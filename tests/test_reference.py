@@ -73,3 +73,27 @@ def test_clamped_spline_equals_scipy_s(n):
     np.testing.assert_allclose(pos, ref(tc), atol=1e-10)
     np.testing.assert_allclose(vel, np.where(inside, ref(tc, 1), 0.0), atol=1e-9)
     np.testing.assert_allclose(acc, np.where(inside, ref(tc, 2), 0.0), atol=1e-8)
+
+
+def test_a_spline_that_ends_at_rest_is_clamped_where_the_rest_begins():
+    """A motion that arrives at a joint limit and rests there (a goal at the limit): the spline through
+    the rest's equal knots would ring past the limit; the executed one stops at the rest's first knot
+    (SciPy's clamped spline on the knots up to it) and holds."""
+    from scipy.interpolate import CubicSpline
+
+    from forte.model.trajectory import clamped_spline, resting_from
+
+    t = np.linspace(0.0, 2.9, 30)
+    limit = 2.8973
+    q = np.full((30, 1), limit)
+    q[:28, 0] = np.linspace(2.0, limit, 28)  # arriving at a constant speed
+    assert resting_from(q) == 27
+    times = np.linspace(0.0, 3.2, 2001)
+    pos, vel, acc = clamped_spline(t, q, times)
+    assert pos.max() <= limit + 1e-12
+    ring = CubicSpline(t, q, axis=0, bc_type="clamped")(times)  # through every knot: past the limit
+    assert ring.max() > limit + 1e-4
+    ref = CubicSpline(t[:28], q[:28], axis=0, bc_type="clamped")
+    early = times <= t[27]
+    np.testing.assert_allclose(pos[early], ref(times[early]), atol=1e-10)
+    assert np.all(pos[~early] == limit) and not vel[~early].any() and not acc[~early].any()

@@ -148,11 +148,25 @@ def quintic_hermite(t_knots: Any, q: Any, v: Any, a: Any, times: Any) -> tuple[A
     return pos, np.where(outside, 0.0, vel), np.where(outside, 0.0, acc)
 
 
+#: Knots within this of the last one (in every coordinate) count as the motion's final rest.
+REST_TOL = 1e-9
+
+
+def resting_from(q: FloatArray) -> int:
+    """The index of the first knot of the final rest: the first ``k`` with every later knot within
+    :data:`REST_TOL` of the last (``len(q) - 1`` without a rest)."""
+    moving = np.flatnonzero(np.max(np.abs(q - q[-1]), axis=1) > REST_TOL)
+    return int(moving[-1]) + 1 if moving.size else 0
+
+
 def clamped_spline(t_knots: Any, q: Any, times: Any,
                    v_start: FloatArray | None = None) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Clamped cubic spline through ``(t_k, q_k)`` (C2, zero velocity at both ends, or ``v_start``
     at the first knot) sampled at ``times``: position, velocity, acceleration; the first/last knot
     is held outside the knots' range (velocity and acceleration 0). One knot: held everywhere.
+    Knots that end the motion at rest (the last ones equal to the last, within :data:`REST_TOL`)
+    are one knot: the spline is clamped where the rest begins and holds it (a C2 spline through the
+    rest's equal knots would ring past it, beyond a joint limit when the rest is at one).
 
     The knot slopes ``m_k`` solve the tridiagonal continuity system
     ``h_k m_{k-1} + 2 (h_{k-1} + h_k) m_k + h_{k-1} m_{k+1} = 3 (h_k s_{k-1} + h_{k-1} s_k)``
@@ -164,6 +178,8 @@ def clamped_spline(t_knots: Any, q: Any, times: Any,
     tk = check_times(t_knots, "t")
     qk = as_array(q, "q", (tk.size, None))
     ts = as_array(times, "times", (None,))
+    rest = resting_from(qk)
+    tk, qk = tk[:rest + 1], qk[:rest + 1]
     if tk.size == 1:
         pos = np.repeat(qk, ts.size, axis=0)
         return pos, np.zeros_like(pos), np.zeros_like(pos)
