@@ -77,8 +77,10 @@ def test_a_configuration_goal_plans_feasible_and_ends_at_the_goal():
     assert result.verdict.feasible, result.verdict.reason()
     np.testing.assert_allclose(result.q[-1], GOAL, atol=1e-9)
     np.testing.assert_allclose(result.q[0], task.q_init, atol=1e-9)
-    assert result.solver["goal"] == {"kind": "configuration", "duration_s": float(task.t[-1]),
+    # the duration forte chose: toppra's along the route, with its margin (the plan's own time span)
+    assert result.solver["goal"] == {"kind": "configuration", "duration_s": float(result.t[-1]),
                                      "duration_given": False}
+    assert result.t[-1] >= result.solver["search"]["toppra_duration_s"] > 0
 
 
 def test_a_pose_goal_ends_within_its_tolerance():
@@ -147,11 +149,13 @@ def test_an_empty_panda_hand_has_no_force_and_a_finite_capability():
     assert 0 < capability_cost(A[None], outside[None], np.zeros((1, 3)), np.zeros(1)) < np.inf
 
 
-def _backward_force(task: Any, q: np.ndarray, mass: float) -> np.ndarray:
-    """``m (p'' - g)`` from the plan's forward kinematics, second differences from rest (own code)."""
+def _backward_force(task: Any, q: np.ndarray, mass: float, t: np.ndarray | None = None) -> np.ndarray:
+    """``m (p'' - g)`` from the plan's forward kinematics at its times ``t`` (default the task's),
+    second differences from rest (own code)."""
     p = np.array([task.robot.ee_pose(qk)[:3, 3] for qk in q])
     padded = np.vstack([p[:1], p[:1], p])
-    dt = task.t[1] - task.t[0]
+    t = task.t if t is None else t
+    dt = t[1] - t[0]
     acc = (padded[2:] - 2 * padded[1:-1] + padded[:-2]) / dt**2
     acc[0] = 0.0
     return mass * (acc - np.array([0.0, 0.0, -task.robot.gravity]))
@@ -160,9 +164,9 @@ def _backward_force(task: Any, q: np.ndarray, mass: float) -> np.ndarray:
 def test_a_goal_task_is_judged_with_the_force_of_its_own_motion():
     task = panda_task({"kind": "goal", "configuration": GOAL}, payload={"mass": 1.5})
     result = plan(task)
-    own = _backward_force(task, result.q, 1.5)
+    own = _backward_force(result.task, result.q, 1.5)  # on the plan's own times (forte chose its duration)
     np.testing.assert_allclose(result.force.f, own, atol=1e-6)
-    guess = _backward_force(task, goal_guess(task), 1.5)
+    guess = _backward_force(result.task, goal_guess(result.task), 1.5)
     assert np.max(np.abs(own - guess)) > 0.05  # the plan's motion is not the guess's
     np.testing.assert_allclose(result.force.f, result.task.force().f, atol=1e-12)
     again = judge_plan(result.task, result.q, result.force, result.solver)
@@ -212,7 +216,7 @@ def test_the_example_plans_and_simulates_end_to_end(tmp_path, capsys):
     assert doc["solver"]["goal"]["kind"] == "pose" and not doc["solver"]["goal"]["duration_given"]
     written = read_plan_dir(out)  # plan.json's force is the force of the written motion
     task = task_from_dict(yaml.safe_load((ROOT / "examples" / "tasks" / "goal.yaml").read_text()), waypoints=16)
-    np.testing.assert_allclose(written.force.f, _backward_force(task, written.q, 1.0), atol=1e-6)
+    np.testing.assert_allclose(written.force.f, _backward_force(task, written.q, 1.0, written.t), atol=1e-6)
     assert main(["simulate", str(out), "--quiet"]) == 0, capsys.readouterr().err
     sim = json.loads((out / "sim.json").read_text())
     assert sim["verdict"] == "success" and sim["payload_mass"] == 1.0

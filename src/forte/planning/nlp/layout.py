@@ -75,6 +75,27 @@ def kinematic_bounds(vel: FloatArray, acc: FloatArray, t: FloatArray, rest_rows:
     return -ub, ub
 
 
+#: The executed spline leaves a rest and enters one with zero slope (``clamped_spline``): over that
+#: interval its acceleration reaches 4x the backward difference's (a cubic Hermite from slope 0 to
+#: the secant's: ``2 (3 s - m) / h`` with ``m = s``), so those rows keep a quarter of the limit.
+REST_ENTRY_FACTOR = 0.25
+
+
+def rest_entries(kinematic: tuple[FloatArray, FloatArray], offset: int, rows: int,
+                 steps: Sequence[int]) -> tuple[FloatArray, FloatArray]:
+    """The kinematic bounds with the acceleration rows of ``steps`` (the step that leaves the
+    start's rest, the one that enters the final rest) scaled by :data:`REST_ENTRY_FACTOR`
+    (``offset``: where the acceleration rows begin; ``rows`` per step)."""
+    lower, upper = (np.array(b, dtype=float) for b in kinematic)
+    for step in steps:
+        if step >= 0 and rows:
+            block = slice(offset + step * rows, offset + (step + 1) * rows)
+            if block.stop <= upper.size:
+                lower[block] *= REST_ENTRY_FACTOR
+                upper[block] *= REST_ENTRY_FACTOR
+    return lower, upper
+
+
 def constraint_bounds(posed: int, kinematic: tuple[FloatArray, FloatArray],
                       lifted: int) -> tuple[FloatArray, FloatArray]:
     """Pose rows of ``posed`` waypoints equal 0, the kinematic rows within their bounds, the
