@@ -98,6 +98,9 @@ def plan_and_simulate(task: Any, folder: Path, simulate: bool) -> dict[str, Any]
                                                                                                    np.nan),
     }
     row["success"] = plan.feasible
+    if info.get("path_blocked"):  # the stage that failed: the search (its reason), not the straight line's verdict
+        row["failed"] = str(plan.status).split(":")[0] + ": " + str(plan.status).split(":")[1].strip().split(" in ")[0]
+        row["reason"] = str(plan.status)[:200]
     if simulate and plan.feasible:
         directory = folder / "plan"
         write_plan(plan, directory)

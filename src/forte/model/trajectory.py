@@ -148,8 +148,9 @@ def quintic_hermite(t_knots: Any, q: Any, v: Any, a: Any, times: Any) -> tuple[A
     return pos, np.where(outside, 0.0, vel), np.where(outside, 0.0, acc)
 
 
-#: Knots within this of the last one (in every coordinate) count as the motion's final rest.
-REST_TOL = 1e-9
+#: Knots within this of the last one (in every coordinate; the NLP ties them with equality rows
+#: met to its tolerance) count as the motion's final rest.
+REST_TOL = 1e-6
 
 
 def resting_from(q: FloatArray) -> int:
