@@ -107,5 +107,7 @@ def solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatA
         if not missing or not sol.success:
             break
         extra |= missing | slots.triples()
-        start = sol.q
+        # from the solution (it kept the rows it had), or a goal task's route: clear of the scene on
+        # the exact geometry, where a solution that ran into pairs without rows is not
+        start = q_guess if task.goal is not None and task.goal.route is not None else sol.q
     return opt, sol, {"rounds": rounds}
