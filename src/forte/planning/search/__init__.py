@@ -3,10 +3,11 @@
 - :mod:`~forte.planning.search.validity`: is a configuration free (forte's collision model, one
   C++ call per state), is a straight C-space segment free;
 - :mod:`~forte.planning.search.sampling`: :func:`find_path`, OMPL's RRT-Connect, shortcut;
-- :mod:`~forte.planning.search.timing`: :func:`retime`, the time-optimal law along a path (toppra).
+- :mod:`~forte.planning.search.timing`: :func:`retime`, the time-optimal law along a path (toppra);
+- :mod:`~forte.planning.search.route`: :func:`~forte.planning.search.route.routed`, a goal task's route.
 
-OMPL and toppra are the optional extra ``plan`` (``pip install 'forte[plan]'``); they are imported
-when a search or a retiming runs.
+OMPL and toppra are dependencies of forte, imported when a search or a retiming runs (``forte plan``
+of a task without a goal never loads them).
 """
 
 from forte.planning.search.sampling import SearchResult, find_path
