@@ -64,7 +64,8 @@ def ompl_modules() -> tuple[Any, Any, Any]:
         from ompl import geometric as og
         from ompl import util as ou
     except ImportError as exc:
-        raise InvalidInputError("the path search needs the 'ompl' package: pip install ompl (a dependency of forte)") from exc
+        raise InvalidInputError("the path search needs the 'ompl' package (a dependency of forte): pip install ompl"
+                                ) from exc
     ou.setLogLevel(ou.LogLevel.LOG_WARN)
     return ob, og, ou
 

@@ -50,7 +50,8 @@ def _toppra() -> Any:
     try:
         import toppra
     except ImportError as exc:
-        raise InvalidInputError("retiming needs the 'toppra' package: pip install toppra (a dependency of forte)") from exc
+        raise InvalidInputError("retiming needs the 'toppra' package (a dependency of forte): pip install toppra"
+                                ) from exc
     toppra.setup_logging("WARNING")
     return toppra
 
