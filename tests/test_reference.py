@@ -78,22 +78,26 @@ def test_clamped_spline_equals_scipy_s(n):
 def test_a_spline_that_ends_at_rest_is_clamped_where_the_rest_begins():
     """A motion that arrives at a joint limit and rests there (a goal at the limit): the spline through
     the rest's equal knots would ring past the limit; the executed one stops at the rest's first knot
-    (SciPy's clamped spline on the knots up to it) and holds."""
+    (SciPy's clamped spline on the knots up to it) and holds. A coordinate that rests inside its
+    range (not at its extreme) keeps the spline through every knot."""
     from scipy.interpolate import CubicSpline
 
     from forte.model.trajectory import clamped_spline, resting_from
 
     t = np.linspace(0.0, 2.9, 30)
     limit = 2.8973
-    q = np.full((30, 1), limit)
+    q = np.full((30, 2), limit)
     q[:28, 0] = np.linspace(2.0, limit, 28)  # arriving at a constant speed
+    q[:, 1] = np.r_[np.sin(np.linspace(0, 5.5, 28)), np.sin(5.5), np.sin(5.5)]  # past its low, then rests
     assert resting_from(q) == 27
     times = np.linspace(0.0, 3.2, 2001)
     pos, vel, acc = clamped_spline(t, q, times)
-    assert pos.max() <= limit + 1e-12
-    ring = CubicSpline(t, q, axis=0, bc_type="clamped")(times)  # through every knot: past the limit
-    assert ring.max() > limit + 1e-4
-    ref = CubicSpline(t[:28], q[:28], axis=0, bc_type="clamped")
+    assert pos[:, 0].max() <= limit + 1e-12
+    through = CubicSpline(t, q, axis=0, bc_type="clamped")
+    assert through(times)[:, 0].max() > limit + 1e-4  # through every knot: past the limit
+    ref = CubicSpline(t[:28], q[:28, 0], bc_type="clamped")
     early = times <= t[27]
-    np.testing.assert_allclose(pos[early], ref(times[early]), atol=1e-10)
-    assert np.all(pos[~early] == limit) and not vel[~early].any() and not acc[~early].any()
+    np.testing.assert_allclose(pos[early, 0], ref(times[early]), atol=1e-10)
+    assert np.all(pos[~early, 0] == limit) and not vel[~early, 0].any() and not acc[~early, 0].any()
+    inside = np.clip(times, t[0], t[-1])
+    np.testing.assert_allclose(pos[:, 1], through(inside)[:, 1], atol=1e-10)  # not at its extreme

@@ -165,9 +165,11 @@ def clamped_spline(t_knots: Any, q: Any, times: Any,
     """Clamped cubic spline through ``(t_k, q_k)`` (C2, zero velocity at both ends, or ``v_start``
     at the first knot) sampled at ``times``: position, velocity, acceleration; the first/last knot
     is held outside the knots' range (velocity and acceleration 0). One knot: held everywhere.
-    Knots that end the motion at rest (the last ones equal to the last, within :data:`REST_TOL`)
-    are one knot: the spline is clamped where the rest begins and holds it (a C2 spline through the
-    rest's equal knots would ring past it, beyond a joint limit when the rest is at one).
+
+    A coordinate that ends at rest (the last knots equal to the last, within :data:`REST_TOL`) at
+    the extreme of its motion (its largest or smallest value: always so at a joint limit) is
+    clamped where the rest begins and holds it: through the rest's equal knots the C2 spline
+    would ring past the rest, beyond the limit (:func:`extreme_rests`).
 
     The knot slopes ``m_k`` solve the tridiagonal continuity system
     ``h_k m_{k-1} + 2 (h_{k-1} + h_k) m_k + h_{k-1} m_{k+1} = 3 (h_k s_{k-1} + h_{k-1} s_k)``
@@ -179,8 +181,28 @@ def clamped_spline(t_knots: Any, q: Any, times: Any,
     tk = check_times(t_knots, "t")
     qk = as_array(q, "q", (tk.size, None))
     ts = as_array(times, "times", (None,))
+    pos, vel, acc = _spline(tk, qk, ts, v_start)
     rest = resting_from(qk)
-    tk, qk = tk[:rest + 1], qk[:rest + 1]
+    cols = extreme_rests(qk, rest)
+    if cols.any():  # those coordinates: the spline up to the rest, then held
+        v0 = None if v_start is None else np.asarray(v_start, dtype=float)[cols]
+        pos[:, cols], vel[:, cols], acc[:, cols] = _spline(tk[:rest + 1], qk[:rest + 1, cols], ts, v0)
+    return pos, vel, acc
+
+
+def extreme_rests(q: FloatArray, rest: int) -> FloatArray:
+    """Per coordinate: whether it moves, then rests from knot ``rest`` on at its largest or smallest value."""
+    if rest >= len(q) - 1:
+        return np.zeros(q.shape[1], dtype=bool)
+    final = q[-1]
+    moves = np.ptp(q, axis=0) > REST_TOL
+    extreme = (final >= q.max(axis=0) - REST_TOL) | (final <= q.min(axis=0) + REST_TOL)
+    return moves & extreme
+
+
+def _spline(tk: FloatArray, qk: FloatArray, ts: FloatArray,
+            v_start: FloatArray | None) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The clamped spline through every knot (see :func:`clamped_spline`)."""
     if tk.size == 1:
         pos = np.repeat(qk, ts.size, axis=0)
         return pos, np.zeros_like(pos), np.zeros_like(pos)
