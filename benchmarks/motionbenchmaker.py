@@ -94,7 +94,7 @@ def plan_and_simulate(task: Any, folder: Path, simulate: bool) -> dict[str, Any]
         "toppra_s": search.get("toppra_duration_s", np.nan), "limiting": search.get("limiting", ""),
         "path_length_rad": float(np.abs(np.diff(plan.q[:, 3:], axis=0)).sum()),
         "iterations": info.get("iterations", -1),
-        "min_clearance_m": np.nan if plan.verdict.clearance is None else plan.verdict.clearance.get("distance_m",
+        "min_clearance_m": np.nan if plan.verdict.clearance is None else plan.verdict.clearance.get("min_m",
                                                                                                    np.nan),
     }
     row["success"] = plan.feasible

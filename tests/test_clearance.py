@@ -277,3 +277,13 @@ def test_a_bare_arm_at_its_base_frame_has_no_base_box_and_a_mobile_base_has_one(
         assert (BASE_PART in [p.name for p in checker.parts]) == has_box
         assert any(p.piece == "base" for p in robot_primitives(robot)) == has_box
         assert len(checker.placements(robot.home())) == len(checker.parts)
+        import mujoco
+
+        from forte.execution.model import build_sim_model
+
+        sim = build_sim_model(robot)
+        sim = getattr(sim, "model", sim)
+        base = mujoco.mj_name2id(sim, mujoco.mjtObj.mjOBJ_BODY, "base")
+        boxes = [g for g in range(sim.ngeom)
+                 if sim.geom_bodyid[g] == base and sim.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
+        assert bool(boxes) == has_box  # MuJoCo's base touches what the clearance check sees

@@ -59,6 +59,7 @@ from forte.model.description import (
     BASE_INERTIA,
     BASE_MASS,
     PAYLOAD_RADIUS,
+    has_base_box,
 )
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
@@ -297,6 +298,8 @@ def _add_base(spec: mujoco.MjSpec, robot: MobileManipulator, mass: float,
     base.add_joint(name="base_y", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0], **weld)
     base.add_joint(name="base_yaw", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1], **weld)
     height = max(float(robot.mount[2, 3]), BASE_BOX_MIN_HEIGHT)
+    if not has_base_box(robot):  # a bare arm: its root link is its base (as in the clearance check)
+        return base
     base.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[*BASE_BOX_HALF_XY, height / 2], pos=[0, 0, height / 2],
                   rgba=[0.3, 0.3, 0.35, 1], contype=0, conaffinity=0, mass=0.0)
     return base
