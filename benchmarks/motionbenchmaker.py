@@ -125,23 +125,49 @@ def run_one(args: tuple[str, Path, Path, float | None, str, bool]) -> dict[str, 
     return row
 
 
+def _num(r: dict[str, Any], key: str) -> float:
+    try:
+        return float(r.get(key) or "nan")
+    except (TypeError, ValueError):
+        return float("nan")
+
+
 def summary(rows: list[dict[str, Any]], command: str) -> str:
+    """Success per scenario with the median and p95 wall time, the stages' median times, the
+    verdict against MuJoCo, the chosen durations against toppra's, and the failures by reason."""
+    ok = [str(r["success"]) == "True" for r in rows]
     lines = [f"Command: `{command}`", "", "| scenario | problems | success | median s | p95 s |",
              "|---|---|---|---|---|"]
     for scenario in sorted({r["scenario"] for r in rows}) + ["all"]:
-        sel = [r for r in rows if scenario in ("all", r["scenario"])]
-        wall = np.array([float(r.get("wall_s", r.get("search_s", np.nan)) or np.nan) for r in sel])
-        ok = sum(bool(r["success"]) for r in sel)
-        lines.append(f"| {scenario} | {len(sel)} | {ok} ({100 * ok / len(sel):.0f} %) | "
+        sel = [i for i, r in enumerate(rows) if scenario in ("all", r["scenario"])]
+        wall = np.array([_num(rows[i], "wall_s") for i in sel])
+        good = sum(ok[i] for i in sel)
+        lines.append(f"| {scenario} | {len(sel)} | {good} ({100 * good / len(sel):.0f} %) | "
                      f"{np.nanmedian(wall):.2f} | {np.nanpercentile(wall, 95):.2f} |")
+    med = {k: np.nanmedian([_num(r, k) for r in rows]) for k in ("search_s", "nlp_s", "sim_s")}
+    searched = sum(str(r.get("searched")) == "True" for r in rows)
+    feasible = [r for r in rows if r.get("verdict") == "feasible"]
+    sim_ok = sum(r.get("sim") == "ok" for r in feasible)
+    ratio = [_num(r, "duration_s") / _num(r, "toppra_s") for r in feasible if _num(r, "toppra_s") > 0]
+    lines += ["", f"- Stages (median over the problems that reached them): search {med['search_s']:.2f} s "
+              f"({searched} of {len(rows)} problems searched; the others' straight line was free), "
+              f"NLP solve {med['nlp_s']:.2f} s, MuJoCo run {med['sim_s']:.2f} s.",
+              f"- Verdict against MuJoCo: {len(feasible)} plans called feasible, {sim_ok} of them ran in MuJoCo "
+              f"without a touch or a failure, {len(feasible) - sim_ok} did not.",
+              f"- Durations: forte's over toppra's time-optimal one along the same route, median "
+              f"{np.nanmedian(ratio) if ratio else float('nan'):.2f} (no payload: toppra's x 1.5, longer where "
+              "the verdict asked for slower rounds)."]
     reasons: dict[str, int] = {}
-    for r in rows:
-        if not r["success"]:
+    for r, good in zip(rows, ok, strict=True):
+        if not good:
             key = r.get("failed") or r.get("verdict", "")
-            key = key if r.get("verdict") != "feasible" else f"MuJoCo: {r.get('sim_detail', '')[:60]}"
+            if r.get("verdict") == "error":
+                key = "refused: " + str(r.get("reason", ""))[:60]
+            elif r.get("verdict") == "feasible":
+                key = f"MuJoCo: {str(r.get('sim_detail', ''))[:60]}"
             reasons[key] = reasons.get(key, 0) + 1
-    lines += ["", "| failure | problems |", "|---|---|"] + [f"| {k} | {v} |" for k, v in
-                                                          sorted(reasons.items(), key=lambda kv: -kv[1])]
+    lines += ["", "| failure (failed requirements, or the stage) | problems |", "|---|---|"]
+    lines += [f"| {k} | {v} |" for k, v in sorted(reasons.items(), key=lambda kv: -kv[1])]
     return "\n".join(lines) + "\n"
 
 
@@ -155,7 +181,16 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--stage", choices=("plan", "search"), default="plan")
     ap.add_argument("--no-sim", action="store_true")
+    ap.add_argument("--summarize", type=Path, help="only write summary.md from this results.csv")
     args = ap.parse_args()
+    if args.summarize:
+        with open(args.summarize, newline="") as handle:
+            rows = list(csv.DictReader(handle))
+        text = summary(rows, "python benchmarks/motionbenchmaker.py " + str(args.root) + " --workers 2")
+        args.out.mkdir(parents=True, exist_ok=True)
+        (args.out / "summary.md").write_text(text)
+        print(text)
+        return
     todo = [(s, r, sc, args.payload, args.stage, not args.no_sim)
             for s, r, sc in problems(args.root, args.per_scenario, args.scenarios)]
     args.out.mkdir(parents=True, exist_ok=True)
