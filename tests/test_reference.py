@@ -79,7 +79,7 @@ def test_a_spline_that_ends_at_rest_is_clamped_where_the_rest_begins():
     """A motion that arrives at a joint limit and rests there (a goal at the limit): the spline through
     the rest's equal knots would ring past the limit; the executed one stops at the rest's first knot
     (SciPy's clamped spline on the knots up to it) and holds. A coordinate that rests inside its
-    range (not at its extreme) keeps the spline through every knot."""
+    range, and any coordinate without limits given, keeps the spline through every knot."""
     from scipy.interpolate import CubicSpline
 
     from forte.model.trajectory import clamped_spline, resting_from
@@ -88,10 +88,11 @@ def test_a_spline_that_ends_at_rest_is_clamped_where_the_rest_begins():
     limit = 2.8973
     q = np.full((30, 2), limit)
     q[:28, 0] = np.linspace(2.0, limit, 28)  # arriving at a constant speed
-    q[:, 1] = np.r_[np.sin(np.linspace(0, 5.5, 28)), np.sin(5.5), np.sin(5.5)]  # past its low, then rests
+    q[:, 1] = np.r_[np.sin(np.linspace(0, 4, 28)), np.sin(4.0), np.sin(4.0)]  # rests inside its range
     assert resting_from(q) == 27
     times = np.linspace(0.0, 3.2, 2001)
-    pos, vel, acc = clamped_spline(t, q, times)
+    limits = (np.full(2, -limit), np.full(2, limit))
+    pos, vel, acc = clamped_spline(t, q, times, limits=limits)
     assert pos[:, 0].max() <= limit + 1e-12
     through = CubicSpline(t, q, axis=0, bc_type="clamped")
     assert through(times)[:, 0].max() > limit + 1e-4  # through every knot: past the limit
@@ -100,4 +101,5 @@ def test_a_spline_that_ends_at_rest_is_clamped_where_the_rest_begins():
     np.testing.assert_allclose(pos[early, 0], ref(times[early]), atol=1e-10)
     assert np.all(pos[~early, 0] == limit) and not vel[~early, 0].any() and not acc[~early, 0].any()
     inside = np.clip(times, t[0], t[-1])
-    np.testing.assert_allclose(pos[:, 1], through(inside)[:, 1], atol=1e-10)  # not at its extreme
+    np.testing.assert_allclose(pos[:, 1], through(inside)[:, 1], atol=1e-10)  # not at a limit
+    np.testing.assert_allclose(clamped_spline(t, q, times)[0], through(inside), atol=1e-10)  # no limits given

@@ -52,8 +52,8 @@ def test_quintic_path_passes_knots_at_rest():
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"mass": -1.0}, "mass: expected a finite number > 0"),
-        ({"mass": float("nan")}, "mass: expected a finite number > 0"),
+        ({"mass": -1.0}, "mass: expected a finite number >= 0"),
+        ({"mass": float("nan")}, "mass: expected a finite number >= 0"),
         ({"mass": 1.0, "t": [0.0, 0.2, 0.1]}, "t[2]: time stamps must be strictly increasing"),
         ({"mass": 1.0, "positions": np.zeros((3, 2))}, "positions: expected shape (3, 3), got (3, 2)"),
         ({"mass": 1.0, "radius": -2.0}, "radius: expected a finite number >= 0"),

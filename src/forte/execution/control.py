@@ -188,7 +188,8 @@ class Reference:
 
 
 def interpolate_plan(
-    t_plan: Any, q_plan: Any, times: Any, force_t: Any = None, force: Any = None
+    t_plan: Any, q_plan: Any, times: Any, force_t: Any = None, force: Any = None,
+    limits: tuple[Any, Any] | None = None,
 ) -> Reference:
     """Clamped cubic spline through the plan's waypoints, sampled at ``times``.
 
@@ -201,7 +202,7 @@ def interpolate_plan(
     qp = as_array(q_plan, "q", (tp.size, None)).copy()
     ts = as_array(times, "times", (None,))
     qp[:, 2] = np.unwrap(qp[:, 2])
-    q, dq, ddq = clamped_spline(tp, qp, ts)
+    q, dq, ddq = clamped_spline(tp, qp, ts, limits=limits)  # a rest at a limit: clamped there
     return Reference(ts, q, dq, ddq, interpolate_force(ts, force_t, force))
 
 

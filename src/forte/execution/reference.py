@@ -31,19 +31,20 @@ REFERENCE_KINDS: tuple[str, ...] = ("spline", "plan")
 
 
 def plan_reference(t_plan: Any, q_plan: Any, times: Any, force_t: Any = None, force: Any = None,
-                   kind: str = "spline", moment: Any = None) -> Reference:
+                   kind: str = "spline", moment: Any = None, limits: tuple[Any, Any] | None = None) -> Reference:
     """The controller's reference of a plan, sampled at ``times`` (``kind``: module docstring); the
     task ``moment`` (N x 3 at ``force_t``, or None) linear in time as the force."""
-    ref = _reference(t_plan, q_plan, times, force_t, force, kind)
+    ref = _reference(t_plan, q_plan, times, force_t, force, kind, limits)
     return ref if moment is None else replace(ref, m=interpolate_force(ref.t, force_t, moment))
 
 
-def _reference(t_plan: Any, q_plan: Any, times: Any, force_t: Any, force: Any, kind: str) -> Reference:
+def _reference(t_plan: Any, q_plan: Any, times: Any, force_t: Any, force: Any, kind: str,
+               limits: tuple[Any, Any] | None = None) -> Reference:
     if kind not in REFERENCE_KINDS:
         raise InvalidInputError(f"reference: expected one of {', '.join(REFERENCE_KINDS)}, got {kind!r}")
     tp = check_times(t_plan, "t")
     if kind == "spline" or tp.size == 1:
-        return interpolate_plan(t_plan, q_plan, times, force_t, force)
+        return interpolate_plan(t_plan, q_plan, times, force_t, force, limits)
     ts = as_array(times, "times", (None,))
     qp = as_array(q_plan, "q", (tp.size, None)).copy()
     qp[:, 2] = np.unwrap(qp[:, 2])  # as the spline: never turn the long way round

@@ -62,6 +62,7 @@ from forte.io.outputs import atomic_write
 from forte.io.plandir import read_plan_dir
 from forte.model.presets import with_torque_limits
 from forte.model.robot import N_BASE, MobileManipulator
+from forte.model.trajectory import joint_limits
 from forte.planning.planner import Plan
 from forte.validation import FloatArray, as_positive, payload_mass
 
@@ -380,7 +381,7 @@ def _plan_reference(plan: Plan, dt: float, hold: float, force_share: float = 1.0
     times = plan.t[0] + dt * np.arange(steps)
     force_t, force = (None, None) if plan.force is None else (plan.force.t, force_share * np.asarray(plan.force.f))
     moment = None if plan.force is None or plan.force.m is None else moment_share * np.asarray(plan.force.m)
-    return plan_reference(plan.t, plan.q, times, force_t, force, kind, moment)
+    return plan_reference(plan.t, plan.q, times, force_t, force, kind, moment, joint_limits(plan.robot))
 
 
 def write_results(result: SimResult, out_dir: Path) -> tuple[Path, Path]:

@@ -160,16 +160,16 @@ def resting_from(q: FloatArray) -> int:
     return int(moving[-1]) + 1 if moving.size else 0
 
 
-def clamped_spline(t_knots: Any, q: Any, times: Any,
-                   v_start: FloatArray | None = None) -> tuple[FloatArray, FloatArray, FloatArray]:
+def clamped_spline(t_knots: Any, q: Any, times: Any, v_start: FloatArray | None = None,
+                   limits: tuple[Any, Any] | None = None) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Clamped cubic spline through ``(t_k, q_k)`` (C2, zero velocity at both ends, or ``v_start``
     at the first knot) sampled at ``times``: position, velocity, acceleration; the first/last knot
     is held outside the knots' range (velocity and acceleration 0). One knot: held everywhere.
 
-    A coordinate that ends at rest (the last knots equal to the last, within :data:`REST_TOL`) at
-    the extreme of its motion (its largest or smallest value: always so at a joint limit) is
-    clamped where the rest begins and holds it: through the rest's equal knots the C2 spline
-    would ring past the rest, beyond the limit (:func:`extreme_rests`).
+    With ``limits`` (lower, upper per coordinate): a coordinate that ends at rest (the last knots
+    equal to the last, within :data:`REST_TOL`) at one of its limits is clamped where the rest
+    begins and holds it: through the rest's equal knots the C2 spline would ring past the rest,
+    beyond the limit (:func:`limit_rests`).
 
     The knot slopes ``m_k`` solve the tridiagonal continuity system
     ``h_k m_{k-1} + 2 (h_{k-1} + h_k) m_k + h_{k-1} m_{k+1} = 3 (h_k s_{k-1} + h_{k-1} s_k)``
@@ -183,21 +183,27 @@ def clamped_spline(t_knots: Any, q: Any, times: Any,
     ts = as_array(times, "times", (None,))
     pos, vel, acc = _spline(tk, qk, ts, v_start)
     rest = resting_from(qk)
-    cols = extreme_rests(qk, rest)
+    cols = limit_rests(qk, rest, limits)
     if cols.any():  # those coordinates: the spline up to the rest, then held
         v0 = None if v_start is None else np.asarray(v_start, dtype=float)[cols]
         pos[:, cols], vel[:, cols], acc[:, cols] = _spline(tk[:rest + 1], qk[:rest + 1, cols], ts, v0)
     return pos, vel, acc
 
 
-def extreme_rests(q: FloatArray, rest: int) -> FloatArray:
-    """Per coordinate: whether it moves, then rests from knot ``rest`` on at its largest or smallest value."""
-    if rest >= len(q) - 1:
+def limit_rests(q: FloatArray, rest: int, limits: tuple[Any, Any] | None) -> FloatArray:
+    """Per coordinate: whether it moves, then rests from knot ``rest`` on at one of its ``limits``
+    (within :data:`REST_TOL`)."""
+    if limits is None or rest >= len(q) - 1:
         return np.zeros(q.shape[1], dtype=bool)
+    lower, upper = (np.asarray(b, dtype=float) for b in limits)
     final = q[-1]
-    moves = np.ptp(q, axis=0) > REST_TOL
-    extreme = (final >= q.max(axis=0) - REST_TOL) | (final <= q.min(axis=0) + REST_TOL)
-    return moves & extreme
+    return (np.ptp(q, axis=0) > REST_TOL) & ((final <= lower + REST_TOL) | (final >= upper - REST_TOL))
+
+
+def joint_limits(robot: Any) -> tuple[FloatArray, FloatArray]:
+    """Whole-body position limits: the base unbounded, the arm's joint range."""
+    base = robot.nq - robot.n_arm
+    return np.r_[np.full(base, -np.inf), robot.lower], np.r_[np.full(base, np.inf), robot.upper]
 
 
 def _spline(tk: FloatArray, qk: FloatArray, ts: FloatArray,

@@ -195,8 +195,10 @@ class TrajectoryOptimizer:
             lbx[last] = ubx[last] = np.asarray(q_goal, dtype=float)
         kinematic = layout.kinematic_bounds(self._vel[self._vel_rows], self._acc[self._acc_rows], t,
                                             2 * self.robot.nq if self.rests_at_end else 0)
-        rest_start = start is None or not np.any(start.velocity)  # the spline leaves a rest
-        ends = ([0] if rest_start else []) + ([self.n - 3] if self.rests_at_end else [])
+        # a free path (goal task) leaves and enters its rests as the executed spline can follow
+        # (layout.rest_entries); a given path shapes them itself (the stagewise solver takes no goal)
+        rest_start = start is None or not np.any(start.velocity)
+        ends = [] if self.goal is None else ([0] if rest_start else []) + ([self.n - 3] if self.rests_at_end else [])
         kinematic = layout.rest_entries(kinematic, self._vel_rows.size * (self.n - 1), self._acc_rows.size, ends)
         kinematic = shifted_acceleration_bounds(kinematic, start, self._vel_rows.size * (self.n - 1), self._acc_rows)
         lbg, ubg = layout.constraint_bounds(self._pose_steps.size, kinematic, lifted)

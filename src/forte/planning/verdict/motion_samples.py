@@ -29,7 +29,7 @@ import pinocchio as pin
 from forte.capability.polytope import halfspaces, residual_margins
 from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE, MobileManipulator
-from forte.model.trajectory import StartMotion, backward_differences, clamped_spline
+from forte.model.trajectory import StartMotion, backward_differences, clamped_spline, joint_limits
 from forte.validation import FloatArray, as_array, check_times
 
 #: Dense samples per interval between two waypoints (see the module docstring).
@@ -93,7 +93,7 @@ def sample_motion(robot: MobileManipulator, t: Any, q: Any, per_interval: int = 
     v, a = backward_differences(q, t, "q", start)
     if per_interval > 0 and t.size > 1:
         ts = dense_times(t, per_interval)
-        Qs, Vs, As = clamped_spline(t, q, ts, None if start is None else start.velocity)
+        Qs, Vs, As = clamped_spline(t, q, ts, None if start is None else start.velocity, joint_limits(robot))
         times, Q, V, Acc = np.r_[t, ts], np.vstack([q, Qs]), np.vstack([v, Vs]), np.vstack([a, As])
     else:
         times, Q, V, Acc = t, q, v, a

@@ -208,10 +208,9 @@ class StageProblem:
             owner_fixed = self.block_of < 0
             for k in np.flatnonzero(owner_fixed):
                 x_fix[k * nq:(k + 1) * nq] = q_init
-        rest_start = start is None or not np.any(start.velocity)  # the spline leaves a rest
-        key = dt[1:].tobytes() + lbx[self.owner_x].tobytes() + ubx[self.owner_x].tobytes() + bytes([rest_start])
+        key = dt[1:].tobytes() + lbx[self.owner_x].tobytes() + ubx[self.owner_x].tobytes()  # not q_init's, dt_1
         if key != getattr(self, "_rows_key", None):  # the rows change with the time grid only
-            self.A, self._G, self._bounds = self._rows(dt, lbx[:n * nq], ubx[:n * nq], rest_start)
+            self.A, self._G, self._bounds = self._rows(dt, lbx[:n * nq], ubx[:n * nq])
             self.At = sparse.csr_matrix(self.A.T)
             self._finite = (np.isfinite(self._bounds[0]), np.isfinite(self._bounds[1]))
             self._rows_key = key
@@ -224,13 +223,11 @@ class StageProblem:
         return TaskData(args, targets[:, :3, 3].copy(), R_d, x_fix, b, lower, upper, *self._finite,
                         None if start is None else offsets)
 
-    def _rows(self, dt: FloatArray, lbx: FloatArray, ubx: FloatArray, rest_start: bool = True
+    def _rows(self, dt: FloatArray, lbx: FloatArray, ubx: FloatArray
               ) -> tuple[sparse.csr_matrix, sparse.csr_matrix, tuple[FloatArray, FloatArray]]:
         """``l <= A y + b <= u``: bounds of the free variables, then the kinematic rows (``A``, the
-        kinematic rows in x, whose product with ``x_fix`` is their part of ``b``, and ``(l, u)``;
-        the steps that leave and enter a rest as :func:`forte.planning.nlp.layout.rest_entries`)."""
+        kinematic rows in x, whose product with ``x_fix`` is their part of ``b``, and ``(l, u)``)."""
         opt, nq = self.nlp, self.nq
-        ends = ([0] if rest_start else []) + ([self.n - 3] if opt.rests_at_end else [])
         vel, acc = opt.vel, opt.acc
         lo, hi = lbx[self.owner_x], ubx[self.owner_x]
         bounded = np.flatnonzero(np.isfinite(lo) | np.isfinite(hi))
@@ -252,7 +249,7 @@ class StageProblem:
                 rows = dq if dq_prev is None else dq - dq_prev
                 parts.append(rows[self.acc_rows])
                 ident += [(k + 1, 1, d) for d in self.acc_rows]
-                lim = acc[self.acc_rows] * h * (layout.REST_ENTRY_FACTOR if k in ends else 1.0)
+                lim = acc[self.acc_rows] * h
                 lows.append(-lim)
                 ups.append(lim)
             dq_prev = dq
