@@ -162,7 +162,7 @@ def summary(rows: list[dict[str, Any]], command: str) -> str:
         if not good:
             key = r.get("failed") or r.get("verdict", "")
             if r.get("verdict") == "error":
-                key = "refused: " + str(r.get("reason", ""))[:60]
+                key = "refused: " + str(r.get("reason", "")).split("task.yaml: ")[-1].split(" = ")[0]
             elif r.get("verdict") == "feasible":
                 key = f"MuJoCo: {str(r.get('sim_detail', ''))[:60]}"
             reasons[key] = reasons.get(key, 0) + 1
