@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 
 from forte.exceptions import InvalidInputError
 from forte.model.scene import Box, Cylinder, Mesh, SceneObject, Shape, Sphere
@@ -219,8 +220,7 @@ def unit_quaternion(value: Any, where: Where, at: str) -> FloatArray:
 
 
 def quaternion_matrix(q: Any) -> FloatArray:
-    """Rotation matrix of the unit quaternion ``q = (x, y, z, w)``:
-    ``R = I + 2 w [v]x + 2 [v]x^2`` with ``v = (x, y, z)``."""
+    """Rotation matrix of the unit quaternion ``q = (x, y, z, w)`` (Pinocchio's, as the task files'
+    ``orientation.quaternion``)."""
     x, y, z, w = np.asarray(q, dtype=float)
-    v = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-    return np.eye(3) + 2 * w * v + 2 * v @ v
+    return pin.Quaternion(w, x, y, z).toRotationMatrix()
