@@ -99,6 +99,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "(default: measured best), the plan in force kept, or the robot stopped at the next waypoint")
     p.add_argument("--no-identify", action="store_true",
                    help="--mpc: no identification from the joint torques: only --estimate-at changes the mass")
+    p.add_argument("--base-model", choices=("kinematic", "floor"), default="kinematic",
+                   help="kinematic: the base on slide joints and a yaw hinge (cannot tip or slip; default); floor: a "
+                        "free body on wheels and casters that can tip and slip, judged on tip-over, slip and leaving "
+                        "its path")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=run)
 
@@ -182,6 +186,7 @@ def run(args: argparse.Namespace) -> int:
             out_dir=args.out, gains=gains, thresholds=th, hold=args.hold,
             stop_on_failure=args.stop_on_failure, frames_dir=args.frames, video=args.video, viewer=args.viewer,
             replan=None if mpc is not None else _replan_options(args), reference=args.reference, mpc=mpc,
+            base_model=args.base_model,
         )
     s = result.summary
     if not args.quiet and s.get("plan_verdict") not in (None, "feasible"):

@@ -45,6 +45,9 @@ BASE = 2
 #: Contact bit of a contact task's object and the hand's pusher plate (:mod:`forte.execution.contact_objects`):
 #: their contacts are the task's, not touches of the robot.
 OBJECT = 4
+#: Contact bit of a floor base's wheels and casters and of the ground they stand on
+#: (:mod:`forte.execution.floor_base`): standing is not a touch.
+SUPPORT = 8
 #: Name prefix of the scene's bodies in the MuJoCo model.
 SCENE_PREFIX = "scene/"
 #: What a touch of the floor plane (a geom of the world body) is called.
@@ -95,11 +98,11 @@ def enable_robot_contacts(spec: mujoco.MjSpec, base: mujoco.MjsBody, floor: floa
     height ``floor``) ``conaffinity = ARM``, or none without a floor (``None``); all robot geoms
     stay massless."""
     for geom in spec.worldbody.geoms:
-        if geom.type == mujoco.mjtGeom.mjGEOM_PLANE:
+        if geom.type == mujoco.mjtGeom.mjGEOM_PLANE and not geom.conaffinity & SUPPORT:  # not the base's ground
             geom.conaffinity = 0 if floor is None else ARM
             geom.pos = [0.0, 0.0, 0.0 if floor is None else float(floor)]
     for geom in spec.geoms:
-        if geom.parent.name.startswith(SCENE_PREFIX) or geom.parent == spec.worldbody:
+        if geom.parent.name.startswith(SCENE_PREFIX) or geom.parent == spec.worldbody or geom.contype & SUPPORT:
             continue
         geom.contype = BASE if _rigid_with(geom.parent, base) else ARM
         geom.conaffinity = 0
@@ -144,8 +147,8 @@ def touches(model: mujoco.MjModel, data: mujoco.MjData, arm_prefix: str) -> list
     wrench = np.zeros(6)
     for i in range(data.ncon):
         c = data.contact[i]
-        if (model.geom_contype[c.geom1] | model.geom_contype[c.geom2]) & OBJECT:
-            continue  # the task's object: its contacts are the task (forte.execution.contact_objects)
+        if (model.geom_contype[c.geom1] | model.geom_contype[c.geom2]) & (OBJECT | SUPPORT):
+            continue  # the task's object (its contacts are the task) or the base standing on the floor
         b1, b2 = int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])
         static1, static2 = model.body_weldid[b1] == 0, model.body_weldid[b2] == 0
         if static1 == static2:  # not a robot-versus-world pair (the contact bits never make one)

@@ -44,7 +44,7 @@ The base gains (``M_b``, ``B_b``, ``K_b``, ``D_b``) and the two feedforward swit
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -217,3 +217,16 @@ def sampled_loop_radius_at(robot: MobileManipulator, gains: ControlGains, q_a: A
     M = pin.crba(robot.model, robot.data, as_vector(q_a, "q_a", robot.n_arm))
     M = np.triu(M) + np.triu(M, 1).T + np.diag(armature_vector(armature, robot.n_arm))
     return sampled_loop_spectral_radius(M, gains.K_a, gains.D_a, dt)
+
+
+def resolve_gains(gains: ControlGains | Mapping[str, Any] | None, sim: Any, q_a0: FloatArray,
+                   force_feedforward: bool) -> ControlGains:
+    """Gains object, mapping or default, with the force feedforward switched off if asked."""
+    if gains is None:
+        gains = default_gains(sim.robot, q_a0, sim.armature)
+    elif isinstance(gains, Mapping):
+        gains = gains_from_mapping(gains, sim.robot, q_a=q_a0, armature=sim.armature)
+    elif not isinstance(gains, ControlGains):
+        raise InvalidInputError(f"gains: expected ControlGains or a mapping, got {type(gains).__name__}")
+    gains.check(sim.robot.n_arm)
+    return gains if force_feedforward else replace(gains, force_feedforward=False)

@@ -31,6 +31,10 @@ agreement ~1e-12 Nm):
   ``v_base_x/y/yaw`` with gain ``kv`` on the base joints (the base is velocity-controlled,
   paper Section 3.1): force ``kv (v_cmd - qdot)``, integrated implicitly (``implicitfast``).
 
+* with ``base_model="floor"`` the base is a free body on wheels and casters instead
+  (:mod:`forte.execution.floor_base`): it can tip and slip; the slide joints above are
+  ``base_model="kinematic"``, the default.
+
 * with a ``scene`` (:class:`forte.model.scene.Scene`, possibly empty): the scene's static
   bodies, and contacts on between the robot (the arm's URDF collision geometry, the base box,
   the payload sphere; all massless) and the scene, and between the arm (its links that move
@@ -53,6 +57,7 @@ from forte.exceptions import InvalidInputError, SimulationError
 from forte.execution.arm_spec import ARM_PREFIX, load_arm_spec
 from forte.execution.bodies import _principal, _rot_to_quat, _solid_sphere, combined_tool
 from forte.execution.contact import add_scene, enable_robot_contacts
+from forte.execution.floor_base import FloorSimModel, add_floor_actuators, add_floor_base, uses_floor
 from forte.model.description import (
     BASE_BOX_HALF_XY,
     BASE_BOX_MIN_HEIGHT,
@@ -115,6 +120,7 @@ class SimModel:
     payload_body: int
     armature: FloatArray
     scene: Scene | None = None
+    floor: FloorSimModel | None = None  # a base on the floor (forte.execution.floor_base); None: kinematic
     _jacp: FloatArray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -128,12 +134,22 @@ class SimModel:
         """Set the whole-body position ``q`` (and velocity ``dq``, default 0) and run kinematics."""
         q = self.robot.check_configuration(q)
         dq = np.zeros(self.robot.nq) if dq is None else as_vector(dq, "dq", self.robot.nq)
-        self.data.qpos[self.qpos_idx] = q
-        self.data.qvel[self.dof_idx] = dq
+        if self.floor is not None:
+            self.data.qpos[self.qpos_idx[N_BASE:]] = q[N_BASE:]
+            self.data.qvel[:] = 0.0
+            self.data.qvel[self.dof_idx[N_BASE:]] = dq[N_BASE:]
+            self.floor.set_base(self.data, q[:N_BASE], dq[:N_BASE])
+        else:
+            self.data.qpos[self.qpos_idx] = q
+            self.data.qvel[self.dof_idx] = dq
         mujoco.mj_forward(self.model, self.data)
 
     def state(self) -> tuple[FloatArray, FloatArray]:
         """Whole-body ``(q, dq)`` in planner order ``[x, y, yaw, q_a]``."""
+        if self.floor is not None:
+            q_b, dq_b = self.floor.base_state(self.data)
+            return (np.r_[q_b, self.data.qpos[self.qpos_idx[N_BASE:]]],
+                    np.r_[dq_b, self.data.qvel[self.dof_idx[N_BASE:]]])
         return self.data.qpos[self.qpos_idx].copy(), self.data.qvel[self.dof_idx].copy()
 
     def ee_pose(self) -> FloatArray:
@@ -183,6 +199,7 @@ def build_sim_model(
     armature: Any = ARM_ARMATURE,
     scene: Scene | None = None,
     decorate: Any = None,
+    base_model: str = "kinematic",
 ) -> SimModel:
     """Build the MuJoCo model of ``robot`` carrying a welded payload of ``payload_mass`` kg.
 
@@ -203,6 +220,8 @@ def build_sim_model(
             no contact at all.
         decorate: Called with the ``MjSpec`` before it is compiled (a contact task's object,
             :mod:`forte.execution.contact_objects`).
+        base_model: ``"kinematic"`` (slide joints and a yaw hinge) or ``"floor"`` (a free body on
+            wheels and casters, :mod:`forte.execution.floor_base`; a fixed base stays kinematic).
 
     Raises:
         SimulationError: when the URDF or the scene cannot be turned into a MuJoCo model.
@@ -211,10 +230,12 @@ def build_sim_model(
     rotor = armature_vector(armature, robot.n_arm)
     spec = build_sim_spec(robot, payload_mass, payload_com=payload_com, payload_radius=payload_radius,
                           payload_inertia=payload_inertia, meshes=meshes, timestep=timestep, base_mass=base_mass,
-                          base_inertia=base_inertia, base_kv=base_kv, armature=rotor, scene=scene)
+                          base_inertia=base_inertia, base_kv=base_kv, armature=rotor, scene=scene,
+                          base_model=base_model)
     if decorate is not None:
         decorate(spec)
-    return _index_model(robot, _compile(spec), payload_mass, rotor, scene, objects=decorate is not None)
+    return _index_model(robot, _compile(spec), payload_mass, rotor, scene, objects=decorate is not None,
+                        floor=uses_floor(robot, base_model))
 
 
 def build_sim_spec(
@@ -231,6 +252,7 @@ def build_sim_spec(
     base_kv: tuple[float, float, float] = BASE_KV,
     armature: Any = ARM_ARMATURE,
     scene: Scene | None = None,
+    base_model: str = "kinematic",
 ) -> mujoco.MjSpec:
     """The ``MjSpec`` that :func:`build_sim_model` compiles (same arguments)."""
     payload_mass = as_positive(payload_mass, "mass", allow_zero=True)
@@ -239,14 +261,19 @@ def build_sim_spec(
     rotor = armature_vector(armature, robot.n_arm)
     arm = load_arm_spec(robot, meshes or scene is not None, rotor)
     spec = _world_spec(robot, timestep)
-    base = _add_base(spec, robot, base_mass, base_inertia)
+    floor = uses_floor(robot, base_model)
+    base = add_floor_base(spec, robot) if floor else _add_base(spec, robot, base_mass, base_inertia)
+    if floor:
+        _add_base_box(base, robot)
     frame = base.add_frame(pos=robot.mount[:3, 3].tolist(), quat=_rot_to_quat(robot.mount[:3, :3]).tolist())
     root = arm.worldbody.first_body()
     if root is None:
         raise SimulationError(f"urdf: {robot.urdf_path} has no link below the world")
     frame.attach_body(root, ARM_PREFIX, "")
     _add_end_effector(spec, robot, payload_mass, com, payload_radius, payload_inertia)
-    _add_actuators(spec, robot, base_kv)
+    _add_actuators(spec, robot, None if floor else base_kv)
+    if floor:
+        add_floor_actuators(spec, robot)
     if scene is not None:
         add_scene(spec, scene)
         enable_robot_contacts(spec, base, scene.floor)
@@ -297,12 +324,18 @@ def _add_base(spec: mujoco.MjSpec, robot: MobileManipulator, mass: float,
     base.add_joint(name="base_x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0], **weld)
     base.add_joint(name="base_y", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0], **weld)
     base.add_joint(name="base_yaw", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1], **weld)
+    _add_base_box(base, robot)
+    return base
+
+
+def _add_base_box(base: Any, robot: MobileManipulator) -> None:
+    """The base box up to the mount (none for a bare arm: its root link is its base, as in the
+    clearance check)."""
     height = max(float(robot.mount[2, 3]), BASE_BOX_MIN_HEIGHT)
-    if not has_base_box(robot):  # a bare arm: its root link is its base (as in the clearance check)
-        return base
+    if not has_base_box(robot):
+        return
     base.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[*BASE_BOX_HALF_XY, height / 2], pos=[0, 0, height / 2],
                   rgba=[0.3, 0.3, 0.35, 1], contype=0, conaffinity=0, mass=0.0)
-    return base
 
 
 def _add_end_effector(spec: mujoco.MjSpec, robot: MobileManipulator, payload_mass: float,
@@ -341,8 +374,9 @@ def _add_end_effector(spec: mujoco.MjSpec, robot: MobileManipulator, payload_mas
                          rgba=[0.9, 0.5, 0.1, 1], contype=0, conaffinity=0, mass=0.0)
 
 
-def _add_actuators(spec: mujoco.MjSpec, robot: MobileManipulator, base_kv: tuple[float, float, float]) -> None:
-    """Arm torque motors clipped at the torque limits and base velocity actuators of gain ``kv``."""
+def _add_actuators(spec: mujoco.MjSpec, robot: MobileManipulator, base_kv: tuple[float, float, float] | None) -> None:
+    """Arm torque motors clipped at the torque limits and base velocity actuators of gain ``kv``
+    (none for a floor base: ``base_kv`` None)."""
     for name, limit in zip(robot.arm_joints or (), robot.torque_limits, strict=True):
         act = spec.add_actuator(
             name=f"tau_{name}", target=ARM_PREFIX + name, trntype=mujoco.mjtTrn.mjTRN_JOINT
@@ -350,32 +384,40 @@ def _add_actuators(spec: mujoco.MjSpec, robot: MobileManipulator, base_kv: tuple
         act.set_to_motor()
         act.ctrllimited = True
         act.ctrlrange = [-float(limit), float(limit)]
-    for name, kv in zip(BASE_JOINTS, base_kv, strict=True):
+    for name, kv in zip(BASE_JOINTS, base_kv or (), strict=base_kv is not None):
         act = spec.add_actuator(name=f"v_{name}", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         act.set_to_velocity(kv=float(kv))
 
 
 def _index_model(robot: MobileManipulator, model: mujoco.MjModel, payload_mass: float,
-                 rotor: FloatArray, scene: Scene | None, objects: bool = False) -> SimModel:
+                 rotor: FloatArray, scene: Scene | None, objects: bool = False, floor: bool = False) -> SimModel:
     """Look up the joint, actuator, site and body ids of a compiled model."""
-    names = (*BASE_JOINTS, *(robot.arm_joints or ()))
-    jids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n if i < N_BASE else ARM_PREFIX + n)
-            for i, n in enumerate(names)]
-    if min(jids) < 0:
-        raise SimulationError(f"simulation model: joints {names} not all found")
-    if model.nv != len(names) and not (objects and model.nv > len(names)):  # objects: their own DoF
-        raise SimulationError(f"simulation model: expected {len(names)} DoF, got {model.nv}")
-    acts = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"tau_{n}") for n in names[N_BASE:]]
-    bacts = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"v_{n}") for n in names[:N_BASE]]
+    arm_names = robot.arm_joints or ()
+    jids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, ARM_PREFIX + n) for n in arm_names]
+    base = FloorSimModel.index(robot, model) if floor else None
+    if base is None:
+        jids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in BASE_JOINTS] + jids
+        qpos_b, dof_b = [], []
+    else:  # the free joint's x, y slots; its world yaw rate is read from the angular velocity (floor_base)
+        qpos_b, dof_b = [base.free_q, base.free_q + 1, base.free_q + 2], [base.free_v, base.free_v + 1, base.free_v + 5]
+    if jids and min(jids) < 0:
+        raise SimulationError(f"simulation model: joints {(*BASE_JOINTS, *arm_names)} not all found")
+    expected = N_BASE + len(arm_names) + (3 + len(base.wheel_dofs) if base is not None else 0)
+    if model.nv != expected and not (objects and model.nv > expected):  # objects: their own DoF
+        raise SimulationError(f"simulation model: expected {expected} DoF, got {model.nv}")
+    acts = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"tau_{n}") for n in arm_names]
+    bacts = [] if base is not None else [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"v_{n}")
+                                         for n in BASE_JOINTS]
     return SimModel(
         robot=robot, model=model, data=mujoco.MjData(model), payload_mass=payload_mass,
-        qpos_idx=np.array([model.jnt_qposadr[j] for j in jids]),
-        dof_idx=np.array([model.jnt_dofadr[j] for j in jids]),
-        arm_act=np.array(acts), base_act=np.array(bacts),
+        qpos_idx=np.array(qpos_b + [model.jnt_qposadr[j] for j in jids], dtype=int),
+        dof_idx=np.array(dof_b + [model.jnt_dofadr[j] for j in jids], dtype=int),
+        arm_act=np.array(acts), base_act=np.array(bacts, dtype=int),
         ee_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "ee"),
         payload_body=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "payload"),
-        armature=rotor, scene=scene,
+        armature=rotor, scene=scene, floor=base,
     )
+
 
 __all__ = ["ARM_ARMATURE", "BASE_JOINTS", "BASE_KV", "SimModel", "armature_vector", "build_sim_model",
            "build_sim_spec", "combined_tool", "whole_body_mjcf"]

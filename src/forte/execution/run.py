@@ -35,11 +35,9 @@ on (off only for a robot whose URDF geometry MuJoCo cannot load, without a scene
 
 from __future__ import annotations
 
-import io
-import json
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, replace
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -48,17 +46,19 @@ import numpy as np
 
 from forte.exceptions import InvalidInputError
 from forte.execution.arm_spec import ARM_PREFIX, geometry_loadable
+from forte.execution.base_drive import FloorDrive
+from forte.execution.base_events import BaseMonitor, BaseThresholds
 from forte.execution.bodies import carried_body
 from forte.execution.contact import touches
 from forte.execution.contact_objects import ContactRig, rig_for
 from forte.execution.control import ArmCommand, ArmImpedance, BaseAdmittance, ControlGains, Reference
-from forte.execution.gains import default_gains, describe_gains, gains_from_mapping, sampled_loop_radius_at
+from forte.execution.floor_base import check_base_model
+from forte.execution.gains import default_gains, describe_gains, resolve_gains, sampled_loop_radius_at
 from forte.execution.judge import Judge, SimResult, Thresholds
 from forte.execution.model import SimModel, build_sim_model
 from forte.execution.reference import plan_reference
 from forte.execution.render import FrameRecorder, FrameSink, LiveViewer
-from forte.execution.run_log import RunLog
-from forte.io.outputs import atomic_write
+from forte.execution.run_log import RunLog, write_results
 from forte.io.plandir import read_plan_dir
 from forte.model.presets import with_torque_limits
 from forte.model.robot import N_BASE, MobileManipulator
@@ -83,6 +83,7 @@ class _ControlStep:
         self.base = BaseAdmittance(gains, sim.timestep)
         self.reaction_force = reaction_force
         self.ee_body = int(sim.model.site_bodyid[sim.ee_site])
+        self.drive = FloorDrive(sim.floor) if sim.floor is not None else None
 
     def __call__(self, k: int, q: FloatArray, dq: FloatArray, ref: Reference) -> tuple[FloatArray, float, ArmCommand]:
         """Set the controls for step ``k``; return the end-effector error, its tilt and the arm command."""
@@ -101,7 +102,11 @@ class _ControlStep:
         if sim.robot.base == "fixed":  # a fixed base is held: its velocity actuators commanded zero
             v_cmd = np.zeros(N_BASE)
         d.ctrl[sim.arm_act] = cmd.tau
-        d.ctrl[sim.base_act] = v_cmd
+        if self.drive is not None:  # a base on the floor: its wheels or its push (forte.execution.base_drive)
+            d.ctrl[sim.floor.actuators] = self.drive.command(q[:N_BASE], dq[:N_BASE], q_d[:N_BASE],
+                                                             ref.dq[k, :N_BASE], v_cmd)
+        else:
+            d.ctrl[sim.base_act] = v_cmd
         if self.reaction_force:
             d.qfrc_applied[:] = 0.0
             mujoco.mj_applyFT(m, d, -f_d, np.zeros(3), T[:3, 3].copy(), self.ee_body, d.qfrc_applied)
@@ -120,6 +125,7 @@ def run_simulation(
     sinks: Sequence[FrameSink] = (),
     after_step: Callable[[int, FloatArray, FloatArray], None] | None = None,
     rig: ContactRig | None = None,
+    base_thresholds: BaseThresholds | None = None,
 ) -> SimResult:
     """Run the controllers on ``sim`` along ``reference`` (sampled at every control step).
 
@@ -131,7 +137,9 @@ def run_simulation(
     dq)`` runs after every step (state before it); it may change the reference's future rows
     (closed-loop re-planning, :mod:`forte.execution.closed_loop`). ``rig``: a contact task's
     object (:mod:`forte.execution.contact_objects`), its forces applied before and measured after
-    every step; an object that ends off the plan fails the run (reason ``object``).
+    every step; an object that ends off the plan fails the run (reason ``object``). A base on the
+    floor (``sim.floor``) is also judged on tip-over, slip and leaving its path
+    (:mod:`forte.execution.base_events`, criteria ``base_thresholds``).
     """
     gains = gains or default_gains(sim.robot, reference.q[0, N_BASE:], sim.armature)
     th = thresholds or Thresholds()
@@ -139,6 +147,7 @@ def run_simulation(
     control = _ControlStep(sim, gains, reaction_force)
     judge = Judge(th, dt, sim.robot.n_arm, sim.payload_mass > 0)
     log = RunLog(reference.t.size, record_every, sim.robot.nq, control.arm.tau_max)
+    base = None if sim.floor is None else BaseMonitor(sim, base_thresholds or BaseThresholds(), log.rec_idx)
     sim.set_state(reference.q[0])
     if rig is not None:
         rig.bind(sim)
@@ -166,6 +175,8 @@ def run_simulation(
             rig.measure(k * dt)
         if contacts and sim.data.ncon:  # the contacts of the state at step k
             judge.touch(k * dt, touches(sim.model, sim.data, ARM_PREFIX))
+        if base is not None and base.step(k, q, dq, reference.q[k], judge):
+            break  # the base tipped over and fell
         if after_step is not None:
             after_step(k, q, dq)
     wall = time.perf_counter() - start
@@ -173,21 +184,15 @@ def run_simulation(
         facts, failure = rig.outcome()
         if failure is not None:
             judge.fail(steps_run * dt, "object", failure)
-    summary = {
-        "duration": float(steps_run * dt),
-        "timestep": dt,
-        "steps": steps_run,
-        "wall_time_s": wall,
-        "payload_mass": sim.payload_mass,
-        **log.summary(steps_run),
-        "thresholds": asdict(th),
-        "contact_checked": contacts,
-        "contacts": judge.contact_list(),
-    }
+    summary = {"duration": float(steps_run * dt), "timestep": dt, "steps": steps_run, "wall_time_s": wall,
+               "payload_mass": sim.payload_mass, **log.summary(steps_run), "thresholds": asdict(th),
+               "contact_checked": contacts, "contacts": judge.contact_list(),
+               "base": {"model": "kinematic"} if base is None else base.summary()}
     if rig is not None:
         summary["contact_task"] = facts
-    return SimResult(judge.reason is None, judge.reason, judge.time,
-                     judge.detail or "all criteria met", log.columns(reference.t), summary)
+    columns = {**log.columns(reference.t), **({} if base is None else base.columns(log.rows))}
+    return SimResult(judge.reason is None, judge.reason, judge.time, judge.detail or "all criteria met", columns,
+                     summary)
 
 
 def simulate_plan(
@@ -196,7 +201,8 @@ def simulate_plan(
     thresholds: Thresholds | None = None, torque_limits: Any = None, hold: float = 1.0, timestep: float = 1e-3,
     record_every: int = 10, stop_on_failure: bool = False, frames_dir: str | Path | None = None,
     video: str | Path | None = None, fps: float = 30.0, viewer: bool = False, write: bool = True,
-    replan: Any = None, reference: str = "spline", mpc: Any = None,
+    replan: Any = None, reference: str = "spline", mpc: Any = None, base_model: str = "kinematic",
+    base_thresholds: BaseThresholds | None = None,
 ) -> SimResult:
     """Simulate the plan in ``plan_dir`` and (with ``write``) store ``sim.csv`` and ``sim.json``.
 
@@ -229,6 +235,7 @@ def simulate_plan(
             identification and asynchronous payload estimates (:mod:`forte.execution.mpc`); not with ``replan``.
         reference: ``"spline"`` (clamped cubic spline through the waypoints) or ``"plan"`` (the plan's
             own backward-difference velocities and accelerations), see :mod:`forte.execution.reference`.
+        base_model: ``"kinematic"`` or ``"floor"`` (:mod:`~forte.execution.floor_base`; ``base_thresholds``).
         write: Write ``sim.csv``/``sim.json``, after the run, each through a temporary file and a
             rename: an interrupted or crashed run never replaces earlier results.
 
@@ -246,19 +253,18 @@ def simulate_plan(
         TaskFileError: malformed plan directory; InvalidInputError: bad gains mapping or
         arguments; SimulationError: model or rendering problems, no display for ``viewer``.
     """
-    if replan is not None and mpc is not None:
-        raise InvalidInputError("replan, mpc: expected one closed loop, got both")
+    _check_loops(base_model, replan, mpc)
     plan = read_plan_dir(plan_dir)
     offscreen = frames_dir is not None or video is not None
-    run = _setup(plan, mass, force_feedforward, gains, torque_limits, hold, timestep, reference, offscreen or viewer)
+    run = _setup(plan, mass, force_feedforward, gains, torque_limits, hold, timestep, reference, offscreen or viewer,
+                 base_model)
     recorder = FrameRecorder(run.sim, _optional_path(frames_dir), _optional_path(video), fps) if offscreen else None
     live = LiveViewer(run.sim) if viewer else None
     loop = _closed_loop(Path(plan_dir), plan, run.sim, run.reference, replan, mpc)
     result = run_simulation(
         run.sim, run.reference, gains=run.gains, thresholds=thresholds, reaction_force=_reaction_force(plan),
-        record_every=record_every, stop_on_failure=stop_on_failure,
-        sinks=[s for s in (recorder, live) if s is not None], after_step=loop, rig=run.rig,
-    )
+        record_every=record_every, stop_on_failure=stop_on_failure, base_thresholds=base_thresholds,
+        sinks=[s for s in (recorder, live) if s is not None], after_step=loop, rig=run.rig)
     result.summary.update(_run_facts(plan, Path(plan_dir), run, reference))
     if loop is not None:
         result.summary["mpc" if mpc is not None else "replanning"] = loop.summary()
@@ -266,7 +272,7 @@ def simulate_plan(
         result.summary["rendered"] = [str(p) for p in recorder.finish()]
     if write:
         write_results(result, Path(plan_dir) if out_dir is None else Path(out_dir))
-    if live is not None:
+    if live is not None:  # after writing: the viewer waits for its window to close
         live.finish()
     return result
 
@@ -283,7 +289,7 @@ class _Run(NamedTuple):
 
 def _setup(plan: Plan, mass: float | None, force_feedforward: bool | None,
            gains: ControlGains | Mapping[str, Any] | None, torque_limits: Any, hold: float, timestep: float,
-           reference: str, meshes: bool) -> _Run:
+           reference: str, meshes: bool, base_model: str = "kinematic") -> _Run:
     """The MuJoCo model of ``plan`` carrying the true payload ``mass``, the controller's gains and
     the reference (arguments as in :func:`simulate_plan`; ``meshes`` for rendering)."""
     robot = plan.robot if torque_limits is None else with_torque_limits(plan.robot, torque_limits)
@@ -300,8 +306,9 @@ def _setup(plan: Plan, mass: float | None, force_feedforward: bool | None,
     # a contact task's object (forte.execution.contact_objects): built in, its contact modelled
     rig = rig_for(plan.contact, robot, plan.q, plan.force)
     sim = build_sim_model(robot, carried, payload_com=com, payload_inertia=inertia, meshes=meshes,
-                          timestep=timestep, scene=scene, decorate=None if rig is None else rig.decorate)
-    gains = _resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
+                          timestep=timestep, scene=scene, decorate=None if rig is None else rig.decorate,
+                          base_model=base_model)
+    gains = resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
     # the moment is the payload's alone: none without it
     moment_share = 0.0 if mass is not None and true_mass == 0.0 and force_feedforward is None else force_share
     return _Run(sim, gains, _plan_reference(plan, sim.timestep, hold, force_share, reference, moment_share),
@@ -339,6 +346,16 @@ def _feedforward(plan: Plan, robot: MobileManipulator, unloaded: bool, wanted: b
     return True, 1.0
 
 
+def _check_loops(base_model: str, replan: Any, mpc: Any) -> None:
+    """At most one closed loop; a known base model; the floor base open-loop only (the closed loops'
+    identification reads the kinematic base's joints)."""
+    if replan is not None and mpc is not None:
+        raise InvalidInputError("replan, mpc: expected one closed loop, got both")
+    if check_base_model(base_model) == "floor" and (replan is not None or mpc is not None):
+        raise InvalidInputError("base_model: the floor base runs open-loop plans only (not with re-planning or MPC); "
+                                "use kinematic")
+
+
 def _optional_path(path: str | Path | None) -> Path | None:
     return None if path is None else Path(path)
 
@@ -360,19 +377,6 @@ def _run_facts(plan: Plan, plan_dir: Path, run: _Run, reference: str) -> dict[st
     }
 
 
-def _resolve_gains(gains: ControlGains | Mapping[str, Any] | None, sim: SimModel, q_a0: FloatArray,
-                   force_feedforward: bool) -> ControlGains:
-    """Gains object, mapping or default, with the force feedforward switched off if asked."""
-    if gains is None:
-        gains = default_gains(sim.robot, q_a0, sim.armature)
-    elif isinstance(gains, Mapping):
-        gains = gains_from_mapping(gains, sim.robot, q_a=q_a0, armature=sim.armature)
-    elif not isinstance(gains, ControlGains):
-        raise InvalidInputError(f"gains: expected ControlGains or a mapping, got {type(gains).__name__}")
-    gains.check(sim.robot.n_arm)
-    return gains if force_feedforward else replace(gains, force_feedforward=False)
-
-
 def _plan_reference(plan: Plan, dt: float, hold: float, force_share: float = 1.0,
                     kind: str = "spline", moment_share: float = 1.0) -> Reference:
     """The plan's reference at every control step ``t_0 + k dt`` up to ``hold`` s after its end
@@ -382,20 +386,6 @@ def _plan_reference(plan: Plan, dt: float, hold: float, force_share: float = 1.0
     force_t, force = (None, None) if plan.force is None else (plan.force.t, force_share * np.asarray(plan.force.f))
     moment = None if plan.force is None or plan.force.m is None else moment_share * np.asarray(plan.force.m)
     return plan_reference(plan.t, plan.q, times, force_t, force, kind, moment, joint_limits(plan.robot))
-
-
-def write_results(result: SimResult, out_dir: Path) -> tuple[Path, Path]:
-    """Atomically write ``sim.csv`` (the log) and ``sim.json`` (verdict + summary) to ``out_dir``."""
-    out_dir.mkdir(parents=True, exist_ok=True)
-    names = list(result.log)
-    table = np.column_stack([result.log[n] for n in names]) if names else np.zeros((0, 0))
-    buf = io.StringIO()
-    buf.write(",".join(names) + "\n")
-    np.savetxt(buf, table, delimiter=",", fmt="%.6g")
-    csv_path, json_path = out_dir / "sim.csv", out_dir / "sim.json"
-    atomic_write(csv_path, buf.getvalue())
-    atomic_write(json_path, json.dumps(result.to_json(), indent=1) + "\n")
-    return csv_path, json_path
 
 
 #: ``forte.simulate``: the public name of :func:`simulate_plan`.

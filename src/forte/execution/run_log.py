@@ -3,11 +3,16 @@ of every ``record_every``-th one (the columns are listed in :mod:`forte.executio
 
 from __future__ import annotations
 
+import io
+import json
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from forte.execution.control import ArmCommand
+from forte.execution.judge import SimResult
+from forte.io.outputs import atomic_write
 from forte.model.robot import N_BASE
 from forte.model.trajectory import trajectory_header
 from forte.validation import FloatArray
@@ -85,3 +90,17 @@ class RunLog:
             "max_torque_ratio": self.max_ratio.tolist(),
             "saturation_fraction": (self.sat_steps / max(steps_run, 1)).tolist(),
         }
+
+
+def write_results(result: SimResult, out_dir: Path) -> tuple[Path, Path]:
+    """Atomically write ``sim.csv`` (the log) and ``sim.json`` (verdict + summary) to ``out_dir``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    names = list(result.log)
+    table = np.column_stack([result.log[n] for n in names]) if names else np.zeros((0, 0))
+    buf = io.StringIO()
+    buf.write(",".join(names) + "\n")
+    np.savetxt(buf, table, delimiter=",", fmt="%.6g")
+    csv_path, json_path = out_dir / "sim.csv", out_dir / "sim.json"
+    atomic_write(csv_path, buf.getvalue())
+    atomic_write(json_path, json.dumps(result.to_json(), indent=1) + "\n")
+    return csv_path, json_path
