@@ -16,6 +16,8 @@ leaves a half-written result.
   the wrench against the force-only metric and the baselines, with the tip-over margin.
 * :func:`run_contact` (:mod:`.contact`): beyond the paper (issue 25), the contact-rich tasks (push a
   box, open a drawer, carry with a partner) planned by forte and the baselines, run with the contact.
+* :func:`run_base` (:mod:`.base`): beyond the paper (issue 39), the verdict's tip-over requirement
+  against MuJoCo's base on the floor, light and heavy bases, with and without the tip-over term.
 * :func:`run_sweep` (:mod:`.sweep`): any grid of tasks x methods x masses x simulated trials, on
   a process pool or Ray, resumable (``forte sweep``).
 
@@ -32,10 +34,12 @@ from __future__ import annotations
 from importlib import import_module
 from typing import Any
 
-__all__ = ["run_contact", "run_continuous", "run_hold", "run_lift", "run_mpc", "run_replan", "run_sweep", "run_wrench"]
+__all__ = ["run_base", "run_contact", "run_continuous", "run_hold", "run_lift", "run_mpc", "run_replan", "run_sweep",
+           "run_wrench"]
 
-_RUNNERS = {"run_continuous": "continuous", "run_lift": "lift", "run_hold": "hold", "run_replan": "replan",
-            "run_mpc": "mpc", "run_sweep": "sweep", "run_wrench": "wrench", "run_contact": "contact"}
+_RUNNERS = {"run_base": "base", "run_continuous": "continuous", "run_lift": "lift", "run_hold": "hold",
+            "run_replan": "replan", "run_mpc": "mpc", "run_sweep": "sweep", "run_wrench": "wrench",
+            "run_contact": "contact"}
 
 
 def __getattr__(name: str) -> Any:

@@ -26,8 +26,9 @@ their 151 kg at (0, 0, 0.127) m and the support polygon the rectangle of the whe
 (+-0.2225, +-0.2045) m. Left out: the chassis's sensors (two 0.13 kg lasers, a 0.3 kg camera,
 0.57 kg in all). The arm's ``panda_link0`` comes from the arm's URDF (0.63 kg in
 example-robot-data's; the authors' description gives 3.06 kg). The simulator's base body keeps its
-own 60 kg (:data:`~forte.model.description.BASE_MASS`): MuJoCo's base slides on the floor and
-cannot tip, so the stability figures here come from this description, not from the simulation.
+own 60 kg (:data:`~forte.model.description.BASE_MASS`) on the kinematic base model, which slides
+on joints and cannot tip; ``forte simulate --base-model floor`` (:mod:`forte.execution.floor_base`)
+carries this description's mass and centre of mass on wheels and casters at the polygon, and tips.
 """
 
 from __future__ import annotations
