@@ -196,3 +196,26 @@ def test_bad_base_model_is_one_line(tmp_path, capsys):
         forte.simulate(plan, base_model="wobbly", write=False)
     with pytest.raises(InvalidInputError, match="base_model: the floor base runs open-loop"):
         forte.simulate(plan, base_model="floor", replan=object(), write=False)
+
+
+def test_a_wheel_on_a_slippery_floor_slips(tmp_path):
+    """Friction 0.8 -> 0.05 on the drive wheels, a 1 m dash in 1.5 s (2.6 m/s^2 at most): the wheels
+    spin faster than the base moves and the run fails on slip, naming the wheel; at 0.8 it tracks."""
+    from forte.execution.control import interpolate_plan
+    from forte.execution.run import run_simulation
+
+    robot = _robot(base="differential")
+    t = np.linspace(0.0, 1.5, 31)
+    q = np.tile(robot.home(), (t.size, 1))
+    q[:, 0] = _quintic(t, 1.5)
+    reasons = {}
+    for mu in (0.8, 0.05):
+        sim = build_sim_model(robot, base_model="floor")
+        wheels = [int(g) for g, c in zip(sim.floor.geoms, sim.floor.contacts, strict=True) if c.wheel]
+        sim.model.geom_friction[wheels, 0] = mu
+        ref = interpolate_plan(t, q, np.arange(0.0, 2.0, sim.timestep))
+        result = run_simulation(sim, ref)
+        reasons[mu] = (result.reason, result.detail, result.summary["base"]["max_slip_m_s"])
+    assert reasons[0.8][0] is None, reasons[0.8]
+    assert reasons[0.05][0] == "slip" and "wheel_" in reasons[0.05][1], reasons[0.05]
+    assert max(reasons[0.05][2].values()) > 10 * max(reasons[0.8][2].values())

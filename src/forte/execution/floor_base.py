@@ -18,7 +18,7 @@ only the support geoms touch it) through spheres whose contact points are the su
   :data:`WHEEL_FRICTION` (rubber, MuJoCo Menagerie's Stretch: 0.8), driven by velocity actuators
   ``v_wheel_left/right`` (gain :data:`WHEEL_KV`); a passive, frictionless caster sphere
   (``condim 1``, as Stretch's; softer, :data:`CASTER_SOLREF`, as a suspension) at every polygon
-  vertex that no wheel occupies. Nothing else
+  vertex that no wheel occupies. Friction cones are elliptic (as Stretch's). Nothing else
   moves the base: there is no lateral actuator.
 - **holonomic**: a frictionless sphere at every polygon vertex, and the planar motion commanded
   by three motors on a site at the base origin on the floor (forces along the base's x and y,
@@ -60,8 +60,8 @@ WHEEL_KV = 50.0
 #: Radius of a caster (or a holonomic base's contact) sphere (m).
 CASTER_RADIUS = 0.03
 #: Contact time constant of the casters (s; MuJoCo's ``solref``, the wheels keep MuJoCo's 0.02 s): softer,
-#: as a suspension, so that the drive wheels carry their share of the weight. With stiff casters
-#: the wheels of the MOCA footprint carried 67 N each of 1660 N (measured), too little traction.
+#: as a suspension, so that the drive wheels carry a share of the weight: on the MOCA footprint at rest
+#: 182 N each of 1660 N (37 N with casters as stiff as the wheels; measured).
 CASTER_SOLREF = (0.05, 1.0)
 #: Gains of the holonomic base's planar push ``F = kv (v_cmd - v)``: N s/m (x, y) and N m s/rad (yaw).
 HOLONOMIC_KV = (2000.0, 2000.0, 400.0)
@@ -132,6 +132,9 @@ def add_floor_base(spec: mujoco.MjSpec, robot: MobileManipulator) -> Any:
     n_wheels = sum(c.wheel for c in layout)
     wheel_mass = min(WHEEL_MASS, 0.05 * support.mass) if support.mass > 0 else 0.05
     body_mass = max(support.mass - n_wheels * wheel_mass, 1e-3)
+    # elliptic friction cones, as Menagerie's Stretch: with pyramidal ones a wheel slipping on a 0.05 floor
+    # unloaded the casters and chattered between contacts before the slip was judged (measured)
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     base = spec.worldbody.add_body(name="base", mass=body_mass, ipos=list(support.com),
                                    inertia=box_inertia(support), explicitinertial=True)
     base.add_freejoint(name="base_free")
