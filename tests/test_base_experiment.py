@@ -29,3 +29,18 @@ def test_quick_is_the_base_experiments_only(tmp_path, capsys, name):
     assert main(["experiment", name, "--quick", "--out", str(tmp_path / "x"), "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "--quick: only the base experiment" in err, err
+
+
+def test_lateral_travel_is_the_step_across_the_heading():
+    """At heading 0.4 rad a step along the heading has no sideways part; one at right angles to it
+    is all sideways."""
+    import numpy as np
+
+    from forte.experiments.base import lateral_travel
+
+    yaw = 0.4
+    q = np.zeros((3, 10))
+    q[:, 2] = yaw
+    q[1, :2] = 0.2 * np.array([np.cos(yaw), np.sin(yaw)])
+    q[2, :2] = q[1, :2] + 0.05 * np.array([-np.sin(yaw), np.cos(yaw)])
+    assert np.allclose(lateral_travel(q), [0.0, 0.05], atol=1e-15)

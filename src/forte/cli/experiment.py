@@ -59,7 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--offsets", type=float, nargs="+", metavar="M",
                    help="wrench: the payload's centre-of-mass offsets to the side of the hand, m (default 0 0.1 0.2)")
     p.add_argument("--quick", action="store_true",
-                   help="base: each task's heaviest payload only (6 plans instead of 15; 33 s measured on 2 cores)")
+                   help="base: each task's heaviest payload and one base-mode task only (8 plans instead of 19)")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     p.set_defaults(func=run_experiment)
 

@@ -14,6 +14,13 @@ polygon at every waypoint and spline sample) and run in MuJoCo with the base on 
 (``forte simulate --base-model floor``, :mod:`forte.execution.floor_base`: it tips when its loaded
 contacts shrink to an edge). The confusion table counts the verdict's "tips" (``tipover``
 failed) against MuJoCo's "tipped".
+
+**Base mode** (:data:`MODE_TASKS`): the tip-over task on the heavy base and the scene task
+``around-the-crate`` (the base drives around a crate), on a differential base, planned twice: for
+the differential base (the NLP's lateral rows) and for a holonomic one, whose motion is then judged
+as the differential base's (``base_mode``: no sideways velocity) and run on the differential floor
+base, whose wheels cannot slide it sideways. MuJoCo's outcome is whether the base stays on its
+planned path (``off path``: 0.1 m, :class:`~forte.execution.base_events.BaseThresholds`).
 """
 
 from __future__ import annotations
@@ -38,6 +45,7 @@ from forte.model.robot import robot_from_description
 from forte.model.stability import tipover_margin
 from forte.planning.planner import plan
 from forte.planning.tasks.tasks import Task, load_task
+from forte.planning.verdict.verdict import judge_plan
 
 #: Payloads (kg) per task; ``--quick`` runs the last only (the one nearest to tipping).
 PAYLOADS: dict[str, tuple[float, ...]] = {"tipover": (2.0, 3.0, 4.0), "lift": (2.7, 4.0)}
@@ -45,13 +53,15 @@ PAYLOADS: dict[str, tuple[float, ...]] = {"tipover": (2.0, 3.0, 4.0), "lift": (2
 CASES: tuple[tuple[str, bool], ...] = (("light", False), ("light", True), ("heavy", False))
 #: The heavy base's mass (kg, besides the arm) on the light base's footprint.
 HEAVY_KG = 120.0
+#: The base-mode cases (module docstring): task and payload (kg, None: the task's).
+MODE_TASKS: tuple[tuple[str, float | None], ...] = (("tipover", 3.0), ("around-the-crate", None))
 #: Sampling step (s) of the reference whose ZMP margin the table reports: the controller's.
 STEP = 1e-3
 #: The tip-over term's settings of the example task.
 TERM = {"tipover": {"margin": 0.02}}
 
 
-def base_task(name: str, mass: float, base: str, term: bool) -> Task:
+def base_task(name: str, mass: float | None, base: str, term: bool) -> Task:
     """The ``name`` task carrying ``mass`` kg on the example's light or heavy base, with or without
     the tip-over term (module docstring)."""
     light = load_task(task_path("tipover")).robot.base_support
@@ -85,6 +95,40 @@ def run_case(tmp: Path, name: str, mass: float, base: str, term: bool, log: Log)
     log(f"{name} {mass:g} kg {base} {'with' if term else 'without'} term: verdict {res.label} "
         f"(tips: {row['verdict_tips']}, min margin {row['min_margin_m']:.3f} m), MuJoCo {row['run']}")
     return row
+
+
+def mode_task(name: str, mass: float | None, drive: str) -> Task:
+    """A base-mode case's task (the tip-over task on the heavy base) with the base ``drive``."""
+    task = base_task(name, mass, "heavy", False) if name == "tipover" else load_task(task_path(name), mass=mass)
+    return replace(task, robot=robot_from_description({**task.robot.describe(), "base": drive}))
+
+
+def run_mode_case(tmp: Path, name: str, mass: float | None, planned_for: str, log: Log) -> dict[str, Any]:
+    """Plan one base-mode case for ``planned_for``, judge it as a differential base's, run it on one."""
+    diff = mode_task(name, mass, "differential")
+    res = plan(diff if planned_for == "differential" else mode_task(name, mass, "holonomic"))
+    if planned_for != "differential":  # the same motion, judged and run as the differential base's
+        solver = res.solver if "status" in res.solver else None
+        res = replace(res, robot=diff.robot, task=diff, verdict=judge_plan(diff, res.q, res.force, solver))
+    directory = write_plan(res, tmp / f"mode-{name}-{planned_for}", figures=False)
+    run = simulate_plan(directory, base_model="floor", write=False, hold=1.0)
+    b = run.summary["base"]
+    row = {"task": name, "payload_kg": res.payload.mass, "planned_for": planned_for, "verdict": res.label,
+           "failed": list(res.verdict.failed), "verdict_sideways": "base_mode" in res.verdict.failed,
+           "mujoco_off_path": run.reason == "off path", "run": "ok" if run.success else
+           f"{run.reason} at {run.failure_time:.2f} s", "max_path_error_m": b["max_path_error_m"],
+           "max_lateral_speed_m_s": b["max_lateral_speed_m_s"],
+           "planned_lateral_m": float(np.abs(lateral_travel(res.q)).max())}
+    row["agrees"] = row["verdict_sideways"] == row["mujoco_off_path"]
+    log(f"base mode: {name} planned for a {planned_for} base: verdict {res.label}, MuJoCo {row['run']}")
+    return row
+
+
+def lateral_travel(q: Any) -> Any:
+    """Sideways travel (m) of the base between consecutive waypoints, along the heading between them."""
+    q = np.asarray(q, dtype=float)
+    mid = 0.5 * (q[1:, 2] + q[:-1, 2])
+    return -np.sin(mid) * np.diff(q[:, 0]) + np.cos(mid) * np.diff(q[:, 1])
 
 
 def confusion(rows: list[dict[str, Any]]) -> dict[str, int]:
@@ -143,7 +187,39 @@ def summary_lines(doc: dict[str, Any], figure: str) -> list[str]:
               "(`forte.execution.base_events`). A single contact lifting while three carry is a lift-off, "
               "counted, not a tip; a run stops 0.25 s after it tips (its pitch then about 0.01 rad and growing). "
               "Other failures of a run (torque, tracking) are shown but do not enter the table.",
-              ""]
+              "", *_mode_lines(doc)]
+    return lines
+
+
+def _mode_lines(doc: dict[str, Any]) -> list[str]:
+    """The base-mode table: the verdict's ``base_mode`` against the differential floor base."""
+    rows = doc.get("base_mode_rows") or []
+    if not rows:
+        return []
+    a = doc["base_mode_agreement"]
+    lines = ["## Base mode on a differential base", "",
+             "Planned for a differential base, or for a holonomic one and judged and run as the differential "
+             "base's (its wheels cannot slide it sideways); MuJoCo: does the base stay within 0.1 m of its path.", "",
+             "| task | payload (kg) | planned for | verdict | largest planned sideways step (mm) | MuJoCo | max path "
+             "error (m) | max sideways speed (m/s) | agree |", "|---" * 9 + "|"]
+    for r in rows:
+        verdict = r["verdict"] + (f" ({', '.join(r['failed'])})" if r["failed"] else "")
+        lines.append(f"| {r['task']} | {r['payload_kg']:g} | {r['planned_for']} | {verdict} | "
+                     f"{1000 * r['planned_lateral_m']:.1f} | {r['run']} | {r['max_path_error_m']:.3f} | "
+                     f"{r['max_lateral_speed_m_s']:.4f} | {'yes' if r['agrees'] else '**no**'} |")
+    lines += ["", f"The verdict's `base_mode` and MuJoCo agree on {a['agree']} of {a['plans']} plans.", ""]
+    for r in rows:
+        if r["agrees"]:
+            continue
+        case = f"**{r['task']}, planned for a {r['planned_for']} base**"
+        if r["verdict_sideways"]:
+            lines += [f"{case}: the plan moves the base up to {1000 * r['planned_lateral_m']:.1f} mm sideways between "
+                      "two waypoints, which the verdict's tolerance (1 mm/s at the waypoints, 1 cm/s between) "
+                      f"refuses; the wheels cannot, and the base ends up to {r['max_path_error_m']:.3f} m off its "
+                      "path in MuJoCo, inside the run's 0.1 m. The verdict is the stricter of the two.", ""]
+        else:
+            lines += [f"{case}: the verdict passes `base_mode`, yet MuJoCo's base left its path ({r['run']}, "
+                      f"{r['max_path_error_m']:.3f} m).", ""]
     return lines
 
 
@@ -173,7 +249,8 @@ def _disagreements(rows: list[dict[str, Any]]) -> list[str]:
 def run_base(out: str | Path, waypoints: int | None = None, log: Log = quiet, fmt: str = "png", quick: bool = False,
              **_: Any) -> dict[str, Any]:
     """Run the experiment (module docstring) and write ``summary.json``, ``README.md`` and the figure
-    (plan directories in a temporary folder, not kept). ``quick``: each task's heaviest payload only."""
+    (plan directories in a temporary folder, not kept). ``quick``: each task's heaviest payload, and the
+    first base-mode task only."""
     out, fmt = Path(out), check_format(fmt)
     payloads = {k: v[-1:] if quick else v for k, v in PAYLOADS.items()}
 
@@ -181,10 +258,14 @@ def run_base(out: str | Path, waypoints: int | None = None, log: Log = quiet, fm
         with tempfile.TemporaryDirectory() as plans:
             rows = [run_case(Path(plans), name, mass, base, term, log) for name, masses in payloads.items()
                     for mass in masses for base, term in CASES]
+            modes = [run_mode_case(Path(plans), name, mass, drive, log)
+                     for name, mass in MODE_TASKS[: 1 if quick else None] for drive in ("differential", "holonomic")]
         doc = {"generator": GENERATOR, "format_version": FORMAT_VERSION, "experiment": "base", "quick": quick,
                "light_kg": load_task(task_path("tipover")).robot.base_support.mass, "heavy_kg": HEAVY_KG,
                "payloads": payloads, "rows": rows, "confusion": confusion(rows),
                "agreement": {"agree": sum(r["agrees"] for r in rows), "plans": len(rows)},
+               "base_mode_rows": modes, "base_mode_agreement": {"agree": sum(r["agrees"] for r in modes),
+                                                                "plans": len(modes)},
                "versions": package_versions()}
         figure = _figure(rows, tmp, fmt)
         doc["figures"] = [figure]
