@@ -58,8 +58,9 @@ def without_scene_judged_with(task, method: str):
     return replace(blind, task=seen, scene=task.scene, verdict=verdict, metrics=metrics)
 
 
-def one_case(task_name: str, variant: str, methods: tuple[str, ...] | None) -> list[dict]:
-    """Plan every method on one task (with or without its scene) and simulate each plan."""
+def one_case(task_name: str, variant: str, methods: tuple[str, ...] | None,
+             base_model: str = "kinematic") -> list[dict]:
+    """Plan every method on one task (with or without its scene) and simulate each plan (on ``base_model``)."""
     from forte.execution.run import simulate_plan
     from forte.io.plandir import LAST_ITERATE_FILE, TRAJECTORY_FILE, write_plan
     from forte.planning.planner import methods_for, plan
@@ -80,14 +81,15 @@ def one_case(task_name: str, variant: str, methods: tuple[str, ...] | None) -> l
             plan_dir = write_plan(res, Path(tmp) / "plan", figures=False)
             if not res.solved:  # a failed solve writes its last iterate: run that motion all the same
                 (plan_dir / LAST_ITERATE_FILE).rename(plan_dir / TRAJECTORY_FILE)
-            sim = simulate_plan(plan_dir, write=False)
+            sim = simulate_plan(plan_dir, write=False, base_model=base_model)
             contacts = sim.summary["contacts"]
             row |= {"sim_success": sim.success, "sim_reason": sim.reason, "sim_time": sim.failure_time,
                     "sim_detail": sim.detail, "contact_checked": sim.summary["contact_checked"],
                     "scene_touches": [c for c in contacts if c["world"] != "floor"],
                     "floor_touches": [c for c in contacts if c["world"] == "floor"]}
             if row["clearance_ok"] and row["scene_touches"] and not followed(row):
-                strong = simulate_plan(plan_dir, write=False, torque_limits=STRONG * res.robot.torque_limits)
+                strong = simulate_plan(plan_dir, write=False, torque_limits=STRONG * res.robot.torque_limits,
+                                       base_model=base_model)
                 row["strong"] = {"success": strong.success, "reason": strong.reason,
                                  "scene_touches": [c for c in strong.summary["contacts"] if c["world"] != "floor"]}
         row["seconds"] = time.perf_counter() - start
@@ -168,9 +170,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--variants", nargs="+", choices=VARIANTS, default=list(VARIANTS))
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=None, help="write the rows as JSON")
+    parser.add_argument("--base-model", choices=("kinematic", "floor"), default="kinematic",
+                        help="forte simulate's base: on slide joints (default) or on wheels and casters on the floor")
     args = parser.parse_args(argv)
     start = time.perf_counter()
-    cases = [(t, v, tuple(args.methods) if args.methods else None) for t in args.tasks for v in args.variants]
+    cases = [(t, v, tuple(args.methods) if args.methods else None, args.base_model)
+             for t in args.tasks for v in args.variants]
     if args.workers > 1:
         with ProcessPoolExecutor(args.workers) as pool:
             results = list(pool.map(one_case, *zip(*cases, strict=True)))

@@ -16,6 +16,7 @@ limits, tracking, self-collision, solver).
 
     python benchmarks/verdict_vs_mujoco.py                 # lift and hold, 0.35-6 kg (~15 min on 2 cores)
     python benchmarks/verdict_vs_mujoco.py --tasks hold --masses 0.35 2.7
+    python benchmarks/verdict_vs_mujoco.py --base-model floor   # the base on its wheels (issue 39)
 """
 
 from __future__ import annotations
@@ -33,8 +34,8 @@ TASKS = {"lift": ROOT / "examples/tasks/lift.yaml", "hold": ROOT / "examples/tas
 MASSES = (0.35, 1.0, 2.0, 2.7, 4.0, 6.0)
 
 
-def one_case(task_name: str, mass: float) -> list[dict]:
-    """Plan every method at ``mass`` and simulate each plan that has a trajectory."""
+def one_case(task_name: str, mass: float, base_model: str = "kinematic") -> list[dict]:
+    """Plan every method at ``mass`` and simulate each plan that has a trajectory (on ``base_model``)."""
     from forte.execution.run import simulate_plan
     from forte.io.plandir import write_plan
     from forte.planning.planner import methods_for, plan
@@ -49,12 +50,12 @@ def one_case(task_name: str, mass: float) -> list[dict]:
         if res.solved:
             with tempfile.TemporaryDirectory() as tmp:
                 plan_dir = write_plan(res, Path(tmp) / "plan", figures=False)
-                sim = simulate_plan(plan_dir, write=False)
+                sim = simulate_plan(plan_dir, write=False, base_model=base_model)
                 row |= {"sim": "success" if sim.success else "failure", "sim_reason": sim.reason,
                         "sim_time": sim.failure_time}
                 if sim.success and "capacity" in row["failed"] and "torque" not in row["failed"]:
                     ball = mass + float(max(res.force.r)) / task.robot.gravity
-                    heavy = simulate_plan(plan_dir, ball, write=False)
+                    heavy = simulate_plan(plan_dir, ball, write=False, base_model=base_model)
                     row |= {"ball_mass": ball, "sim_ball": "success" if heavy.success else "failure",
                             "sim_ball_reason": heavy.reason}
         else:
@@ -102,9 +103,11 @@ def main() -> int:
     ap.add_argument("--masses", nargs="+", type=float, default=list(MASSES))
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, help="write the rows as JSON")
+    ap.add_argument("--base-model", choices=("kinematic", "floor"), default="kinematic",
+                    help="forte simulate's base: on slide joints (default) or on wheels and casters on the floor")
     args = ap.parse_args()
     start = time.perf_counter()
-    cases = [(t, m) for t in args.tasks for m in args.masses]
+    cases = [(t, m, args.base_model) for t in args.tasks for m in args.masses]
     with ProcessPoolExecutor(args.workers) as pool:
         rows = [row for part in pool.map(one_case, *zip(*cases, strict=True)) for row in part]
     for r in rows:
