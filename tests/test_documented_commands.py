@@ -57,7 +57,7 @@ REDUCED: list[tuple[str, str, str]] = [
     ("forte experiment wrench --out runs/experiments/wrench", "--offsets 0.2",
      "18 plans and 36 MuJoCo runs, ~1.2 min on 2 cores; the 0.2 m offset here (test_wrench_experiment.py runs it too)"),
     ("forte experiment base --out runs/experiments/base", "--quick",
-     "19 plans and floor-base runs, ~1.5 min on 2 cores; each task's heaviest payload and one base-mode task here (8)"),
+     "19 plans and floor-base runs, 61 s on 2 cores; each task's heaviest payload, one base-mode task here (23 s)"),
     ("forte sweep examples/sweeps/lift.yaml --workers 8", "--dry-run",
      "50 cells, ~80 s on 2 cores; the demo sweep of the same page computes its grid"),
     ("forte sweep examples/sweeps/mass-scan.yaml --ray", "--dry-run",
