@@ -288,6 +288,18 @@ def _slower(unrouted: Task, spec: Method, task: Task, sol: SolverResult, info: d
     return task, sol, info, verdict, force
 
 
+def _passing(task: Task) -> dict[str, Any]:
+    """A goal task's via times (s) and, for pick and place, the grasp's time (``forte simulate``
+    attaches the payload then); empty without vias."""
+    if not task.goal.vias:
+        return {}
+    steps = task.goal.steps(task.t)
+    facts: dict[str, Any] = {"via_times_s": [float(task.t[k]) for k in steps]}
+    if task.goal.grasp is not None:
+        facts["grasp_time_s"] = float(task.t[steps[task.goal.grasp]])
+    return facts
+
+
 def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,
          guess: FloatArray | None = None) -> Plan:
     """Plan ``task`` with ``method`` and judge it; never raises for a solver failure or an
@@ -338,7 +350,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
     if task.goal is not None:  # the plan's own end-effector motion (its force is the judged one)
         task = task.following(q)
         info["goal"] = {"kind": task.goal.kind, "duration_s": float(task.t[-1] - task.t[0]),
-                        "duration_given": task.goal.duration_given}
+                        "duration_given": task.goal.duration_given} | _passing(task)
     metrics = evaluate(task.robot, q, task.t, force, task.settings.capability_params, task.scene,
                        task.start_motion)
     return Plan(method=spec.name, robot=task.robot, t=task.t, q=q, force=force, payload=task.payload,

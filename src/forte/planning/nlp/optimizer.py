@@ -99,6 +99,8 @@ class TrajectoryOptimizer:
         goal: ``None`` (a pose equality at every waypoint after the first), ``pose`` (at the last
             waypoint only) or ``configuration`` (none: :meth:`solve`'s ``q_goal`` bounds the last
             configuration), :mod:`forte.planning.tasks.goals`.
+        via_steps: a goal task's via waypoints (0-based), each with a pose equality too
+            (:mod:`forte.planning.tasks.goal_poses`).
     """
 
     def __init__(
@@ -106,7 +108,7 @@ class TrajectoryOptimizer:
         weights: CostWeights | WeightSet = DEFAULT_TRAJECTORY_WEIGHTS, fix_initial: bool = True,
         options: SolverOptions = SolverOptions(), limits: KinematicLimits = KinematicLimits(),
         keep_multipliers: bool = False, slots: Slots | None = None, settings: TermSettings | None = None,
-        goal: str | None = None,
+        goal: str | None = None, via_steps: tuple[int, ...] = (),
     ) -> None:
         resolved = get_method(method) if isinstance(method, Method) or method in method_names() else None
         if resolved is None or not resolved.optimized:
@@ -123,7 +125,10 @@ class TrajectoryOptimizer:
         self.limits, self.keep_multipliers = limits, keep_multipliers
         if goal not in (None, "pose", "configuration"):
             raise InvalidInputError(f"goal: expected 'pose' or 'configuration', got {goal!r}")
-        self.goal = goal
+        if via_steps and (goal is None or not all(0 < k < n - 1 for k in via_steps)):
+            raise InvalidInputError(f"via_steps: expected waypoints strictly between the first and the last of a "
+                                    f"goal task, got {list(via_steps)}")
+        self.goal, self.via_steps = goal, tuple(sorted({int(k) for k in via_steps}))
         self._warm_solver: Any = None
         self._vel, self._acc = limits.resolve(robot)
         terms = resolved.cost_terms(settings)
@@ -289,8 +294,8 @@ class TrajectoryOptimizer:
         whose configurations equal the last one, so their poses are implied (the task holds its
         final pose over them, :func:`forte.planning.tasks.paths.ending_at_rest`)."""
         steps = np.arange(first, self.n)
-        if self.goal is not None:  # a free path: the goal's pose only
-            return steps[-1:] if self.goal == "pose" else steps[:0]
+        if self.goal is not None:  # a free path: the vias' poses and the goal's only
+            return np.array([*self.via_steps, *([self.n - 1] if self.goal == "pose" else [])], dtype=int)
         if self.rests_at_end:
             steps = steps[(steps < self.n - 3) | (steps == self.n - 1)]
         return steps

@@ -25,6 +25,7 @@ from forte.force.taskforce import (
     FORCE_MODELS,
     RADIUS_RULES,
     TaskForce,
+    attached_from,
     authors_force,
     mass_range_radius,
     payload_force,
@@ -161,7 +162,7 @@ class Task:
             goal = self.goal
             if goal.route is not None:  # the route on the new samples
                 goal = replace(goal, route=np.column_stack([np.interp(t, self.t, c) for c in goal.route.T]))
-            return replace(self, t=t, goal=goal, targets=goal_targets(self.robot, goal, goal.motion(self.q_init, t)))
+            return replace(self, t=t, goal=goal, targets=goal_targets(self.robot, goal, goal.motion(self.q_init, t), t))
         if self.mode != "trajectory" or self.targets_at is None:
             raise TaskFileError(f"{self._where('path')}: only a trajectory task can be resampled")
         if n < 2 or n > MAX_WAYPOINTS:
@@ -182,7 +183,7 @@ class Task:
         its force is its path's."""
         if self.goal is None:
             return self
-        return replace(self, targets=goal_targets(self.robot, self.goal, q))
+        return replace(self, targets=goal_targets(self.robot, self.goal, q, self.t))
 
     def with_payload(self, payload: Payload) -> Task:
         """The same task carrying ``payload``."""
@@ -201,6 +202,9 @@ class Task:
         paper's Section 5.2), and the profile plus the payload's force (with its radii) when it
         has one: ``forte simulate`` carries that payload too. A payload with an offset centre of
         mass or an inertia adds its moment (:func:`~forte.force.wrench.with_payload_moment`).
+        A pick-and-place task (``path.goals``) carries the payload from its grasp's waypoint on:
+        before it the payload's share, its radius and its moment are zero
+        (:func:`~forte.force.taskforce.attached_from`).
         """
         if self.contact is not None:
             return self._contact_force(mass)
@@ -226,7 +230,9 @@ class Task:
             force = TaskForce(self.t, profile.f + force.f, profile.r)
         elif self.radius_rule == "mass-range" and mass is None and self.payload.mass_range is not None:
             force = mass_range_radius(force, total, m, self.payload.mass_range, self.radius)
-        return with_payload_moment(force, self.payload, self.targets[:, :3, :3], share)
+        force = with_payload_moment(force, self.payload, self.targets[:, :3, :3], share)
+        grasp = None if self.goal is None else self.goal.grasp_step(self.t)
+        return force if grasp is None else attached_from(force, share, grasp)
 
     def ee_start(self) -> StartMotion | None:
         """The end effector's start motion: its positions along ``start_motion``'s history."""
@@ -332,6 +338,10 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     if force_at is None and contact is None and (payload is None or payload.mass == 0):
         payload = payload or Payload(mass=0.0, source="none")  # an empty hand: the tool's load only
         radius = radius if reader.has("uncertainty_radius") else 0.0  # no payload: no uncertainty about it
+    if goal is not None and goal.grasp is not None and (force_at is not None or contact is not None):
+        raise reader.error("force" if force_at is not None else "contact",
+                           "a pick-and-place task (path.goals) carries its payload from the grasp on; "
+                           "give payload, not a force profile or a contact")
     if force_at is not None and reader.has("force_model"):
         raise reader.error("force_model", "sets a payload's force; this task gives its force profile directly")
     weights, settings = read_weights(reader, mode, robot)

@@ -179,7 +179,7 @@ def orientation_errors(ee: FloatArray, targets: FloatArray) -> FloatArray:
 class Tracking(Requirement):
     """The end effector within :data:`TRACKING_POSITION_TOL` (m) and
     :data:`TRACKING_ORIENTATION_TOL` (rad) of the task's path at every sample; a goal task (its
-    path free): the last sample at the goal (:func:`goal_measures`)."""
+    path free): the last sample at the goal and each via at its waypoint (:func:`goal_measures`)."""
 
     name: ClassVar[str] = "tracking"
 
@@ -206,12 +206,29 @@ def goal_measures(ctx: Context) -> list[Measure]:
         gap = np.abs(s.q[end] - goal.q_end)
         worst = int(np.argmax(gap))
         return [Measure(np.where(at_end, gap[worst], 0.0), GOAL_CONFIGURATION_TOL, "rad or m",
-                        "the plan does not end at the goal configuration", [joint_names(ctx.robot)[worst]] * len(s.t))]
+                        "the plan does not end at the goal configuration", [joint_names(ctx.robot)[worst]] * len(s.t)),
+                *via_measures(ctx)]
     ee = s.ee[end]
     position = np.where(at_end, np.linalg.norm(ee[:3, 3] - goal.pose[:3, 3]), 0.0)
     angle = np.where(at_end, orientation_errors(ee[None], goal.pose[None])[0], 0.0)
     return [Measure(position, goal.position_tol, "m", "the end effector ends away from the goal position"),
-            Measure(angle, goal.angle_tol, "rad", "the end effector ends turned away from the goal orientation")]
+            Measure(angle, goal.angle_tol, "rad", "the end effector ends turned away from the goal orientation"),
+            *via_measures(ctx)]
+
+
+def via_measures(ctx: Context) -> list[Measure]:
+    """Each via pose at its waypoint ``k_i`` (:mod:`forte.planning.tasks.goal_poses`; zero elsewhere):
+    the position and angle errors within the via's tolerances."""
+    goal, s = ctx.goal, ctx.samples
+    measures = []
+    for i, (via, k) in enumerate(zip(goal.vias, goal.steps(s.t[s.waypoint]), strict=True)):
+        at = s.t == s.t[s.waypoint[k]]
+        ee = s.ee[s.waypoint[k]]
+        position = np.where(at, np.linalg.norm(ee[:3, 3] - via.pose[:3, 3]), 0.0)
+        angle = np.where(at, orientation_errors(ee[None], via.pose[None])[0], 0.0)
+        measures += [Measure(position, via.position_tol, "m", f"the end effector misses via {i}'s position"),
+                     Measure(angle, via.angle_tol, "rad", f"the end effector passes via {i} turned away")]
+    return measures
 
 
 @dataclass(frozen=True)
