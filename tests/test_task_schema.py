@@ -29,6 +29,8 @@ _HOME = default_robot().home().tolist()
 TAUGHT = [{"t": 0.0, "q": _HOME}, {"t": 1.0, "q": [_HOME[0] + 0.05, *_HOME[1:]]}]
 GOAL = {"kind": "goal", "samples": 5, "configuration": [*_HOME[:3], _HOME[3] + 0.1, *_HOME[4:]]}
 POSE_GOAL = {"kind": "goal", "samples": 5, "pose": {"position": [0.8, 0.0, 0.95]}}
+VIA_GOAL = {**POSE_GOAL, "samples": 6, "via": [{"position": [0.8, 0.0, 0.95]}]}
+PICK = {"kind": "goal", "samples": 6, "goals": [{"pose": {"position": [0.8, 0.0, 0.95]}}] * 2}
 #: A valid task every probe starts from (the built-in robot, 5 samples).
 BASE: dict[str, Any] = {"path": {"relative": True, "samples": 5, "waypoints": WAYPOINTS}, "payload": {"mass": 1.0}}
 HOLD: dict[str, Any] = {"mode": "hold", "pose": {"position": [0.0, 0.0, 0.0], "relative": True},
@@ -68,6 +70,15 @@ def _probes() -> dict[str, dict[str, Any]]:
         "path.pose.orientation": _with({**BASE, "path": POSE_GOAL}, ("path", "pose", "orientation"),
                                        {"rpy": [0, 0, 0]}),
         "path.tolerance": _with({**BASE, "path": POSE_GOAL}, ("path", "tolerance"), {"position": 0.01}),
+        "path.via[]": _with({**BASE, "path": VIA_GOAL}, ("path", "via", 0), VIA_GOAL["via"][0]),
+        "path.via[].orientation": _with({**BASE, "path": VIA_GOAL}, ("path", "via", 0, "orientation"),
+                                        {"rpy": [0, 0, 0]}),
+        "path.via[].tolerance": _with({**BASE, "path": VIA_GOAL}, ("path", "via", 0, "tolerance"), {}),
+        "path.goals[]": _with({**BASE, "path": PICK}, ("path", "goals", 0), PICK["goals"][0]),
+        "path.goals[].pose": _with({**BASE, "path": PICK}, ("path", "goals", 0, "pose"), POSE_GOAL["pose"]),
+        "path.goals[].pose.orientation": _with({**BASE, "path": PICK}, ("path", "goals", 0, "pose", "orientation"),
+                                               {"rpy": [0, 0, 0]}),
+        "path.goals[].tolerance": _with({**BASE, "path": PICK}, ("path", "goals", 0, "tolerance"), {}),
         "path.configurations[]": _with({**BASE, "path": {"kind": "taught", "configurations": [{}, {}]}},
                                        ("path", "configurations", 0), {"t": 0.0}),
         "pose": _with(HOLD, ("pose",), HOLD["pose"]),

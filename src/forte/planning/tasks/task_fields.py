@@ -27,6 +27,7 @@ from forte.planning.tasks.contact_section import (
     MAX_FRICTION_FORCE,
     MAX_STIFFNESS,
 )
+from forte.planning.tasks.goal_poses import MAX_VIAS
 from forte.planning.tasks.goals import DEFAULT_GOAL_SAMPLES, GOAL_ANGLE_TOL, GOAL_POSITION_TOL
 from forte.planning.tasks.scene_section import DEFAULT_CLEARANCE, MAX_LENGTH_M
 from forte.planning.tasks.task_types import (
@@ -155,6 +156,43 @@ def _rotation(prefix: str, default: str, when: Any = None) -> list[Field]:
             Field(f"{prefix}.orientation.matrix", matrix(3, 3), "an orthonormal 3 x 3 rotation matrix")]
 
 
+def _tolerance(prefix: str, what: str) -> list[Field]:
+    return [Field(f"{prefix}.tolerance", MAPPING, what),
+            Field(f"{prefix}.tolerance.position", number(above=0, high=1.0), "position tolerance", "m",
+                  GOAL_POSITION_TOL),
+            Field(f"{prefix}.tolerance.angle", number(above=0, high=3.141592653589793), "orientation tolerance",
+                  "rad", GOAL_ANGLE_TOL)]
+
+
+def _passing_fields() -> list[Field]:
+    """``path.via`` and pick and place's ``path.goals``/``path.grasp`` (:mod:`forte.planning.tasks.goal_poses`)."""
+    when = ("kind", "goal")
+    at = Prose("by the straight-line distance along start, vias, goal")
+    return [
+        Field("path.via", items_of(min_items=1), "poses the end effector passes on the way to the goal, in order "
+              f"(at most {MAX_VIAS}; each an NLP pose equality at one waypoint)", when=when),
+        Field("path.via[].position", VEC3, "the via position (world)", "m", required=True),
+        *_rotation("path.via[]", "the initial end-effector orientation"),
+        *_tolerance("path.via[]", "how close the plan must pass the via"),
+        Field("path.via[].time", DURATION, "when the via is passed (needs path.duration; all vias or none)", "s",
+              at),
+        Field("path.goals", items_of(min_items=2, exactly_one=("pose", "configuration")),
+              "pick and place: goals in order (e.g. pre-grasp, grasp, place); the last ends the motion, the "
+              "others are passed as vias (instead of pose or configuration)", when=when),
+        Field("path.goals[].pose", MAPPING, "a goal pose of the end effector"),
+        Field("path.goals[].pose.position", VEC3, "the goal position (world)", "m", required=True),
+        *_rotation("path.goals[].pose", "the initial end-effector orientation"),
+        Field("path.goals[].configuration", vector(), f"a whole-body goal configuration ({PER_DOF}; before the "
+              "last: passed as its end-effector pose)", "m, m, rad, rad..."),
+        *_tolerance("path.goals[]", "how close the plan must pass (end at) a goal pose"),
+        Field("path.goals[].time", DURATION, "when the goal is passed (needs path.duration; not the last)", "s",
+              at),
+        Field("path.grasp", integer(0, MAX_VIAS - 2), "the index (from 0) of the goal where the payload attaches: "
+              "its mass and force count from that goal's waypoint on, the approach is unloaded",
+              default=Prose("the goal before the last"), when=when),
+    ]
+
+
 WAYPOINTS, SINE, TAUGHT, GOAL = (("kind", k) for k in ("waypoints", "windowed-sine", "taught", "goal"))
 _PATH = [
     Field("path.kind", choice(("waypoints", "windowed-sine", "taught", "goal")), "how the path is given (goal: "
@@ -182,6 +220,7 @@ _PATH = [
     Field("path.tolerance.position", number(above=0, high=1.0), "position tolerance", "m", GOAL_POSITION_TOL),
     Field("path.tolerance.angle", number(above=0, high=3.141592653589793), "orientation tolerance", "rad",
           GOAL_ANGLE_TOL),
+    *_passing_fields(),
     Field("path.duration", DURATION, "the motion's duration", "s", Prose("from the joints' velocity and "
           "acceleration limits, at least 1 s"), when=GOAL),
     Field("path.duration", DURATION, "the sine path's duration", "s", required=True, when=SINE),
