@@ -68,6 +68,11 @@ def attach_at_grasp(plan_dir: str | Path, sim: SimModel, plan: Any) -> Attach | 
     return Attach(sim, time, min(tool / float(sim.model.body_mass[sim.payload_body]), 1.0))
 
 
+def attach_facts(attach: Attach | None) -> dict[str, float]:
+    """What sim.json records of the attachment: the grasp's time (s); nothing without one."""
+    return {} if attach is None else {"grasp_time_s": attach.time}
+
+
 def chained(*steps: AfterStep | None) -> AfterStep | None:
     """One ``after_step`` calling each of ``steps`` in order (``None`` entries left out)."""
     kept = [s for s in steps if s is not None]

@@ -53,7 +53,7 @@ from forte.execution.contact import touches
 from forte.execution.contact_objects import ContactRig, rig_for
 from forte.execution.control import ArmCommand, ArmImpedance, BaseAdmittance, ControlGains, Reference
 from forte.execution.gains import default_gains, describe_gains, gains_from_mapping, sampled_loop_radius_at
-from forte.execution.grasp import attach_at_grasp, chained
+from forte.execution.grasp import attach_at_grasp, attach_facts, chained
 from forte.execution.judge import Judge, SimResult, Thresholds
 from forte.execution.model import SimModel, build_sim_model
 from forte.execution.reference import plan_reference
@@ -261,9 +261,7 @@ def simulate_plan(
         record_every=record_every, stop_on_failure=stop_on_failure,
         sinks=[s for s in (recorder, live) if s is not None], after_step=chained(attach, loop), rig=run.rig,
     )
-    result.summary.update(_run_facts(plan, Path(plan_dir), run, reference))
-    if attach is not None:
-        result.summary["grasp_time_s"] = attach.time
+    result.summary.update(_run_facts(plan, Path(plan_dir), run, reference) | attach_facts(attach))
     if loop is not None:
         result.summary["mpc" if mpc is not None else "replanning"] = loop.summary()
     if recorder is not None:
