@@ -213,6 +213,10 @@ def read_goal(r: Reader, robot: MobileManipulator, q_init: FloatArray, limits: K
     goal = Goal(q_end, pose, position_tol, angle_tol, given,
                 vias=timed_vias(r, name, vias, robot.ee_position(q_init), end) if vias else (), grasp=grasp)
     t = np.linspace(0.0, duration, n)
+    for i, via in enumerate(goal.vias):
+        if via.time is not None and via.time >= arrival(t):
+            raise r.error(f"{name}[{i}].time", f"expected a time before the motion arrives at t = {arrival(t):.4g} s "
+                          "(it rests over the last two samples)")
     if vias:
         try:
             goal.steps(t)
