@@ -64,6 +64,7 @@ def test_state_validity_is_the_exact_clearance_and_self_collision(panda, wall, c
     expected = (distance >= clearance) & ~self_hit
     assert 0 < expected.sum() < len(Q)  # both kinds occur
     assert [checker.valid(q) for q in Q] == expected.tolist()
+    assert [checker.valid_pairwise(q) for q in Q] == expected.tolist()  # the broad phase drops no pair
 
 
 def test_path_around_a_wall_clears_it_everywhere(panda, wall):

@@ -288,6 +288,28 @@ def _slower(unrouted: Task, spec: Method, task: Task, sol: SolverResult, info: d
     return task, sol, info, verdict, force
 
 
+def _route_as_plan(task: Task, sol: SolverResult, info: dict[str, Any], verdict: Verdict,
+                   force: TaskForce) -> tuple[FloatArray, bool, str, dict[str, Any], Verdict, TaskForce]:
+    """A goal task whose optimized plan is not feasible (the NLP did not converge, or its plan fails
+    the verdict): its route (the search's collision-free path timed by toppra,
+    :mod:`forte.planning.search.route`) judged as it is, and kept when the verdict calls it
+    feasible. The route keeps the exact clearance between its states and the limits on toppra's
+    time law, but its force capability is not optimized: ``info["fallback"]`` says so, and the
+    status names what the NLP did."""
+    keep = sol.q, sol.success, sol.status, info, verdict, force
+    route = task.goal.route if task.goal is not None else None
+    if verdict.feasible or route is None or len(route) != task.n:
+        return keep
+    route_verdict, route_force = judged(task, route, force)
+    record = {"verdict": route_verdict.label, "failed": list(route_verdict.failed), "kept": route_verdict.feasible,
+              "optimized": {"status": sol.status, "verdict": verdict.label, "failed": list(verdict.failed)}}
+    if not route_verdict.feasible:
+        return (*keep[:3], info | {"fallback": record}, verdict, force)
+    status = (f"route: the optimized plan was {verdict.label} ({sol.status}); the searched route, timed by toppra, "
+              "is judged feasible as it is (its force capability not optimized)")
+    return route, True, status, info | {"fallback": record}, route_verdict, route_force
+
+
 def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,
          guess: FloatArray | None = None) -> Plan:
     """Plan ``task`` with ``method`` and judge it; never raises for a solver failure or an
@@ -330,7 +352,9 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         sol, info, verdict, force = _refine(task, solved_as, force, sol, info, verdict)
         if route:
             task, sol, info, verdict, force = _slower(unrouted, solved_as, task, sol, info, verdict, force, route)
-        q, solved, status = sol.q, sol.success, sol.status
+            q, solved, status, info, verdict, force = _route_as_plan(task, sol, info, verdict, force)
+        else:
+            q, solved, status = sol.q, sol.success, sol.status
     else:
         q, solved, status = spec.produce(task), True, spec.status
         verdict, force = judged(task, q, force)

@@ -9,7 +9,9 @@ sideways, and the NLP that takes the path as its initial guess enforces the driv
 **Valid states** (:class:`~forte.planning.search.validity.StateChecker`): within the joint limits,
 no self-collision, and every scene distance >= the clearance. The search keeps
 :data:`SEARCH_MARGIN` more than the asked ``clearance`` when the start and goal allow it, so the
-NLP that smooths the path and keeps only the asked clearance starts strictly inside it. Motions
+NLP that smooths the path and keeps only the asked clearance starts strictly inside it; a search
+that finds no path in :data:`MARGIN_SHARE` of its time limit with the margin spends the rest
+without it (a narrow passage, a shelf's slot, is often open at the asked clearance only). Motions
 between states are checked every :data:`CHECK_STEP` (C-space distance: rad for a joint, m for the
 base), i.e. 1-2 cm of end-effector motion for a hand up to ~1 m from the moving joint.
 
@@ -34,6 +36,8 @@ from forte.validation import FloatArray
 
 #: Extra clearance (m) the search keeps beyond the asked one (when the start and goal have it).
 SEARCH_MARGIN = 0.01
+#: The share of the time limit the search spends with the margin before it tries without.
+MARGIN_SHARE = 0.4
 #: Largest C-space step (rad or m) between two checked states of a motion.
 CHECK_STEP = 0.015
 #: Largest C-space distance between two states of the returned path.
@@ -104,9 +108,13 @@ def find_path(robot: MobileManipulator, scene: Scene, q_start: Any, q_goal: Any,
             return SearchResult(None, False, f"{label} configuration in collision: {checker.why(q)}", 0,
                                 checker.checks, time.perf_counter() - t0)
     margin = StateChecker(robot, scene, clearance + SEARCH_MARGIN, floor)
-    if margin.valid(q_start) and margin.valid(q_goal):
-        margin.checks, checker = checker.checks, margin
-    path, states = _search(robot, checker, q_start, q_goal, time_limit, seed)
+    path, states = None, 0
+    if margin.valid(q_start) and margin.valid(q_goal):  # first with the margin, for part of the time
+        path, states = _search(robot, margin, q_start, q_goal, MARGIN_SHARE * time_limit, seed)
+        checker.checks += margin.checks
+    if path is None:  # the margin may close a narrow passage the asked clearance leaves open
+        path, more = _search(robot, checker, q_start, q_goal, time_limit - (time.perf_counter() - t0), seed)
+        states += more
     elapsed = time.perf_counter() - t0
     if path is None:
         return SearchResult(None, False, f"no collision-free path in {time_limit:g} s ({states} states sampled)",
