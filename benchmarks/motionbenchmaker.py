@@ -36,7 +36,7 @@ import numpy as np
 
 FIELDS = ["scenario", "problem", "success", "verdict", "failed", "reason", "wall_s", "search_s", "nlp_s",
           "verdict_s", "sim_s", "duration_s", "toppra_s", "limiting", "path_length_rad", "min_clearance_m",
-          "sim", "sim_detail", "searched", "iterations"]
+          "sim", "sim_detail", "searched", "iterations", "route_plan"]
 
 
 def problems(root: Path, per_scenario: int | None, scenarios: list[str] | None) -> list[tuple[str, Path, Path]]:
@@ -94,6 +94,7 @@ def plan_and_simulate(task: Any, folder: Path, simulate: bool) -> dict[str, Any]
         "toppra_s": search.get("toppra_duration_s", np.nan), "limiting": search.get("limiting", ""),
         "path_length_rad": float(np.abs(np.diff(plan.q[:, 3:], axis=0)).sum()),
         "iterations": info.get("iterations", -1),
+        "route_plan": bool(info.get("fallback", {}).get("kept", False)),  # the route judged as the plan
         "min_clearance_m": np.nan if plan.verdict.clearance is None else plan.verdict.clearance.get("min_m",
                                                                                                    np.nan),
     }
@@ -156,7 +157,10 @@ def summary(rows: list[dict[str, Any]], command: str) -> str:
               f"without a touch or a failure, {len(feasible) - sim_ok} did not.",
               f"- Durations: forte's over toppra's time-optimal one along the same route, median "
               f"{np.nanmedian(ratio) if ratio else float('nan'):.2f} (no payload: toppra's x 1.5, longer where "
-              "the verdict asked for slower rounds)."]
+              "the verdict asked for slower rounds).",
+              f"- Plans that are the route itself (the optimized plan was not feasible; the route, timed by "
+              f"toppra, judged feasible as it is): {sum(str(r.get('route_plan')) == 'True' for r in feasible)} "
+              f"of the {len(feasible)} feasible plans."]
     reasons: dict[str, int] = {}
     for r, good in zip(rows, ok, strict=True):
         if not good:
