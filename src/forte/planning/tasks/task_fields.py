@@ -269,7 +269,7 @@ _SCENE = [
 ]
 
 _SOLVER_DOCS = {
-    "max_iter": (integer(1, 10**9), "IPOPT iteration limit", ""),
+    "max_iter": (integer(1, 10**9), "IPOPT iteration limit (a goal task: 200 unless given)", ""),
     "tol": (number(above=0, high=1e12), "IPOPT convergence tolerance", ""),
     "constraint_tol": (number(above=0, high=1e12), "accepted constraint violation of a successful result", ""),
     "codegen": (BOOL, "generate, compile and cache C code for the NLP (a C compiler; else the CasADi VM)", ""),
