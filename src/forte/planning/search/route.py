@@ -69,7 +69,8 @@ def route_path(task: Task) -> tuple[FloatArray | None, dict[str, Any]]:
         if not segment_free(checker, q0, q1, SEGMENT_RESOLUTION):
             found = find_path(task.robot, task.scene, q0, q1, task.clearance, time_limit=SEARCH_TIME_LIMIT,
                               seed=task.solver.hold_seed)
-            facts |= {"searched": True, "states": found.states, "checks": found.checks}
+            facts |= {"searched": True, "states": found.states, "checks": found.checks,
+                      "shortcut_s": found.shortcut_s}
             if not found.found:
                 return None, facts | {"time_s": time.perf_counter() - begin, "reason": f"search: {found.reason}"}
             facts["time_s"] = time.perf_counter() - begin

@@ -51,7 +51,8 @@ PLANNERS = ("rrtconnect",)
 class SearchResult(NamedTuple):
     """``q``: M x nq waypoints from start to goal (``None`` when not found); ``reason``: why not
     (``""`` when found); ``states``: states the planner sampled; ``checks``: validity checks;
-    ``time_s``: wall time of the whole search."""
+    ``time_s``: wall time of the whole search, of which ``shortcut_s`` went to shortcutting the
+    found path."""
 
     q: FloatArray | None
     found: bool
@@ -59,6 +60,7 @@ class SearchResult(NamedTuple):
     states: int
     checks: int
     time_s: float
+    shortcut_s: float = 0.0
 
 
 def ompl_modules() -> tuple[Any, Any, Any]:
@@ -108,23 +110,25 @@ def find_path(robot: MobileManipulator, scene: Scene, q_start: Any, q_goal: Any,
             return SearchResult(None, False, f"{label} configuration in collision: {checker.why(q)}", 0,
                                 checker.checks, time.perf_counter() - t0)
     margin = StateChecker(robot, scene, clearance + SEARCH_MARGIN, floor)
-    path, states = None, 0
+    path, states, shortcut = None, 0, 0.0
     if margin.valid(q_start) and margin.valid(q_goal):  # first with the margin, for part of the time
-        path, states = _search(robot, margin, q_start, q_goal, MARGIN_SHARE * time_limit, seed)
+        path, states, shortcut = _search(robot, margin, q_start, q_goal, MARGIN_SHARE * time_limit, seed)
         checker.checks += margin.checks
     if path is None:  # the margin may close a narrow passage the asked clearance leaves open
-        path, more = _search(robot, checker, q_start, q_goal, time_limit - (time.perf_counter() - t0), seed)
+        left = time_limit - (time.perf_counter() - t0)
+        path, more, shortcut = _search(robot, checker, q_start, q_goal, left, seed)
         states += more
     elapsed = time.perf_counter() - t0
     if path is None:
         return SearchResult(None, False, f"no collision-free path in {time_limit:g} s ({states} states sampled)",
                             states, checker.checks, elapsed)
-    return SearchResult(path, True, "", states, checker.checks, elapsed)
+    return SearchResult(path, True, "", states, checker.checks, elapsed, shortcut)
 
 
 def _search(robot: MobileManipulator, checker: StateChecker, q_start: FloatArray, q_goal: FloatArray,
-            time_limit: float, seed: int) -> tuple[FloatArray | None, int]:
-    """RRT-Connect, shortcut and interpolated; the path (or ``None``) and the states sampled."""
+            time_limit: float, seed: int) -> tuple[FloatArray | None, int, float]:
+    """RRT-Connect, shortcut and interpolated; the path (or ``None``), the states sampled and the
+    shortcut's time (s)."""
     ob, og, ou = ompl_modules()
     ou.setLogLevel(ou.LogLevel.LOG_NONE)  # re-seeding after an earlier search logs an error, yet
     ou.RNG.setSeed(int(seed) + 1)  # every generator made after it (planner, sampler) is seeded; 0 = none
@@ -157,11 +161,13 @@ def _search(robot: MobileManipulator, checker: StateChecker, q_start: FloatArray
     setup.getPlannerData(data)
     states = int(data.numVertices())
     if not solved:
-        return None, states
+        return None, states, 0.0
+    begin = time.perf_counter()
     setup.simplifySolution()
+    shortcut = time.perf_counter() - begin
     path = setup.getSolutionPath()
     path.interpolate(max(path.getStateCount(), int(np.ceil(path.length() / SPACING)) + 1))
     out = np.repeat(q_start[None], path.getStateCount(), axis=0)
     for k in range(path.getStateCount()):
         out[k, joints] = [path.getState(k)[i] for i in range(len(joints))]
-    return out, states
+    return out, states, shortcut
