@@ -96,7 +96,7 @@ def failed_rows(opt: TrajectoryOptimizer, sol: SolverResult, task: Any, force: A
     pose = excess[: 6 * opt._pose_steps.size].reshape(-1, 6)
     pose_norm = np.linalg.norm(pose, axis=1) if pose.size else np.zeros(0)
     pose_miss = float(pose_norm.max(initial=0.0))
-    first = g.size - opt._clear_index.size - opt._lateral
+    first = g.size - opt._clear_index.size - opt._lateral - opt._keep_steps.size
     clear = excess[first:first + opt._clear_index.size]
     names = list(task.scene.names) + ([FLOOR] if task.scene.floor is not None else [])
     rows = _clearance_rows(opt, names)
