@@ -240,3 +240,38 @@ def test_a_bad_waypoint_orientation_exits_2_with_one_line(tmp_path, capsys):
     start = copy.deepcopy(waypoint_task([{"rpy": [0.0, 0.0, 0.0]}, None]))
     code, err = _cli(tmp_path, capsys, start)
     assert code == 2 and "path.waypoints[0].orientation: differs by" in err, err
+
+
+def test_a_failed_solve_names_the_tilt_it_could_not_keep():
+    """The failure diagnosis of a last iterate that tilts: the waypoint with the largest excess over
+    max_tilt (deg), from the rows, against the exact tilt of Pinocchio's rotation there."""
+    from types import SimpleNamespace
+
+    from forte.planning.scene.diagnosis import failed_rows
+
+    free_task, kept_task = goal_task(None), goal_task(LEVEL)
+    q = free_task.goal.motion(free_task.q_init, free_task.t)  # the straight line: it tilts on the way
+    opt = TrajectoryOptimizer(kept_task.robot, kept_task.n, goal="configuration", keep_level=kept_task.keep_level)
+    failed = failed_rows(opt, SimpleNamespace(q=q), kept_task, kept_task.force())
+    tilt = np.degrees(tilt_angles(kept_task.keep_level, np.array([kept_task.robot.ee_pose(qk)[:3, :3] for qk in q])))
+    k = int(np.argmax(np.where(np.isin(np.arange(len(q)), opt._keep_steps), tilt, -np.inf)))
+    assert tilt[k] > 10.0
+    assert failed.kind == "keep_level" and failed.waypoint == k
+    assert failed.short == pytest.approx(tilt[k] - 10.0, abs=1e-6)
+    assert failed.sentence().startswith(f"tilted: the end effector {tilt[k] - 10.0:.3g} deg beyond keep_level's")
+
+
+def test_around_a_wall_the_hand_stays_level_with_the_clearance_rows():
+    """examples/tasks/around-the-wall.yaml (the route found by the search, the wall's clearance rows)
+    with ``keep_level``: the free plan tilts the hand far beyond 12 deg on its way round; the kept one
+    stays within on the executed spline, clear of the wall, feasible."""
+    spec = yaml.safe_load((ROOT / "examples" / "tasks" / "around-the-wall.yaml").read_text())
+    keep = KeepLevel(axis_vector("-z"), axis_vector("z"), np.radians(12), "-z", "z")
+    free = plan(task_from_dict(spec))
+    spec["path"]["keep_level"] = {"axis": "-z", "max_tilt_deg": 12}
+    task = task_from_dict(spec)
+    kept = plan(task)
+    assert free.verdict.feasible and kept.verdict.feasible, (free.verdict.reason(), kept.verdict.reason())
+    assert spline_tilt(task, keep, free.t, free.q)[0].max() > 30.0  # measured: 62.6 deg
+    assert spline_tilt(task, keep, kept.t, kept.q)[0].max() <= 12.0 + 1e-4  # measured: 11.95 deg
+    assert "keep_level" in kept.verdict.checked and kept.verdict.clearance["min_m"] >= task.clearance

@@ -7,6 +7,8 @@
 
 A goal task (``goal``) has a free path: its pose rows are the goal's alone (a pose goal:
 ``x(q_N) = x_goal``; a configuration goal: none, ``q_N = q_goal`` by the variables' bounds).
+``keep_level`` adds ``w . R(q_k) a >= cos(max_tilt)`` at the waypoints the solver orients, after
+every other row (:mod:`forte.planning.nlp.keep_level_rows`).
 
 Design:
 

@@ -5,7 +5,8 @@ carry an ``orientation``, joined by slerp with the same blend, :func:`slerp_path
 ``windowed-sine`` (the paper's Section 5.2 formula) and ``taught`` (timed whole-body
 configurations: their forward kinematics joined by Cartesian quintic blends and slerp). A path
 must start at the initial end-effector pose (:func:`starting_at`) and, for a plan that ends at
-rest, holds its final pose over the last samples (:func:`ending_at_rest`).
+rest, holds its final pose over the last samples (:func:`ending_at_rest`). Every kind, goals
+included, may keep a tool axis level (``path.keep_level``, :mod:`forte.planning.tasks.keep_level`).
 """
 
 from __future__ import annotations
