@@ -169,7 +169,8 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
     - ``velocity``, ``acceleration``: the NLP's limit of each coordinate (base and arm velocities,
       arm accelerations) that exceeds its limit on the spline by the ratio ``x`` becomes
       ``min(limit, largest waypoint value) / (1.05 x)``;
-    - ``keep_level``: the NLP's tilt limit drops by twice the spline's excess over the task's
+    - ``keep_level`` (a goal task: a given path fixes its orientations, the NLP has no such rows):
+      the NLP's tilt limit drops by twice the spline's excess over the task's
       (:func:`~forte.planning.tasks.keep_level.tightened`; its rows hold at the waypoints only).
 
     The metrics, the cost terms and the verdict keep the task's own radii and limits. At most
@@ -177,7 +178,8 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
     ``info["refinement"]`` records the rounds. Returns the kept plan, its facts, its verdict and the
     force it was judged with (:func:`judged`; a goal task's: its own motion's).
     """
-    fixable = {"velocity", "acceleration", "keep_level"} | ({"capacity"} if uses_capability(spec) else set())
+    fixable = {"velocity", "acceleration"} | ({"capacity"} if uses_capability(spec) else set())
+    fixable |= {"keep_level"} if task.goal is not None else set()  # a given path has no keep_level rows
     if not sol.success or not verdict.failed or not set(verdict.failed) <= fixable or not task.solver.refine_rounds:
         return sol, info, verdict, force
     radius = force.r.copy()
