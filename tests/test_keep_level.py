@@ -4,7 +4,6 @@ waypoints of a Cartesian path (slerp between them)."""
 
 from __future__ import annotations
 
-import copy
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -87,7 +86,7 @@ def test_the_rows_derivatives_match_finite_differences():
     nq, eps = task.robot.nq, 1e-6
     for row, k in enumerate(steps):
         fd = np.array([(cos(q[k] + eps * e) - cos(q[k] - eps * e)) / (2 * eps) for e in np.eye(nq)])
-        dense = np.asarray(jac[-4 + row]).ravel() if jac.ndim == 2 else None
+        dense = jac[-4 + row].ravel()
         np.testing.assert_allclose(dense[k * nq:(k + 1) * nq], fd, atol=1e-7)
         assert np.count_nonzero(np.delete(dense, np.arange(k * nq, (k + 1) * nq))) == 0
     lam = np.zeros(g.size)
@@ -190,7 +189,7 @@ def waypoint_task(orientations: list[Any], **path: Any) -> dict[str, Any]:
 def test_waypoint_orientations_are_met_at_the_waypoints_and_slerped_between():
     """The targets' rotations at the waypoint times are the given ones (rpy or quaternion, read as the
     goal pose's); between them the turn is about one axis, monotone, at rest at the waypoints."""
-    R0 = default_robot_panda_start()
+    R0 = panda_start_rotation()
     turn = pin.rpy.rpyToMatrix(0.0, 0.0, np.radians(45))  # 45 deg about the vertical
     R1 = turn @ R0
     quat = pin.Quaternion(R1)
@@ -209,7 +208,7 @@ def test_waypoint_orientations_are_met_at_the_waypoints_and_slerped_between():
     assert angles[1] < 1e-3 * angles[-1]  # at rest at the waypoint (the quintic blend)
 
 
-def default_robot_panda_start() -> np.ndarray:
+def panda_start_rotation() -> np.ndarray:
     task = task_from_dict(waypoint_task([None, None]))
     return task.robot.ee_pose(task.q_init)[:3, :3]
 
@@ -221,7 +220,7 @@ def test_without_orientations_the_path_holds_the_start_orientation():
 
 
 def test_a_plan_that_turns_the_hand_45_degrees_is_feasible():
-    R0 = default_robot_panda_start()
+    R0 = panda_start_rotation()
     R1 = pin.rpy.rpyToMatrix(0.0, 0.0, np.radians(45)) @ R0
     spec = waypoint_task([None, {"rpy": pin.rpy.matrixToRpy(R1).tolist()}, None], keep_level=LEVEL)
     task = task_from_dict(spec)
@@ -237,8 +236,7 @@ def test_a_bad_waypoint_orientation_exits_2_with_one_line(tmp_path, capsys):
     code, err = _cli(tmp_path, capsys, spec)
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert "path.waypoints[1].orientation.quaternion: expected a unit quaternion" in err, err
-    start = copy.deepcopy(waypoint_task([{"rpy": [0.0, 0.0, 0.0]}, None]))
-    code, err = _cli(tmp_path, capsys, start)
+    code, err = _cli(tmp_path, capsys, waypoint_task([{"rpy": [0.0, 0.0, 0.0]}, None]))
     assert code == 2 and "path.waypoints[0].orientation: differs by" in err, err
 
 
