@@ -62,6 +62,8 @@ def _probes() -> dict[str, dict[str, Any]]:
                                                       "amplitude": [0.01, 0, 0], "frequency": [1, 0, 0]}),
         "path|taught": _with(BASE, ("path",), {"kind": "taught", "samples": 5, "configurations": TAUGHT}),
         "path.waypoints[]": _with(BASE, ("path", "waypoints", 0), WAYPOINTS[0]),
+        "path.waypoints[].orientation": _with(BASE, ("path", "waypoints", 1, "orientation"), {"rpy": [0, 0, 0]}),
+        "path.keep_level": _with(BASE, ("path", "keep_level"), {"axis": "-z", "max_tilt_deg": 10}),
         "path.orientation": _with(BASE, ("path", "orientation"), {"rpy": [0, 0, 0]}),
         "path|goal": _with(BASE, ("path",), GOAL),
         "path.pose": _with({**BASE, "path": POSE_GOAL}, ("path", "pose"), POSE_GOAL["pose"]),

@@ -152,7 +152,7 @@ def _pose(r: Reader, robot: MobileManipulator, q_init: FloatArray) -> tuple[Floa
 def read_goal(r: Reader, robot: MobileManipulator, q_init: FloatArray, limits: KinematicLimits,
               waypoints: int | None) -> tuple[FloatArray, Goal]:
     """``path: {kind: goal, ...}``: the sample times and the :class:`Goal`."""
-    r.unknown({"kind", "samples", "rate"} | GOAL_FIELDS)
+    r.unknown({"kind", "samples", "rate", "keep_level"} | GOAL_FIELDS)  # keep_level: tasks/keep_level.py
     if r.has("configuration") == r.has("pose"):
         raise r.error("configuration", "give exactly one of configuration (whole-body) and pose")
     pose = None

@@ -28,6 +28,7 @@ from forte.planning.tasks.contact_section import (
     MAX_STIFFNESS,
 )
 from forte.planning.tasks.goals import DEFAULT_GOAL_SAMPLES, GOAL_ANGLE_TOL, GOAL_POSITION_TOL
+from forte.planning.tasks.keep_level import AXES
 from forte.planning.tasks.scene_section import DEFAULT_CLEARANCE, MAX_LENGTH_M
 from forte.planning.tasks.task_types import (
     BOOL,
@@ -163,6 +164,7 @@ _PATH = [
           when=WAYPOINTS),
     Field("path.waypoints[].t", TIME, "the time of the waypoint (increasing)", "s", required=True),
     Field("path.waypoints[].position", VEC3, "the end effector's position (world, or relative)", "m", required=True),
+    *_rotation("path.waypoints[]", "the waypoint before's (the first: path.orientation); joined by slerp"),
     Field("path.relative", BOOL, "positions relative to the initial end-effector position", default=False,
           when=WAYPOINTS),
     Field("path.configurations", items_of(min_items=2), "timed whole-body configurations (their forward "
@@ -189,6 +191,13 @@ _PATH = [
     Field("path.amplitude", VEC3, "a in w(t) (c + a sin(2 pi f t + phi))", "m", required=True, when=SINE),
     Field("path.frequency", VEC3, "f in w(t) (c + a sin(2 pi f t + phi))", "Hz", required=True, when=SINE),
     Field("path.phase", VEC3, "phi in w(t) (c + a sin(2 pi f t + phi))", "rad", ZERO3, when=SINE),
+    Field("path.keep_level", MAPPING, "keep a tool axis near a world axis along the whole plan (a tray, an open "
+          "cup; any path kind): arccos(w . R a) <= max_tilt", default=Prose("none")),
+    Field("path.keep_level.axis", choice(AXES), "the world axis w (sign included: z is up)", default="z"),
+    Field("path.keep_level.max_tilt_deg", number(above=0, below=180), "the largest angle between the tool axis "
+          "and the world axis", "deg", required=True),
+    Field("path.keep_level.tool_axis", choice(AXES), "the end effector's axis a (-z: a hand pointing down)",
+          default="z"),
 ]
 
 _POSE = [
