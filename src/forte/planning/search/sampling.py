@@ -94,9 +94,13 @@ def space_bounds(robot: MobileManipulator, q_start: FloatArray, q_goal: FloatArr
 
 def find_path(robot: MobileManipulator, scene: Scene, q_start: Any, q_goal: Any, clearance: float = 0.0, *,
               time_limit: float = 2.0, seed: int = 0, planner: str = "rrtconnect",
-              floor: float | None = None) -> SearchResult:
+              floor: float | None = None, checks: int | None = None) -> SearchResult:
     """A collision-free path from ``q_start`` to ``q_goal`` (whole-body, nq each) with the scene
-    distance >= ``clearance`` (m) everywhere (module docstring); ``floor`` replaces the scene's."""
+    distance >= ``clearance`` (m) everywhere (module docstring); ``floor`` replaces the scene's.
+
+    The search stops at ``time_limit`` (s) or, when given, after ``checks`` state checks: a budget
+    of checks makes the outcome the same on a busy machine as on an idle one (a seed repeats its
+    path), where a time limit finds less the busier the machine."""
     t0 = time.perf_counter()
     if planner not in PLANNERS:
         raise InvalidInputError(f"planner: expected one of {', '.join(PLANNERS)}, got {planner!r}")
@@ -112,23 +116,25 @@ def find_path(robot: MobileManipulator, scene: Scene, q_start: Any, q_goal: Any,
     margin = StateChecker(robot, scene, clearance + SEARCH_MARGIN, floor)
     path, states, shortcut = None, 0, 0.0
     if margin.valid(q_start) and margin.valid(q_goal):  # first with the margin, for part of the time
-        path, states, shortcut = _search(robot, margin, q_start, q_goal, MARGIN_SHARE * time_limit, seed)
+        budget = None if checks is None else int(MARGIN_SHARE * checks)
+        path, states, shortcut = _search(robot, margin, q_start, q_goal, (MARGIN_SHARE * time_limit, budget), seed)
         checker.checks += margin.checks
     if path is None:  # the margin may close a narrow passage the asked clearance leaves open
-        left = time_limit - (time.perf_counter() - t0)
+        left = (time_limit - (time.perf_counter() - t0), None if checks is None else checks - checker.checks)
         path, more, shortcut = _search(robot, checker, q_start, q_goal, left, seed)
         states += more
     elapsed = time.perf_counter() - t0
     if path is None:
-        return SearchResult(None, False, f"no collision-free path in {time_limit:g} s ({states} states sampled)",
-                            states, checker.checks, elapsed)
+        spent = f"{checker.checks} state checks" if checks is not None and elapsed < time_limit else f"{time_limit:g} s"
+        return SearchResult(None, False, f"no collision-free path in {spent} ({states} states sampled, "
+                            f"{elapsed:.1f} s)", states, checker.checks, elapsed)
     return SearchResult(path, True, "", states, checker.checks, elapsed, shortcut)
 
 
 def _search(robot: MobileManipulator, checker: StateChecker, q_start: FloatArray, q_goal: FloatArray,
-            time_limit: float, seed: int) -> tuple[FloatArray | None, int, float]:
-    """RRT-Connect, shortcut and interpolated; the path (or ``None``), the states sampled and the
-    shortcut's time (s)."""
+            limit: tuple[float, int | None], seed: int) -> tuple[FloatArray | None, int, float]:
+    """RRT-Connect until ``limit`` (seconds, and state checks when not ``None``), shortcut and
+    interpolated; the path (or ``None``), the states sampled and the shortcut's time (s)."""
     ob, og, ou = ompl_modules()
     ou.setLogLevel(ou.LogLevel.LOG_NONE)  # re-seeding after an earlier search logs an error, yet
     ou.RNG.setSeed(int(seed) + 1)  # every generator made after it (planner, sampler) is seeded; 0 = none
@@ -156,7 +162,13 @@ def _search(robot: MobileManipulator, checker: StateChecker, q_start: FloatArray
         start[i], goal[i] = float(q_start[j]), float(q_goal[j])
     setup.setStartAndGoalStates(start, goal)
     setup.setPlanner(og.RRTConnect(info))
-    solved = setup.solve(float(time_limit)) and setup.haveExactSolutionPath()
+    seconds, budget = limit
+    stop = ob.timedPlannerTerminationCondition(max(float(seconds), 0.0))
+    if budget is not None:
+        first = checker.checks
+        spent = ob.PlannerTerminationCondition(lambda: checker.checks - first >= budget)
+        stop = ob.plannerOrTerminationCondition(stop, spent)
+    solved = setup.solve(stop) and setup.haveExactSolutionPath()
     data = ob.PlannerData(info)
     setup.getPlannerData(data)
     states = int(data.numVertices())
