@@ -313,3 +313,68 @@ def test_an_occupancy_knows_its_cells():
     assert occ.occupied(np.array([[0.05, 0.05, 0.35], [-0.05, 0.05, 0.35], [5.0, 5, 5]])).tolist() == [True, False,
                                                                                                     False]
     assert occ.centres() == pytest.approx(np.array([[0.05, 0.05, 0.35]]))
+
+
+def test_the_k_d_tree_broad_phase_equals_the_dense_one():
+    """Past SPHERE_CULL_BODIES small bodies, pair_distances finds near pairs in a k-d tree: the same
+    distances below the cutoff as measuring every pair, and never more than the true distance."""
+    from forte.model.body_spheres import primitive_centres, robot_primitives
+    from forte.planning.nlp.collision_slots import SPHERE_CULL_BODIES, body_proxies, pair_distances
+
+    robot = default_robot()
+    primitives = robot_primitives(robot)
+    rng = np.random.default_rng(4)
+    cells = rng.uniform([0.3, -0.6, 0.05], [1.2, 0.6, 1.2], (400, 3))
+    occ = occupancy(cells, 0.05)
+    scene = Scene((*box_objects("c", occ), SceneObject("tilted", Box((0.2, 0.3, 0.4)),
+                                                       pose_matrix([1.0, 0.5, 0.5, 0.3, 0, 0.7]))), 0.0)
+    assert len(scene.objects) > SPHERE_CULL_BODIES
+    q = np.array([np.r_[x, 0.2 * x, 0.3 * x, robot.home_arm] for x in np.linspace(-0.5, 0.5, 6)])
+    centres = np.stack([primitive_centres(robot, qk, primitives) for qk in q])
+    proxies = body_proxies(scene)
+    full = pair_distances(centres, primitives, proxies)
+    for cutoff in (0.05, 0.3):
+        culled = pair_distances(centres, primitives, proxies, cutoff)
+        near = full < cutoff
+        assert near.any() and np.array_equal(culled < cutoff, near)
+        assert culled[near] == pytest.approx(full[near], abs=1e-12)
+        assert np.all(culled <= full + 1e-12)
+
+
+def _crate_task(tmp_path, scene):
+    return {"name": "sensed-crate", "path": {"kind": "waypoints", "relative": True, "samples": 41, "waypoints": [
+        {"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 8.0, "position": [2.4, 0.0, 0.0]}]},
+        "payload": {"mass": 1.0}, "scene": scene}
+
+
+@pytest.mark.slow
+def test_a_cloud_of_a_crate_and_the_crate_give_plans_of_the_same_clearance_within_a_voxel(tmp_path):
+    """The crate of test_scene_planning as a box and as a cloud sampled on its faces (and with 1 cm
+    noise): every plan keeps the clearance from the true crate (coal, between waypoints too), the
+    clean cloud's plan within a voxel of the box's, and it runs in MuJoCo without a touch."""
+    import forte
+    from forte.model.clearance import clearances
+    from forte.planning.tasks.tasks import task_from_dict
+    from forte.planning.verdict.motion_samples import sample_motion
+
+    lo, hi = np.array([1.25, -0.3, 0.0]), np.array([1.75, 0.3, 0.45])
+    crate = Scene((SceneObject("crate", Box(tuple(hi - lo)), pose_matrix([*(lo + hi) / 2, 0, 0, 0])),), 0.0)
+    points = box_surface(lo, hi, 0.005)
+    np.save(tmp_path / "crate.npy", points)
+    np.save(tmp_path / "noisy.npy", points + np.random.default_rng(0).normal(0, 0.01, points.shape))
+    true_clearance = {}
+    for label, entry in (("box", {"box": {"size": (hi - lo).tolist()}, "pose": [*(lo + hi) / 2, 0, 0, 0]}),
+                         ("cloud", {"point_cloud": {"file": "crate.npy", "voxel": VOXEL}, "pose": [0] * 6}),
+                         ("noisy", {"point_cloud": {"file": "noisy.npy", "voxel": VOXEL}, "pose": [0] * 6})):
+        task = task_from_dict(_crate_task(tmp_path, [{"name": "crate", **entry}]), tmp_path / f"{label}.yaml")
+        plan = forte.plan(task)
+        assert plan.feasible, (label, plan.verdict)
+        samples = sample_motion(plan.robot, plan.t, plan.q).q
+        true_clearance[label] = float(clearances(plan.robot, crate, samples).distance.min())
+        assert true_clearance[label] >= task.clearance, label
+        if label == "cloud":
+            assert len(task.scene.objects) <= 12
+            from test_scene_planning import _simulated_without_contact
+
+            _simulated_without_contact(plan, tmp_path)
+    assert abs(true_clearance["cloud"] - true_clearance["box"]) <= VOXEL, true_clearance
