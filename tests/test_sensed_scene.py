@@ -378,3 +378,58 @@ def test_a_cloud_of_a_crate_and_the_crate_give_plans_of_the_same_clearance_withi
 
             _simulated_without_contact(plan, tmp_path)
     assert abs(true_clearance["cloud"] - true_clearance["box"]) <= VOXEL, true_clearance
+
+
+def _example():
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "sensed_scene.py"
+    spec = importlib.util.spec_from_file_location("sensed_scene_example", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_examples_depth_image_is_what_its_script_renders():
+    example = _example()
+    stored = read_depth(example.IMAGE)
+    assert stored.shape == (example.HEIGHT, example.WIDTH)
+    assert np.array_equal(stored, np.round(example.render() * 1000))
+    text = (example.IMAGE.parent / "sensed-crate.yaml").read_text()
+    entry = yaml.safe_load(text)["scene"][0]
+    assert entry["pose"] == pytest.approx(example.CAMERA_POSE, abs=1e-6)
+    assert entry["depth_image"]["intrinsics"] == pytest.approx(dict(example.INTRINSICS._asdict()))
+    assert entry["capture_configuration"] == pytest.approx(default_robot().home().tolist(), abs=1e-3)
+    from forte.planning.tasks.tasks import load_task, task_from_dict
+
+    robot = default_robot()
+    data = yaml.safe_load(text)
+    del data["scene"][0]["capture_configuration"]
+    unfiltered = task_from_dict(data, example.IMAGE.parent / "sensed-crate.yaml")
+    filtered = load_task(example.IMAGE.parent / "sensed-crate.yaml")
+    for task, arm_seen in ((unfiltered, True), (filtered, False)):
+        centres = np.array([o.pose[:3, 3] for o in task.scene.objects])
+        assert (robot_cover_distance(centres, robot, robot.home()).min() < 0) == arm_seen
+
+
+@pytest.mark.slow
+def test_the_sensed_crate_example_keeps_clear_of_the_true_scene_and_runs_without_a_touch(tmp_path):
+    """examples/tasks/sensed-crate.yaml: the plan from the depth image keeps the clearance from the
+    true crate and table (coal, between waypoints too) and runs in MuJoCo, among the sensed boxes,
+    without a touch; the arm the camera saw is not in the scene."""
+    from test_scene_planning import _simulated_without_contact
+
+    import forte
+    from forte.model.clearance import clearances
+    from forte.planning.verdict.motion_samples import sample_motion
+
+    example = _example()
+    task = forte.load_task(example.IMAGE.parent / "sensed-crate.yaml")
+    robot = task.robot
+    centres = np.array([o.pose[:3, 3] for o in task.scene.objects])
+    assert robot_cover_distance(centres, robot, task.q_init).min() > 0.03  # the arm was filtered out
+    plan = forte.plan(task)
+    assert plan.feasible, plan.verdict
+    samples = sample_motion(plan.robot, plan.t, plan.q).q
+    assert clearances(plan.robot, example.TRUE_SCENE, samples).distance.min() >= task.clearance
+    _simulated_without_contact(plan, tmp_path)

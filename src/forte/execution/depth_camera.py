@@ -45,11 +45,20 @@ def pixel_rays(intrinsics: Intrinsics, width: int, height: int) -> FloatArray:
 
 
 def ray_depth(scene: Scene, pose: Any, intrinsics: Intrinsics, width: int, height: int,
-              max_range: float = 10.0) -> FloatArray:
-    """The depth image (H x W, m) of ``scene`` from a camera whose optical frame is at ``pose`` (4x4)."""
-    model = scene_model(scene)
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
+              max_range: float = 10.0, robot: Any = None, q: Any = None) -> FloatArray:
+    """The depth image (H x W, m) of ``scene`` from a camera whose optical frame is at ``pose``
+    (4x4); with ``robot``, the robot (MuJoCo's model of it, :mod:`forte.execution.model`) stands
+    in the scene at whole-body configuration ``q`` and is seen too."""
+    if robot is None:
+        model = scene_model(scene)
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+    else:
+        from forte.execution.model import build_sim_model
+
+        sim = build_sim_model(robot, scene=scene)
+        sim.set_state(q)
+        model, data = sim.model, sim.data
     d = pixel_rays(intrinsics, width, height).reshape(-1, 3)
     norm = np.linalg.norm(d, axis=1)
     pose = np.asarray(pose, dtype=float)
