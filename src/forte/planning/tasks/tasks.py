@@ -350,7 +350,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     if not isinstance(require_capacity, bool):
         raise reader.error("require_capacity", f"expected true or false, got {require_capacity!r}")
     name = str(reader.get("name", path.stem if path else "task"))
-    scene, clearance = scene_section(reader, base), clearance_value(reader)
+    scene, clearance = scene_section(reader, base, robot), clearance_value(reader)
     start_field = "initial_configuration" if reader.has("initial_configuration") else \
         "path.configurations[0].q" if knots is not None else "robot.home_arm"
     check_floor(reader, robot, q_init, scene, clearance, mode != "hold", start_field)
