@@ -41,6 +41,9 @@ CONTACT = {"push-box": {"kind": "push-box", "mass": 5.0, "friction": 0.3},
 SHAPES = {"box": {"size": [0.1, 0.1, 0.1]}, "cylinder": {"radius": 0.1, "length": 0.2}, "sphere": {"radius": 0.1},
           "capsule": {"radius": 0.1, "length": 0.2}, "mesh": {"file": "none.stl"}}
 
+SENSED = {"point_cloud": {"file": "none.ply"},
+          "depth_image": {"file": "none.npy", "intrinsics": {"fx": 500, "fy": 500, "cx": 320, "cy": 240}}}
+
 
 def _with(task: dict[str, Any], where: tuple[Any, ...], value: dict[str, Any]) -> dict[str, Any]:
     """``task`` with the mapping at ``where`` (keys and list indices) replaced by ``value`` plus a bogus field."""
@@ -64,6 +67,8 @@ def _probes() -> dict[str, dict[str, Any]]:
                                                       "amplitude": [0.01, 0, 0], "frequency": [1, 0, 0]}),
         "path|taught": _with(BASE, ("path",), {"kind": "taught", "samples": 5, "configurations": TAUGHT}),
         "path.waypoints[]": _with(BASE, ("path", "waypoints", 0), WAYPOINTS[0]),
+        "path.waypoints[].orientation": _with(BASE, ("path", "waypoints", 1, "orientation"), {"rpy": [0, 0, 0]}),
+        "path.keep_level": _with(BASE, ("path", "keep_level"), {"axis": "-z", "max_tilt_deg": 10}),
         "path.orientation": _with(BASE, ("path", "orientation"), {"rpy": [0, 0, 0]}),
         "path|goal": _with(BASE, ("path",), GOAL),
         "path.pose": _with({**BASE, "path": POSE_GOAL}, ("path", "pose"), POSE_GOAL["pose"]),
@@ -96,6 +101,11 @@ def _probes() -> dict[str, dict[str, Any]]:
     }
     for kind, shape in SHAPES.items():
         probes[f"scene[].{kind}"] = {**BASE, "scene": [{kind: {**shape, BOGUS: 1}, "pose": [5, 5, 0, 0, 0, 0]}]}
+    for kind, sensed in SENSED.items():
+        probes[f"scene[].{kind}"] = {**BASE, "scene": [{kind: {**sensed, BOGUS: 1}, "pose": [5, 5, 0, 0, 0, 0]}]}
+    probes["scene[].depth_image.intrinsics"] = {**BASE, "scene": [{"depth_image": {
+        **SENSED["depth_image"], "intrinsics": {**SENSED["depth_image"]["intrinsics"], BOGUS: 1}},
+        "pose": [5, 5, 0, 0, 0, 0]}]}
     for kind, contact in CONTACT.items():
         probes[f"contact|{kind}"] = _with({k: v for k, v in BASE.items() if k != "payload"}, ("contact",), contact)
     for name in COST_TERMS:

@@ -99,7 +99,7 @@ def solve_clear(task: Task, method: Method, force: TaskForce, q: FloatArray, nom
     if opt is None:
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
                                   options=options, limits=task.limits, settings=task.settings,
-                                  goal=goal_kind(task), via_steps=goal_vias(task))
+                                  goal=goal_kind(task), keep_level=task.keep_level, via_steps=goal_vias(task))
     sol = _solve(opt, task, force, q, nominal)
     if sol.success and floor_near(task, sol.q, task.clearance):
         return solve_in_scene(task, method, force, sol.q, nominal, options)

@@ -103,7 +103,8 @@ def solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatA
                              clear=None if task.goal is None else task.goal.route)
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=fix, options=options,
                                   limits=task.limits, slots=slots, keep_multipliers=keep_multipliers,
-                                  settings=task.settings, goal=goal_kind(task), via_steps=goal_vias(task))
+                                  settings=task.settings, goal=goal_kind(task), keep_level=task.keep_level,
+                                  via_steps=goal_vias(task))
         sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, start, nominal,
                         term_values=term_values(method, force, task.terms), start=task.start_motion,
                         q_goal=goal_configuration(task))

@@ -38,8 +38,11 @@ from forte.validation import FloatArray
 DURATION_MARGIN = 1.5
 #: C-space step (rad or m) of the straight segment's check.
 SEGMENT_RESOLUTION = 0.02
-#: Seconds the search may take.
-SEARCH_TIME_LIMIT = 5.0
+#: State checks the search may spend (about 5 s on this project's 2-core machine when idle): a
+#: budget of checks, not of seconds, so that a busy machine finds the same routes, only later.
+SEARCH_CHECKS = 150_000
+#: Seconds the search may take all the same.
+SEARCH_TIME_LIMIT = 30.0
 #: Dense samples of the timed path, interpolated onto the task's times.
 DENSE_SAMPLES = 400
 
@@ -68,8 +71,9 @@ def segment_path(task: Task, q0: FloatArray, q1: FloatArray) -> tuple[FloatArray
         checker = StateChecker(task.robot, task.scene, task.clearance)
         if not segment_free(checker, q0, q1, SEGMENT_RESOLUTION):
             found = find_path(task.robot, task.scene, q0, q1, task.clearance, time_limit=SEARCH_TIME_LIMIT,
-                              seed=task.solver.hold_seed)
-            facts |= {"searched": True, "states": found.states, "checks": found.checks}
+                              seed=task.solver.hold_seed, checks=SEARCH_CHECKS)
+            facts |= {"searched": True, "states": found.states, "checks": found.checks,
+                      "shortcut_s": found.shortcut_s}
             if not found.found:
                 return None, facts | {"time_s": time.perf_counter() - begin, "reason": f"search: {found.reason}"}
             facts["time_s"] = time.perf_counter() - begin
@@ -92,7 +96,7 @@ def via_paths(task: Task) -> tuple[list[FloatArray] | None, dict[str, Any]]:
         path, leg = segment_path(task, a, b)
         facts["searched"] |= leg["searched"]
         facts["time_s"] += leg["time_s"]
-        for key in ("states", "checks"):
+        for key in ("states", "checks", "shortcut_s"):
             if key in leg:
                 facts[key] = facts.get(key, 0) + leg[key]
         if path is None:

@@ -35,7 +35,8 @@ from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import StartMotion, quintic_path, start_through
 from forte.planning.tasks.contact_section import read_contact
-from forte.planning.tasks.goals import Goal, goal_section, goal_targets
+from forte.planning.tasks.goals import GOAL_MAX_ITER, Goal, goal_section, goal_targets
+from forte.planning.tasks.keep_level import KeepLevel, keep_level_section
 from forte.planning.tasks.motion_section import force_profile, limits_section, path_targets, start_configuration
 from forte.planning.tasks.paths import (
     ForceAt,
@@ -126,6 +127,9 @@ class Task:
     #: A goal task's goal (``path.kind: goal``, :mod:`forte.planning.tasks.goals`): its path is
     #: free and its targets are the forward kinematics of a motion (:meth:`following`).
     goal: Goal | None = None
+    #: ``path.keep_level``: a tool axis kept near a world axis along the plan
+    #: (:mod:`forte.planning.tasks.keep_level`); ``None``: no orientation constraint.
+    keep_level: KeepLevel | None = None
 
     def with_weights(self, weight_set: WeightSet) -> Task:
         """The task with a named set's weights and term settings (the task's own ``terms:``
@@ -345,16 +349,18 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     if force_at is not None and reader.has("force_model"):
         raise reader.error("force_model", "sets a payload's force; this task gives its force profile directly")
     weights, settings = read_weights(reader, mode, robot)
-    solver = dataclass_from(reader, "solver", SolverOptions, SolverOptions())
+    solver = dataclass_from(reader, "solver", SolverOptions,
+                            SolverOptions() if goal is None else SolverOptions(max_iter=GOAL_MAX_ITER))
     if targets_at is not None and limits.end_at_rest:
         t, targets_at = ending_at_rest(targets_at, t)
         targets = targets_at(t)
         force_at = force_with_hold(force_at, targets_at, t)
+    keep_level = keep_level_section(reader, robot, q_init, t, targets, goal) if mode == "trajectory" else None
     require_capacity = reader.get("require_capacity", False)
     if not isinstance(require_capacity, bool):
         raise reader.error("require_capacity", f"expected true or false, got {require_capacity!r}")
     name = str(reader.get("name", path.stem if path else "task"))
-    scene, clearance = scene_section(reader, base), clearance_value(reader)
+    scene, clearance = scene_section(reader, base, robot), clearance_value(reader)
     start_field = "initial_configuration" if reader.has("initial_configuration") else \
         "path.configurations[0].q" if knots is not None else "robot.home_arm"
     check_floor(reader, robot, q_init, scene, clearance, mode != "hold", start_field)
@@ -364,6 +370,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                 solver=solver, teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
                 targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots,
                 radius_rule=radius_rule, force_model=force_model, scene=scene,
-                clearance=clearance, terms=terms_section(reader), contact=contact, goal=goal)
+                clearance=clearance, terms=terms_section(reader), contact=contact, goal=goal,
+                keep_level=keep_level)
 
 

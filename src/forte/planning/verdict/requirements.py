@@ -17,6 +17,8 @@ much. :func:`forte.planning.verdict.verdict.judge` runs the list :data:`REQUIREM
 - :class:`~forte.planning.verdict.base_requirements.BaseMode`: the base moves as its mode allows
   (:attr:`MobileManipulator.base`): a fixed base stays put, a differential drive has no lateral velocity;
 - :class:`Tracking`: the end effector on the task's path (position and orientation);
+- :class:`~forte.planning.verdict.keep_level.TiltLimit`: the tool axis within ``path.keep_level``'s
+  tilt of its world axis;
 - :class:`SelfCollision`: no collision between the arm's URDF collision meshes;
 - :class:`Clearance`: the whole robot (arm collision meshes, base box, payload) keeps the task's
   ``clearance`` from every scene body and the floor (but the parts rigid with the base, which rest
@@ -47,6 +49,7 @@ from forte.planning.verdict.base_requirements import (
     BaseMode,
     Tipover,
 )
+from forte.planning.verdict.keep_level import TiltLimit
 from forte.planning.verdict.motion_samples import MotionSamples
 from forte.planning.verdict.requirement_base import Context, Measure, Requirement, Violation, exceeded
 from forte.validation import FloatArray
@@ -334,10 +337,11 @@ class Solver(Requirement):
 #: that runs into the scene is reported for that first: one line names the pair).
 REQUIREMENTS: tuple[Requirement, ...] = (
     Solver(), Clearance(), Capacity(), TorqueWithForce(), Tipover(), JointPositions(), JointVelocities(),
-    JointAccelerations(), BaseMode(), Tracking(), SelfCollision(),
+    JointAccelerations(), BaseMode(), Tracking(), TiltLimit(), SelfCollision(),
 )
 
 __all__ = ["CONVERGED", "FIXED_BASE_TOL", "LATERAL_SPEED_TOL", "REQUIREMENTS", "SPLINE_LATERAL_SPEED_TOL",
            "BaseMode", "Capacity", "Clearance", "Context", "JointAccelerations", "JointPositions", "JointVelocities",
-           "Measure", "Requirement", "SelfCollision", "Solver", "Tipover", "TorqueWithForce", "Tracking", "Violation",
+           "Measure", "Requirement", "SelfCollision", "Solver", "TiltLimit", "Tipover", "TorqueWithForce", "Tracking",
+           "Violation",
            "exceeded", "orientation_errors", "scene_distances"]
