@@ -210,3 +210,31 @@ def test_bad_pick_and_via_fields_exit_2_with_one_line(tmp_path, capsys, path, ex
     assert len(err.strip().splitlines()) == 1 and message in err, err
     with pytest.raises(TaskFileError):
         task_from_dict(doc)
+
+
+def test_the_rule_the_legs_and_the_attached_force_on_their_own():
+    """``s_i = L_i / L`` by hand; the legs stretched onto their knot times reach each knot there
+    and rest after the last; ``attached_from`` keeps the tool's share and drops ball and moment
+    before the grasp's waypoint only."""
+    from forte.force.taskforce import TaskForce, attached_from
+    from forte.planning.search.route import through_legs
+    from forte.planning.search.timing import Timed
+    from forte.planning.tasks.goal_poses import distance_fractions
+
+    points = np.array([[0.0, 0, 0], [3.0, 0, 0], [3.0, 4.0, 0], [3.0, 4.0, 1.0]])
+    np.testing.assert_allclose(distance_fractions(points), [3 / 8, 7 / 8])
+    np.testing.assert_allclose(distance_fractions(np.zeros((4, 3))), [1 / 3, 2 / 3])
+    leg_t = np.linspace(0.0, 1.0, 11)
+    legs = [Timed(leg_t, np.column_stack([leg_t, leg_t ** 2]), 1.0, ""),
+            Timed(2 * leg_t, np.column_stack([1 + leg_t, 1 - leg_t]), 2.0, "")]
+    t = np.linspace(0.0, 3.0, 13)
+    q = through_legs(t, np.array([0.0, 1.0, 2.5]), legs)
+    np.testing.assert_allclose(q[[0, 4, 10, 12]], [[0, 0], [1, 1], [2, 0], [2, 0]])
+    np.testing.assert_allclose(q[2], [0.5, 0.25])  # the first leg at half its time
+    f = np.tile([0.0, 0.0, 30.0], (4, 1))
+    force = TaskForce(np.arange(4.0), f, np.full(4, 10.0), np.ones((4, 3)), 0.2, 0.1)
+    out = attached_from(force, f * (2.0 / 3.0), 2)
+    np.testing.assert_allclose(out.f[:, 2], [10.0, 10.0, 30.0, 30.0])
+    np.testing.assert_allclose(out.r, [0, 0, 10, 10])
+    np.testing.assert_allclose(out.m, [[0, 0, 0]] * 2 + [[1, 1, 1]] * 2)
+    assert (out.lever, out.moment_scale) == (0.2, 0.1)
