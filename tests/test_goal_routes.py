@@ -57,3 +57,18 @@ def test_a_goal_inside_a_body_fails_at_the_search_and_says_so():
     plan = forte.plan(task)
     assert not plan.feasible
     assert plan.status.startswith("search: goal configuration in collision: ") and "crate" in plan.status
+
+
+def test_a_route_is_the_plan_when_the_nlp_does_not_converge_and_the_verdict_passes_it():
+    """The NLP stopped after 3 iterations (solver-failed): the searched route, timed by toppra, is
+    judged as it is; feasible here, it is the plan, and the plan says it is the route."""
+    from dataclasses import replace
+
+    task = forte.load_task(WALL)
+    plan = forte.plan(replace(task, solver=replace(task.solver, max_iter=3, refine_rounds=0)))
+    fallback = plan.solver["fallback"]
+    assert fallback["optimized"]["verdict"] == "solver-failed" and fallback["kept"]
+    assert plan.feasible and plan.status.startswith("route: the optimized plan was solver-failed")
+    assert np.array_equal(plan.q, plan.task.goal.route)
+    dense = np.vstack([plan.q[:-1] + s * np.diff(plan.q, axis=0) for s in np.linspace(0, 1, 5)])
+    assert clearances(task.robot, task.scene, dense).distance.min() >= task.clearance - 1e-3

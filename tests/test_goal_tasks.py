@@ -55,6 +55,17 @@ def test_a_configuration_goal_reads_its_fields_and_the_rule_duration():
     assert given.goal.duration_given and given.t[-1] == 2.5
 
 
+def test_a_goal_task_stops_its_nlp_sooner_unless_the_file_says():
+    from forte.planning.tasks.goals import GOAL_MAX_ITER
+
+    assert panda_task({"kind": "goal", "configuration": GOAL}).solver.max_iter == GOAL_MAX_ITER < 500
+    given = panda_task({"kind": "goal", "configuration": GOAL}, solver={"max_iter": 500})
+    assert given.solver.max_iter == 500
+    path = {"kind": "waypoints", "relative": True, "samples": 12,
+            "waypoints": [{"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 2.0, "position": [0.1, 0.0, 0.0]}]}
+    assert task_from_dict({"robot": PANDA, "path": path, "payload": {"mass": 1.0}}).solver.max_iter == 500
+
+
 def test_the_nlp_poses_only_the_goal():
     """A pose goal has one pose equality (the last waypoint), a configuration goal none (the last
     configuration bounded to the goal)."""

@@ -216,8 +216,8 @@ def test_refinement_rounds_keep_the_self_collision_rows_of_a_plan_kept_apart(mon
     monkeypatch.setattr(planner, "optimize", optimize)
     monkeypatch.setattr(planner, "limit_ratios", lambda task, q: (np.full(task.robot.nq, 1.2),
                                                                     np.full(task.robot.n_arm, 0.5)))
-    verdict = type("V", (), {"failed": ("velocity",), "feasible": False, "label": "infeasible"})()
-    feasible = type("V", (), {"failed": (), "feasible": True, "label": "feasible"})()
+    verdict = type("V", (), {"failed": ("velocity",), "violations": (), "feasible": False, "label": "infeasible"})()
+    feasible = type("V", (), {"failed": (), "violations": (), "feasible": True, "label": "feasible"})()
     monkeypatch.setattr(planner, "judge_plan", lambda *a, **k: feasible)
     for kept in (True, False):
         calls.clear()

@@ -78,20 +78,23 @@ def test_clamped_spline_equals_scipy_s(n):
 def test_a_spline_that_ends_at_rest_is_clamped_where_the_rest_begins():
     """A motion that arrives at a joint limit and rests there (a goal at the limit): the spline through
     the rest's equal knots would ring past the limit; the executed one stops at the rest's first knot
-    (SciPy's clamped spline on the knots up to it) and holds. A coordinate that rests inside its
-    range, and any coordinate without limits given, keeps the spline through every knot."""
+    (SciPy's clamped spline on the knots up to it) and holds; so does one that rests just inside
+    the limit (within LIMIT_REST_NEAR). A coordinate that rests inside its range, and any coordinate
+    without limits given, keeps the spline through every knot."""
     from scipy.interpolate import CubicSpline
 
-    from forte.model.trajectory import clamped_spline, resting_from
+    from forte.model.trajectory import LIMIT_REST_NEAR, clamped_spline, resting_from
 
     t = np.linspace(0.0, 2.9, 30)
     limit = 2.8973
-    q = np.full((30, 2), limit)
+    q = np.full((30, 3), limit)
     q[:28, 0] = np.linspace(2.0, limit, 28)  # arriving at a constant speed
     q[:, 1] = np.r_[np.sin(np.linspace(0, 4, 28)), np.sin(4.0), np.sin(4.0)]  # rests inside its range
+    near = limit - 0.5 * LIMIT_REST_NEAR
+    q[:, 2] = np.r_[np.linspace(2.0, near, 28), near, near]  # rests 5 mrad inside the limit
     assert resting_from(q) == 27
     times = np.linspace(0.0, 3.2, 2001)
-    limits = (np.full(2, -limit), np.full(2, limit))
+    limits = (np.full(3, -limit), np.full(3, limit))
     pos, vel, acc = clamped_spline(t, q, times, limits=limits)
     assert pos[:, 0].max() <= limit + 1e-12
     through = CubicSpline(t, q, axis=0, bc_type="clamped")
@@ -102,4 +105,5 @@ def test_a_spline_that_ends_at_rest_is_clamped_where_the_rest_begins():
     assert np.all(pos[~early, 0] == limit) and not vel[~early, 0].any() and not acc[~early, 0].any()
     inside = np.clip(times, t[0], t[-1])
     np.testing.assert_allclose(pos[:, 1], through(inside)[:, 1], atol=1e-10)  # not at a limit
+    assert through(times)[:, 2].max() > near + 1e-4 and pos[:, 2].max() <= near + 1e-12  # near it: clamped
     np.testing.assert_allclose(clamped_spline(t, q, times)[0], through(inside), atol=1e-10)  # no limits given

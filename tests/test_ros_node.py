@@ -136,3 +136,95 @@ def test_without_rclpy_the_command_says_how_to_get_it(tmp_path):
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "pip install -e '.[ros]'" in lines[0]
+
+
+def test_a_pointcloud2_is_read_whatever_its_layout():
+    """cloud_points against the points written: float32 by cloud_message; float64, big endian,
+    an extra field and padded rows by hand; NaN points (no return) dropped."""
+    from sensor_msgs.msg import PointCloud2, PointField
+
+    from forte.io.ros_cloud import cloud_message, cloud_points
+
+    rng = np.random.default_rng(0)
+    points = rng.uniform(-3, 3, (6, 3))
+    assert cloud_points(cloud_message(points)) == pytest.approx(points.astype(np.float32), abs=1e-6)
+    msg = PointCloud2()
+    msg.height, msg.width, msg.is_bigendian, msg.point_step, msg.row_step = 2, 3, True, 28, 28 * 3 + 4
+    msg.fields = [PointField(name="intensity", offset=0, datatype=2, count=1),
+                  *(PointField(name=a, offset=4 + 8 * i, datatype=8, count=1) for i, a in enumerate("xyz"))]
+    withnan = points.copy()
+    withnan[4, 1] = np.nan
+    rows = []
+    for r in range(2):
+        row = b"".join(b"\x07\x00\x00\x00" + p.astype(">f8").tobytes() for p in withnan[3 * r:3 * r + 3])
+        rows.append(row + b"\x00" * 4)
+    msg.data = b"".join(rows)
+    assert cloud_points(msg) == pytest.approx(np.delete(points, 4, axis=0))
+
+
+def test_the_live_cloud_is_throttled_and_latched():
+    from forte.io.ros_cloud import LiveCloud, cloud_message
+    from forte.model.robot import default_robot
+    from forte.model.scene import Scene
+
+    robot = default_robot()
+    grid = np.stack(np.meshgrid(np.linspace(1.5, 1.8, 16), np.linspace(-0.2, 0.2, 21), [0.5]), -1).reshape(-1, 3)
+    live = LiveCloud(Scene(), robot, voxel=0.05, period=1.0)
+    assert live.poll(0.0, robot.home()) is None  # nothing arrived
+    live.offer(cloud_message(grid))
+    first = live.poll(0.0, robot.home())
+    assert first is not None and first.boxes >= 1 and first.scene.names[0] == "cloud/0"
+    live.offer(cloud_message(grid[::-1]))  # the same cells (the points in another order)
+    assert live.poll(0.5, robot.home()) is None and live.pending is not None  # throttled: kept for later
+    assert live.poll(1.2, robot.home()) is None and live.pending is None  # taken, but no cell changed
+    live.offer(cloud_message(grid + [0.0, 0.0, 0.3]))
+    moved = live.poll(2.4, robot.home())
+    assert moved is not None and moved.scene.objects[0].pose[2, 3] > first.scene.objects[0].pose[2, 3] + 0.25
+
+
+@pytest.mark.slow
+def test_a_crate_on_the_cloud_topic_is_driven_around(tmp_path):
+    """``forte ros --cloud-topic``: the straight drive of around-the-crate without its crate; a cloud
+    of the crate arrives and the node plans anew around it (its status says the cloud's boxes); the
+    same cloud again re-plans nothing."""
+    import yaml
+    from sensor_msgs.msg import PointCloud2
+
+    from forte.io.ros_cloud import cloud_message
+
+    task = yaml.safe_load((ROOT / "examples" / "tasks" / "around-the-crate.yaml").read_text())
+    del task["scene"]
+    path = tmp_path / "drive.yaml"
+    path.write_text(yaml.safe_dump(task))
+    domain = 50 + (os.getpid() + 71) % 100
+    node_proc = subprocess.Popen([FORTE, "ros", str(path), "--start-timeout", "0", "--cloud-topic", "/test/points",
+                                  "--cloud-period", "0.2"], env=os.environ | {"ROS_DOMAIN_ID": str(domain)},
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    context, node, got, _ = _client(domain)
+    cloud_pub = node.create_publisher(PointCloud2, "/test/points", 1)
+    axes = [np.linspace(1.25, 1.75, 26), np.linspace(-0.3, 0.3, 31), np.linspace(0.0, 0.45, 24)]
+    crate = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    try:
+        assert _spin_until(context, node, lambda: got["status"] and got["trajectory"], 120), "no first plan"
+        straight = np.array([p.positions for p in got["trajectory"][-1][1].points])
+        assert np.abs(straight[:, 1]).max() < 0.05
+        assert _spin_until(context, node, lambda: cloud_pub.get_subscription_count() > 0, 30), "cloud not subscribed"
+        cloud_pub.publish(cloud_message(crate))
+        assert _spin_until(context, node, lambda: any("cloud" in s for _, s in got["status"])
+                           and len(got["trajectory"]) >= 2, 180), "no re-plan"  # two topics: either first
+        status = next(s for _, s in got["status"] if "cloud" in s)
+        assert status["seq"] == 1 and status["solved"] and status["cloud"]["boxes"] >= 1, status
+        print(f"cloud of {status['cloud']['points']} points -> {status['cloud']['boxes']} boxes, planned anew in "
+              f"{status['latency_s']:.2f} s")
+        around = np.array([p.positions for p in got["trajectory"][-1][1].points])
+        assert np.abs(around[:, 1]).max() > 0.5  # around the crate, not through it
+        count = len(got["status"])
+        cloud_pub.publish(cloud_message(crate))
+        _spin_until(context, node, lambda: False, 2.0)
+        assert len(got["status"]) == count  # the same cells: no new plan
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        err = _interrupt(node_proc)
+    assert node_proc.returncode == 0, err[-2000:]
+    assert "Traceback" not in err

@@ -64,6 +64,7 @@ def test_state_validity_is_the_exact_clearance_and_self_collision(panda, wall, c
     expected = (distance >= clearance) & ~self_hit
     assert 0 < expected.sum() < len(Q)  # both kinds occur
     assert [checker.valid(q) for q in Q] == expected.tolist()
+    assert [checker.valid_pairwise(q) for q in Q] == expected.tolist()  # the broad phase drops no pair
 
 
 def test_path_around_a_wall_clears_it_everywhere(panda, wall):
@@ -106,7 +107,14 @@ def test_walled_in_goal_is_not_found_and_says_so():
     assert StateChecker(mobile, scene).valid(goal)
     result = find_path(mobile, scene, start, goal, 0.0, time_limit=0.3)
     assert not result.found and result.q is None
-    assert result.reason == f"no collision-free path in 0.3 s ({result.states} states sampled)" and result.states > 10
+    assert result.reason.startswith(f"no collision-free path in 0.3 s ({result.states} states sampled, ")
+    assert result.states > 10
+    # a budget of state checks: the same outcome however busy the machine, and said so
+    budget = find_path(mobile, scene, start, goal, 0.0, time_limit=60.0, checks=3000)
+    assert not budget.found and 3000 <= budget.checks < 3600  # the last motion checked whole
+    assert budget.reason.startswith(f"no collision-free path in {budget.checks} state checks ({budget.states} states")
+    again = find_path(mobile, scene, start, goal, 0.0, time_limit=60.0, checks=3000)
+    assert (again.checks, again.states) == (budget.checks, budget.states)
 
 
 def test_holonomic_base_is_searched_and_fixed_is_not(panda):

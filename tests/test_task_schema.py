@@ -29,6 +29,8 @@ _HOME = default_robot().home().tolist()
 TAUGHT = [{"t": 0.0, "q": _HOME}, {"t": 1.0, "q": [_HOME[0] + 0.05, *_HOME[1:]]}]
 GOAL = {"kind": "goal", "samples": 5, "configuration": [*_HOME[:3], _HOME[3] + 0.1, *_HOME[4:]]}
 POSE_GOAL = {"kind": "goal", "samples": 5, "pose": {"position": [0.8, 0.0, 0.95]}}
+VIA_GOAL = {**POSE_GOAL, "samples": 6, "via": [{"position": [0.8, 0.0, 0.95]}]}
+PICK = {"kind": "goal", "samples": 6, "goals": [{"pose": {"position": [0.8, 0.0, 0.95]}}] * 2}
 #: A valid task every probe starts from (the built-in robot, 5 samples).
 BASE: dict[str, Any] = {"path": {"relative": True, "samples": 5, "waypoints": WAYPOINTS}, "payload": {"mass": 1.0}}
 HOLD: dict[str, Any] = {"mode": "hold", "pose": {"position": [0.0, 0.0, 0.0], "relative": True},
@@ -38,6 +40,9 @@ CONTACT = {"push-box": {"kind": "push-box", "mass": 5.0, "friction": 0.3},
                                                                  "com": [0, 0, 0.3], "partner": [0, 0, 0.6]}}
 SHAPES = {"box": {"size": [0.1, 0.1, 0.1]}, "cylinder": {"radius": 0.1, "length": 0.2}, "sphere": {"radius": 0.1},
           "capsule": {"radius": 0.1, "length": 0.2}, "mesh": {"file": "none.stl"}}
+
+SENSED = {"point_cloud": {"file": "none.ply"},
+          "depth_image": {"file": "none.npy", "intrinsics": {"fx": 500, "fy": 500, "cx": 320, "cy": 240}}}
 
 
 def _with(task: dict[str, Any], where: tuple[Any, ...], value: dict[str, Any]) -> dict[str, Any]:
@@ -62,12 +67,23 @@ def _probes() -> dict[str, dict[str, Any]]:
                                                       "amplitude": [0.01, 0, 0], "frequency": [1, 0, 0]}),
         "path|taught": _with(BASE, ("path",), {"kind": "taught", "samples": 5, "configurations": TAUGHT}),
         "path.waypoints[]": _with(BASE, ("path", "waypoints", 0), WAYPOINTS[0]),
+        "path.waypoints[].orientation": _with(BASE, ("path", "waypoints", 1, "orientation"), {"rpy": [0, 0, 0]}),
+        "path.keep_level": _with(BASE, ("path", "keep_level"), {"axis": "-z", "max_tilt_deg": 10}),
         "path.orientation": _with(BASE, ("path", "orientation"), {"rpy": [0, 0, 0]}),
         "path|goal": _with(BASE, ("path",), GOAL),
         "path.pose": _with({**BASE, "path": POSE_GOAL}, ("path", "pose"), POSE_GOAL["pose"]),
         "path.pose.orientation": _with({**BASE, "path": POSE_GOAL}, ("path", "pose", "orientation"),
                                        {"rpy": [0, 0, 0]}),
         "path.tolerance": _with({**BASE, "path": POSE_GOAL}, ("path", "tolerance"), {"position": 0.01}),
+        "path.via[]": _with({**BASE, "path": VIA_GOAL}, ("path", "via", 0), VIA_GOAL["via"][0]),
+        "path.via[].orientation": _with({**BASE, "path": VIA_GOAL}, ("path", "via", 0, "orientation"),
+                                        {"rpy": [0, 0, 0]}),
+        "path.via[].tolerance": _with({**BASE, "path": VIA_GOAL}, ("path", "via", 0, "tolerance"), {}),
+        "path.goals[]": _with({**BASE, "path": PICK}, ("path", "goals", 0), PICK["goals"][0]),
+        "path.goals[].pose": _with({**BASE, "path": PICK}, ("path", "goals", 0, "pose"), POSE_GOAL["pose"]),
+        "path.goals[].pose.orientation": _with({**BASE, "path": PICK}, ("path", "goals", 0, "pose", "orientation"),
+                                               {"rpy": [0, 0, 0]}),
+        "path.goals[].tolerance": _with({**BASE, "path": PICK}, ("path", "goals", 0, "tolerance"), {}),
         "path.configurations[]": _with({**BASE, "path": {"kind": "taught", "configurations": [{}, {}]}},
                                        ("path", "configurations", 0), {"t": 0.0}),
         "pose": _with(HOLD, ("pose",), HOLD["pose"]),
@@ -85,6 +101,11 @@ def _probes() -> dict[str, dict[str, Any]]:
     }
     for kind, shape in SHAPES.items():
         probes[f"scene[].{kind}"] = {**BASE, "scene": [{kind: {**shape, BOGUS: 1}, "pose": [5, 5, 0, 0, 0, 0]}]}
+    for kind, sensed in SENSED.items():
+        probes[f"scene[].{kind}"] = {**BASE, "scene": [{kind: {**sensed, BOGUS: 1}, "pose": [5, 5, 0, 0, 0, 0]}]}
+    probes["scene[].depth_image.intrinsics"] = {**BASE, "scene": [{"depth_image": {
+        **SENSED["depth_image"], "intrinsics": {**SENSED["depth_image"]["intrinsics"], BOGUS: 1}},
+        "pose": [5, 5, 0, 0, 0, 0]}]}
     for kind, contact in CONTACT.items():
         probes[f"contact|{kind}"] = _with({k: v for k, v in BASE.items() if k != "payload"}, ("contact",), contact)
     for name in COST_TERMS:

@@ -47,7 +47,8 @@ def test_a_plan_that_meets_every_requirement_is_feasible(robot):
     verdict = _judge(robot, t, q, given_force(t, np.tile([0, 0, 5.0], (len(t), 1)), 2.0))
     assert verdict.label == FEASIBLE and verdict.violations == () and verdict.reason() == FEASIBLE
     assert set(verdict.checked) == {"solver", "capacity", "torque", "tipover", "joint_position", "velocity",
-                                    "acceleration", "tracking", "self_collision", "clearance", "base_mode"}
+                                    "acceleration", "tracking", "keep_level", "self_collision", "clearance",
+                                    "base_mode"}
 
 
 def test_capacity_alone_fails_when_the_ball_leaves_the_scaled_polytope(robot):

@@ -54,6 +54,7 @@ from forte.execution.contact_objects import ContactRig, rig_for
 from forte.execution.control import ArmCommand, ArmImpedance, BaseAdmittance, ControlGains, Reference
 from forte.execution.floor_base import check_base_model
 from forte.execution.gains import default_gains, describe_gains, resolve_gains, sampled_loop_radius_at
+from forte.execution.grasp import attach_at_grasp, attach_facts, chained
 from forte.execution.judge import Judge, SimResult, Thresholds
 from forte.execution.model import SimModel, build_sim_model
 from forte.execution.reference import plan_reference
@@ -200,9 +201,8 @@ def simulate_plan(
     out_dir: str | Path | None = None, gains: ControlGains | Mapping[str, Any] | None = None,
     thresholds: Thresholds | None = None, torque_limits: Any = None, hold: float = 1.0, timestep: float = 1e-3,
     record_every: int = 10, stop_on_failure: bool = False, frames_dir: str | Path | None = None,
-    video: str | Path | None = None, fps: float = 30.0, viewer: bool = False, write: bool = True,
-    replan: Any = None, reference: str = "spline", mpc: Any = None, base_model: str = "kinematic",
-    base_thresholds: BaseThresholds | None = None,
+    video: str | Path | None = None, fps: float = 30.0, viewer: bool = False, write: bool = True, replan: Any = None,
+    reference: str = "spline", mpc: Any = None, base_model: str = "kinematic", base_thresholds: Any = None,
 ) -> SimResult:
     """Simulate the plan in ``plan_dir`` and (with ``write``) store ``sim.csv`` and ``sim.json``.
 
@@ -261,11 +261,12 @@ def simulate_plan(
     recorder = FrameRecorder(run.sim, _optional_path(frames_dir), _optional_path(video), fps) if offscreen else None
     live = LiveViewer(run.sim) if viewer else None
     loop = _closed_loop(Path(plan_dir), plan, run.sim, run.reference, replan, mpc)
+    attach = attach_at_grasp(plan_dir, run.sim, plan)  # pick and place: the payload from the grasp on
     result = run_simulation(
         run.sim, run.reference, gains=run.gains, thresholds=thresholds, reaction_force=_reaction_force(plan),
         record_every=record_every, stop_on_failure=stop_on_failure, base_thresholds=base_thresholds,
-        sinks=[s for s in (recorder, live) if s is not None], after_step=loop, rig=run.rig)
-    result.summary.update(_run_facts(plan, Path(plan_dir), run, reference))
+        sinks=[s for s in (recorder, live) if s is not None], after_step=chained(attach, loop), rig=run.rig)
+    result.summary.update(_run_facts(plan, Path(plan_dir), run, reference) | attach_facts(attach))
     if loop is not None:
         result.summary["mpc" if mpc is not None else "replanning"] = loop.summary()
     if recorder is not None:

@@ -109,6 +109,17 @@ def payload_force(
     return TaskForce(times, m * (acc - g), _radii(radius, times.size))
 
 
+def attached_from(force: TaskForce, payload_share: Any, step: int) -> TaskForce:
+    """The force of a payload picked up at waypoint ``step`` (0-based): before it the hand carries
+    only the rest of ``force`` (the robot's own tool load), ``f_k - f^p_k`` with ``f^p_k`` the
+    payload's share (N x 3), no ball (``r_k = 0``: the radius covers the payload's mass) and no
+    moment; from ``step`` on ``force`` unchanged. The mass switches at ``step``: a step in the force."""
+    before = np.arange(len(force.t)) < int(step)
+    f = np.where(before[:, None], force.f - np.asarray(payload_share, dtype=float), force.f)
+    m = None if force.m is None else np.where(before[:, None], 0.0, force.m)
+    return TaskForce(force.t, f, np.where(before, 0.0, force.r), m, force.lever, force.moment_scale)
+
+
 #: Which desired force a payload task uses (task field ``force_model``): ``paper`` (the text,
 #: :func:`payload_force`) or ``authors`` (the authors' lift code, :func:`authors_force`).
 FORCE_MODELS: tuple[str, ...] = ("paper", "authors")

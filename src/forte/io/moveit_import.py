@@ -7,7 +7,9 @@ What the task gets from the request:
   (fixed at the world origin, ``panda_link0`` = the world frame);
 - ``initial_configuration``: ``[0, 0, 0]`` for the base (the world frame is the arm's), then
   ``start_state.joint_state`` by name in the robot's arm-joint order; every other joint of the
-  start state (the fingers) goes to ``robot.locked_joints``, clipped to the URDF's range;
+  start state (the fingers) goes to ``robot.locked_joints`` as given, even beyond the URDF's range
+  (MotionBenchMaker's fingers are at 0.065 m, the URDF's range ends at 0.04 m; its goals grasp
+  objects wider than the fingers at 0.04 m would allow), with a note;
 - ``path: {kind: goal, ...}`` from ``goal_constraints[0]``: its ``joint_constraints`` as a whole-body
   ``configuration`` (the base entries the start's), or its position and orientation constraints as a
   ``pose`` (the region's centre, the quaternion as roll-pitch-yaw) with ``tolerance: {position: the
@@ -83,7 +85,7 @@ def build_robot(spec: dict[str, Any], base: Path, locked: dict[str, float] | Non
 
 
 def split_start(path: Path, robot: MobileManipulator, start: dict[str, float]) -> tuple[list[float], dict[str, float]]:
-    """The arm's start values in the robot's order, and the other joints' (clipped to the URDF)."""
+    """The arm's start values in the robot's order, and the other joints' (as given)."""
     missing = [j for j in robot.arm_joints if j not in start]
     if missing:
         raise _error(path, "start_state.joint_state.name", f"has no value for the arm joint {missing[0]!r} "
@@ -182,7 +184,7 @@ def lowest_z(body: SceneObject) -> float:
 
 def task_document(request_path: Path, scene_path: Path, out: Path, robot: dict[str, Any] | None = None,
                   payload: float | None = None, floor: str = "auto") -> tuple[dict[str, Any], list[str]]:
-    """The task (a mapping, ready for YAML) and notes for the user (clipped values). ``floor``:
+    """The task (a mapping, ready for YAML) and notes for the user (locked values beyond their range). ``floor``:
     ``auto`` (``none`` when a body reaches below z = 0), ``none`` or ``keep`` (forte's floor at 0)."""
     request = load_yaml(request_path)
     if not isinstance(request, dict):
@@ -191,8 +193,10 @@ def task_document(request_path: Path, scene_path: Path, out: Path, robot: dict[s
     spec = robot_spec(start, robot)
     model = build_robot(spec, out.parent)
     arm, locked = split_start(request_path, model, start)
-    notes = [f"{name}: the start value {start[name]:g} is clipped to {value:g} (the URDF's range)"
-             for name, value in locked.items() if value != start[name]]
+    from forte.model.urdf_loading import beyond_range, load_model
+
+    notes = [f"locked_joints: {text}; kept (the request's geometry)"
+             for text in beyond_range(load_model(model.urdf_path), locked)]
     model = build_robot(spec, out.parent, locked)
     base_q = [0.0, 0.0, 0.0]
     bodies = read_scene_file(scene_path.resolve())

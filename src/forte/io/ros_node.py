@@ -18,6 +18,13 @@ Topics (names relative to the node's namespace; the defaults are absolute):
   trajectory and the status are published together, after it), ``failed`` (the requirements
   that failed), ``solved``, ``iterations``, ``latency_s`` (the
   re-plan call), ``warm``.
+- with ``--cloud-topic TOPIC``, subscribes ``TOPIC`` (``sensor_msgs/PointCloud2``, best effort,
+  depth 1): the latest cloud, at most once per ``--cloud-period`` seconds and only when its
+  occupied voxels changed, becomes boxes beside the task's own bodies (the floor's points and the
+  robot's own at the plan's start dropped; :mod:`forte.io.ros_cloud`), and the task is planned
+  anew in that scene at the last mass; its status adds ``cloud`` (``points``, ``cells``,
+  ``boxes``); a cloud forte cannot use or a scene with no plan publishes ``cloud_error`` and
+  keeps the last plan.
 
 Both publishers are reliable and transient-local (depth 1): a subscriber that joins late gets the
 last plan. A re-plan that does not converge publishes its status (``solved: false``) and no
@@ -40,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from forte.exceptions import ForteError, InvalidInputError
+from forte.io.ros_cloud import CloudOptions, LiveCloud
 from forte.model.description import N_BASE
 from forte.model.trajectory import backward_differences
 from forte.planning.online.replan import Replanner
@@ -104,8 +112,10 @@ def start_from(task: Task, names: list[str], state_names: list[str], positions: 
 SPIN_PERIOD_S = 0.1
 
 
-def run_node(task: Task, method: str = "forte", start_timeout: float = 2.0, node_name: str = "forte") -> int:
-    """Plan ``task``, publish it, and re-plan on every payload mass until SIGINT (returns 0)."""
+def run_node(task: Task, method: str = "forte", start_timeout: float = 2.0, node_name: str = "forte",
+             cloud: CloudOptions | None = None) -> int:
+    """Plan ``task``, publish it, and re-plan on every payload mass (and, with ``cloud``, every
+    changed scene from the cloud topic: :class:`forte.io.ros_cloud.LiveCloud`) until SIGINT (returns 0)."""
     rclpy = require_rclpy()
     from rclpy.executors import ExternalShutdownException
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -137,34 +147,37 @@ def run_node(task: Task, method: str = "forte", start_timeout: float = 2.0, node
         if state:
             task = _with_start(task, start_from(task, names, state["names"], state["positions"]))
         start = time.perf_counter()
-        replanner = Replanner(task, method)
-        first = replanner.replan()  # the first plan as a re-plan result (its verdict and facts)
-        seq = 0
+        live = {"replanner": Replanner(task, method), "mass": task.payload.mass, "seq": 0, "task": task}
+        first = live["replanner"].replan()  # the first plan as a re-plan result (its verdict and facts)
 
-        def publish(result_plan: Plan, mass: float | None, latency: float, warm: bool, iterations: int) -> None:
+        def publish(result_plan: Plan, mass: float | None, latency: float, warm: bool, iterations: int,
+                    extra: dict[str, Any] | None = None) -> None:
             if result_plan.solved:
                 traj_pub.publish(trajectory_message(result_plan, names))
-            status_pub.publish(String(data=json.dumps(status_document(result_plan, seq, mass, latency, warm,
-                                                                      iterations))))
+            doc = status_document(result_plan, live["seq"], mass, latency, warm, iterations)
+            status_pub.publish(String(data=json.dumps({**doc, **(extra or {})})))
 
         publish(first.plan, task.payload.mass, time.perf_counter() - start, False, first.iterations)
 
         def on_mass(msg: Any) -> None:
-            nonlocal seq
             mass = float(msg.data)
-            seq += 1
+            live["seq"] += 1
             try:
-                result = replanner.replan(mass=mass)
+                result = live["replanner"].replan(mass=mass)
             except ForteError as exc:  # a mass forte rejects (negative, absurd): say so, keep the last plan
-                status_pub.publish(String(data=json.dumps({"seq": seq, "mass_kg": mass, "error": str(exc)})))
+                status_pub.publish(String(data=json.dumps({"seq": live["seq"], "mass_kg": mass, "error": str(exc)})))
                 return
+            live["mass"] = mass
             publish(result.plan, mass, result.latency_s, result.warm, result.iterations)
 
         node.create_subscription(Float64, "/forte/payload_mass", on_mass, 10)
+        poll = _cloud_poller(node, cloud, live, method, publish, status_pub) if cloud is not None else None
         node.get_logger().info(f"planned {task.name} with {method}; waiting for /forte/payload_mass")
         try:
             while not stop.is_set() and rclpy.ok():
                 rclpy.spin_once(node, timeout_sec=SPIN_PERIOD_S)
+                if poll is not None:
+                    poll()
         except (KeyboardInterrupt, ExternalShutdownException):
             pass
     finally:
@@ -174,6 +187,45 @@ def run_node(task: Task, method: str = "forte", start_timeout: float = 2.0, node
         if rclpy.ok():
             rclpy.try_shutdown()
     return 0
+
+
+def _cloud_poller(node: Any, cloud: CloudOptions, live: dict[str, Any], method: str, publish: Any,
+                  status_pub: Any) -> Any:
+    """Subscribe ``cloud.topic`` (best effort, depth 1: the latest cloud) and return the spin loop's
+    poll: a changed scene, at most once per ``cloud.period``, plans the task anew in it (a new
+    warm re-planner) at the last mass; the status says ``cloud`` (points, cells, boxes)."""
+    from dataclasses import replace
+
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import PointCloud2
+    from std_msgs.msg import String
+
+    base = live["task"]
+    cloud_scene = LiveCloud(base.scene, base.robot, cloud.voxel, cloud.period, cloud.pose)
+    node.create_subscription(PointCloud2, cloud.topic, cloud_scene.offer, qos_profile_sensor_data)
+
+    def poll() -> None:
+        try:
+            found = cloud_scene.poll(time.monotonic(), live["task"].q_init)
+        except ForteError as exc:  # a cloud forte cannot use (no x, y, z; too many cells): keep the last plan
+            status_pub.publish(String(data=json.dumps({"seq": live["seq"], "cloud_error": str(exc)})))
+            return
+        if found is None:
+            return
+        live["seq"] += 1
+        start = time.perf_counter()
+        try:
+            task = replace(base, scene=found.scene)
+            replanner = Replanner(task, method)
+            result = replanner.replan(mass=live["mass"])
+        except ForteError as exc:  # no plan in this scene (a start inside a sensed body): keep the last
+            status_pub.publish(String(data=json.dumps({"seq": live["seq"], "cloud_error": str(exc)})))
+            return
+        live.update(task=task, replanner=replanner)
+        publish(result.plan, live["mass"], time.perf_counter() - start, False, result.iterations,
+                {"cloud": {"points": found.points, "cells": found.cells, "boxes": found.boxes}})
+
+    return poll
 
 
 def _with_start(task: Task, q: np.ndarray) -> Task:

@@ -72,7 +72,7 @@ class MobileManipulator:
         arm_joints: Actuated arm joints, root to tip; default: the joints supporting
             ``ee_frame``. Every other joint is locked at its neutral value, or:
         locked_joints: ``{name: value}`` of joints that are not planned (the Panda's fingers),
-            held at these values clipped to the URDF's range.
+            held at these values (kept even beyond the URDF's range: a locked joint is geometry).
         mount: 4x4 homogeneous transform from the base frame to the arm's root frame.
         tool: Load rigidly attached to the end effector, part of the arm dynamics.
         torque_limits: Symmetric limits tau_max per arm joint (Nm); default: the URDF efforts.

@@ -148,6 +148,10 @@ def quintic_hermite(t_knots: Any, q: Any, v: Any, a: Any, times: Any) -> tuple[A
     return pos, np.where(outside, 0.0, vel), np.where(outside, 0.0, acc)
 
 
+#: A coordinate whose rest is within this (rad, m) of one of its limits rests "at" it
+#: (:func:`limit_rests`): goals sit at or just inside a limit (MotionBenchMaker's at 0-9 mrad), and the
+#: spline's ring past the rest (up to 2.5 mrad measured there) would cross it.
+LIMIT_REST_NEAR = 0.01
 #: Knots within this of the last one (in every coordinate; the NLP ties them with equality rows
 #: met to its tolerance) count as the motion's final rest.
 REST_TOL = 1e-6
@@ -167,9 +171,9 @@ def clamped_spline(t_knots: Any, q: Any, times: Any, v_start: FloatArray | None 
     is held outside the knots' range (velocity and acceleration 0). One knot: held everywhere.
 
     With ``limits`` (lower, upper per coordinate): a coordinate that ends at rest (the last knots
-    equal to the last, within :data:`REST_TOL`) at one of its limits is clamped where the rest
-    begins and holds it: through the rest's equal knots the C2 spline would ring past the rest,
-    beyond the limit (:func:`limit_rests`).
+    equal to the last, within :data:`REST_TOL`) at one of its limits (within :data:`LIMIT_REST_NEAR`)
+    is clamped where the rest begins and holds it: through the rest's equal knots the C2 spline
+    would ring past the rest, beyond the limit (:func:`limit_rests`).
 
     The knot slopes ``m_k`` solve the tridiagonal continuity system
     ``h_k m_{k-1} + 2 (h_{k-1} + h_k) m_k + h_{k-1} m_{k+1} = 3 (h_k s_{k-1} + h_{k-1} s_k)``
@@ -192,12 +196,12 @@ def clamped_spline(t_knots: Any, q: Any, times: Any, v_start: FloatArray | None 
 
 def limit_rests(q: FloatArray, rest: int, limits: tuple[Any, Any] | None) -> FloatArray:
     """Per coordinate: whether it moves, then rests from knot ``rest`` on at one of its ``limits``
-    (within :data:`REST_TOL`)."""
+    (within :data:`LIMIT_REST_NEAR`)."""
     if limits is None or rest >= len(q) - 1:
         return np.zeros(q.shape[1], dtype=bool)
     lower, upper = (np.asarray(b, dtype=float) for b in limits)
     final = q[-1]
-    return (np.ptp(q, axis=0) > REST_TOL) & ((final <= lower + REST_TOL) | (final >= upper - REST_TOL))
+    return (np.ptp(q, axis=0) > REST_TOL) & ((final <= lower + LIMIT_REST_NEAR) | (final >= upper - LIMIT_REST_NEAR))
 
 
 def joint_limits(robot: Any) -> tuple[FloatArray, FloatArray]:

@@ -79,7 +79,10 @@ def set_link_mass(full: pin.Model, urdf: Path, link: str, mass: float) -> None:
 
 def check_locked(full: pin.Model, urdf_name: str, joints: tuple[str, ...], locked: Any) -> dict[str, float]:
     """``robot.locked_joints`` (``{name: value}``) checked against ``full``: each a 1-DoF joint of the
-    URDF that is not planned, its value a finite number, clipped to the joint's range."""
+    URDF that is not planned, its value a finite number. A value beyond the joint's range is kept:
+    a locked joint is geometry, not motion (MotionBenchMaker's Panda problems hold the fingers at
+    0.065 m, beyond the URDF's 0.04 m, and their goals are collision-free only with them there);
+    :func:`beyond_range` names such values."""
     if locked is None:
         return {}
     if not isinstance(locked, dict):
@@ -96,8 +99,18 @@ def check_locked(full: pin.Model, urdf_name: str, joints: tuple[str, ...], locke
             raise RobotModelError(f"locked_joints: joint '{name}' is not a 1-DoF joint")
         if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value):
             raise RobotModelError(f"locked_joints: {name}: expected a finite number, got {value!r}")
-        i = full.idx_qs[jid]
-        out[str(name)] = float(np.clip(value, full.lowerPositionLimit[i], full.upperPositionLimit[i]))
+        out[str(name)] = float(value)
+    return out
+
+
+def beyond_range(full: pin.Model, locked: dict[str, float]) -> list[str]:
+    """``"name: value beyond [lower, upper]"`` for each locked value outside its joint's range."""
+    out = []
+    for name, value in locked.items():
+        i = full.idx_qs[full.getJointId(name)]
+        lo, hi = full.lowerPositionLimit[i], full.upperPositionLimit[i]
+        if not lo <= value <= hi:
+            out.append(f"{name}: {value:g} beyond the URDF's range [{lo:g}, {hi:g}]")
     return out
 
 

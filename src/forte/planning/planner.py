@@ -26,6 +26,7 @@ from forte.planning.nlp.optimizer import SolverResult
 from forte.planning.scene.scene_solve import blocked_path
 from forte.planning.search.route import routed
 from forte.planning.solve import optimize, start_guess
+from forte.planning.tasks.keep_level import tightened
 from forte.planning.tasks.tasks import Task
 from forte.planning.tasks.terms_section import with_task_terms
 from forte.planning.terms.wrench_terms import for_requirement, uses_capability
@@ -167,7 +168,10 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
       :data:`REFINE_SLACK_N`;
     - ``velocity``, ``acceleration``: the NLP's limit of each coordinate (base and arm velocities,
       arm accelerations) that exceeds its limit on the spline by the ratio ``x`` becomes
-      ``min(limit, largest waypoint value) / (1.05 x)``.
+      ``min(limit, largest waypoint value) / (1.05 x)``;
+    - ``keep_level`` (a goal task: a given path fixes its orientations, the NLP has no such rows):
+      the NLP's tilt limit drops by twice the spline's excess over the task's
+      (:func:`~forte.planning.tasks.keep_level.tightened`; its rows hold at the waypoints only).
 
     The metrics, the cost terms and the verdict keep the task's own radii and limits. At most
     ``task.solver.refine_rounds`` rounds (0: none); the first feasible plan is kept, else the original.
@@ -175,11 +179,12 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
     force it was judged with (:func:`judged`; a goal task's: its own motion's).
     """
     fixable = {"velocity", "acceleration"} | ({"capacity"} if uses_capability(spec) else set())
+    fixable |= {"keep_level"} if task.goal is not None else set()  # a given path has no keep_level rows
     if not sol.success or not verdict.failed or not set(verdict.failed) <= fixable or not task.solver.refine_rounds:
         return sol, info, verdict, force
     radius = force.r.copy()
     vel, acc = (limit.copy() for limit in task.limits.resolve(task.robot))
-    acc = acc[N_BASE:]
+    acc, keep = acc[N_BASE:], task.keep_level
     rounds, current, current_verdict = [], sol, verdict
     apart = bool(info.get("self_rows", {}).get("kept"))  # a plan kept apart by self rows keeps them
     for _ in range(task.solver.refine_rounds):
@@ -192,14 +197,17 @@ def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info:
                 np.asarray(current.q), task.t, start=task.start_motion))
             vel = _tightened(vel, v_peak, v_ratio)
             acc = _tightened(acc, a_peak[N_BASE:], a_ratio)
+        for v in (v for v in current_verdict.violations if v.requirement == "keep_level"):
+            keep = tightened(keep, np.radians(v.worst - v.limit))
         trial_task = replace(task, limits=replace(task.limits, arm_acceleration=tuple(acc),
                                                   arm_velocity=tuple(vel[N_BASE:]),
-                                                  base_velocity=tuple(vel[:N_BASE])))
+                                                  base_velocity=tuple(vel[:N_BASE])), keep_level=keep)
         trial, trial_info = optimize(trial_task, spec, replace(force, r=radius), current.q,
                                      reported=force, self_rows=apart)
         trial_verdict, trial_force = judged(task, trial.q, force, trial_info)
         rounds.append({"max_added_radius_n": float(np.max(radius - force.r)), "arm_acceleration": acc.tolist(),
                        "velocity": vel.tolist(), "verdict": trial_verdict.label,
+                       "keep_level_max_tilt_deg": None if keep is None else float(np.degrees(keep.max_tilt)),
                        "failed": list(trial_verdict.failed), "iterations": trial.iterations,
                        "solve_time_s": trial.solve_time})
         if trial_verdict.feasible:
@@ -288,6 +296,40 @@ def _slower(unrouted: Task, spec: Method, task: Task, sol: SolverResult, info: d
     return task, sol, info, verdict, force
 
 
+def _passing(task: Task) -> dict[str, Any]:
+    """A goal task's via times (s) and, for pick and place, the grasp's time (``forte simulate``
+    attaches the payload then); empty without vias."""
+    if not task.goal.vias:
+        return {}
+    steps = task.goal.steps(task.t)
+    facts: dict[str, Any] = {"via_times_s": [float(task.t[k]) for k in steps]}
+    if task.goal.grasp is not None:
+        facts["grasp_time_s"] = float(task.t[steps[task.goal.grasp]])
+    return facts
+
+
+def _route_as_plan(task: Task, sol: SolverResult, info: dict[str, Any], verdict: Verdict,
+                   force: TaskForce) -> tuple[FloatArray, bool, str, dict[str, Any], Verdict, TaskForce]:
+    """A goal task whose optimized plan is not feasible (the NLP did not converge, or its plan fails
+    the verdict): its route (the search's collision-free path timed by toppra,
+    :mod:`forte.planning.search.route`) judged as it is, and kept when the verdict calls it
+    feasible. The route keeps the exact clearance between its states and the limits on toppra's
+    time law, but its force capability is not optimized: ``info["fallback"]`` says so, and the
+    status names what the NLP did."""
+    keep = sol.q, sol.success, sol.status, info, verdict, force
+    route = task.goal.route if task.goal is not None else None
+    if verdict.feasible or route is None or len(route) != task.n:
+        return keep
+    route_verdict, route_force = judged(task, route, force)
+    record = {"verdict": route_verdict.label, "failed": list(route_verdict.failed), "kept": route_verdict.feasible,
+              "optimized": {"status": sol.status, "verdict": verdict.label, "failed": list(verdict.failed)}}
+    if not route_verdict.feasible:
+        return (*keep[:3], info | {"fallback": record}, verdict, force)
+    status = (f"route: the optimized plan was {verdict.label} ({sol.status}); the searched route, timed by toppra, "
+              "is judged feasible as it is (its force capability not optimized)")
+    return route, True, status, info | {"fallback": record}, route_verdict, route_force
+
+
 def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,
          guess: FloatArray | None = None) -> Plan:
     """Plan ``task`` with ``method`` and judge it; never raises for a solver failure or an
@@ -330,7 +372,9 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         sol, info, verdict, force = _refine(task, solved_as, force, sol, info, verdict)
         if route:
             task, sol, info, verdict, force = _slower(unrouted, solved_as, task, sol, info, verdict, force, route)
-        q, solved, status = sol.q, sol.success, sol.status
+            q, solved, status, info, verdict, force = _route_as_plan(task, sol, info, verdict, force)
+        else:
+            q, solved, status = sol.q, sol.success, sol.status
     else:
         q, solved, status = spec.produce(task), True, spec.status
         verdict, force = judged(task, q, force)
@@ -338,7 +382,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
     if task.goal is not None:  # the plan's own end-effector motion (its force is the judged one)
         task = task.following(q)
         info["goal"] = {"kind": task.goal.kind, "duration_s": float(task.t[-1] - task.t[0]),
-                        "duration_given": task.goal.duration_given}
+                        "duration_given": task.goal.duration_given} | _passing(task)
     metrics = evaluate(task.robot, q, task.t, force, task.settings.capability_params, task.scene,
                        task.start_motion)
     return Plan(method=spec.name, robot=task.robot, t=task.t, q=q, force=force, payload=task.payload,

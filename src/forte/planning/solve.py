@@ -16,7 +16,14 @@ from forte.planning.methods.catalog import Method
 from forte.planning.nlp.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
 from forte.planning.scene.diagnosis import failed_rows
 from forte.planning.scene.scene_guess import clear_start
-from forte.planning.scene.scene_solve import floor_near, goal_configuration, goal_kind, needs_rows, solve_in_scene
+from forte.planning.scene.scene_solve import (
+    floor_near,
+    goal_configuration,
+    goal_kind,
+    goal_vias,
+    needs_rows,
+    solve_in_scene,
+)
 from forte.planning.tasks.ik import initial_guess
 from forte.planning.tasks.tasks import Task
 from forte.planning.tasks.terms_section import term_settings, term_values
@@ -92,7 +99,7 @@ def solve_clear(task: Task, method: Method, force: TaskForce, q: FloatArray, nom
     if opt is None:
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=task.mode != "hold",
                                   options=options, limits=task.limits, settings=task.settings,
-                                  goal=goal_kind(task))
+                                  goal=goal_kind(task), keep_level=task.keep_level, via_steps=goal_vias(task))
     sol = _solve(opt, task, force, q, nominal)
     if sol.success and floor_near(task, sol.q, task.clearance):
         return solve_in_scene(task, method, force, sol.q, nominal, options)

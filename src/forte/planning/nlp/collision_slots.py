@@ -94,8 +94,15 @@ def pair_distances(centres: FloatArray, primitives: tuple[Primitive, ...], proxi
         return np.empty((*centres.shape[:-1], 0))
     if np.isfinite(cutoff):
         gap = _box_gap(centres, primitives, proxies)
-        out = np.broadcast_to(gap, (*centres.shape[:-1], len(proxies))).copy()
         near = np.flatnonzero(gap < cutoff)
+        size = np.array([[*proxies[m].half, proxies[m].rho, proxies[m].sigma] for m in near]).reshape(-1, 5)
+        small = near[np.linalg.norm(size[:, :3], axis=1) + size[:, 3] + size[:, 4] < 1.0]
+        if small.size > SPHERE_CULL_BODIES:  # many small bodies (a sensed scene's boxes): a k-d tree
+            out = np.full((*centres.shape[:-1], len(proxies)), float(cutoff))  # a lower bound of the far ones too
+            _culled(centres, primitives, proxies, small, cutoff, out.reshape(-1, len(proxies)))
+            near = np.setdiff1d(near, small)
+        else:
+            out = np.broadcast_to(gap, (*centres.shape[:-1], len(proxies))).copy()
         if near.size:
             out[..., near] = pair_distances(centres, primitives, [proxies[m] for m in near])
         return out
@@ -109,6 +116,40 @@ def pair_distances(centres: FloatArray, primitives: tuple[Primitive, ...], proxi
     local = np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1],
                       d[..., 2] - np.clip(d[..., 2], -half_a, half_a)], axis=-1)  # a's nearest segment point
     return rounded_box_distance(local, half, rho, sigma) - radius
+
+
+#: Above this many bodies near the motion (each within a 1 m bounding sphere), :func:`pair_distances`
+#: finds each primitive's near bodies in a k-d tree of the bodies' centres instead of measuring every pair.
+SPHERE_CULL_BODIES = 64
+
+
+def _culled(centres: FloatArray, primitives: tuple[Primitive, ...], proxies: list[Proxy], bodies: FloatArray,
+            cutoff: float, out: FloatArray) -> None:
+    """Into ``out`` (primitive centres x proxies; the rest holds ``cutoff``): the exact distance to
+    each of ``bodies`` (proxy indices) where the bounding spheres' gap ``|c - o| - (r + h) - (|half|
+    + rho + sigma)`` may be below ``cutoff``: a primitive's candidates are the bodies whose centre
+    ``o`` lies within ``cutoff + r + h + max(|half| + rho + sigma)`` of its centre ``c`` (scipy's
+    k-d tree); every other pair's gap is at least ``cutoff``, which it keeps (a lower bound, as
+    :func:`pair_distances` promises)."""
+    from scipy.spatial import cKDTree
+
+    flat = centres.reshape(-1, 3)
+    n_prim = len(primitives)
+    half_a = np.tile([p.half_height for p in primitives], len(flat) // n_prim)
+    radius = np.tile([p.radius for p in primitives], len(flat) // n_prim)
+    chosen = [proxies[b] for b in bodies]
+    origin = np.array([p.pose[:3, 3] for p in chosen])
+    cos, sin = np.array([p.pose[0, 0] for p in chosen]), np.array([p.pose[1, 0] for p in chosen])
+    half = np.array([p.half for p in chosen])
+    rho, sigma = np.array([p.rho for p in chosen]), np.array([p.sigma for p in chosen])
+    size = np.linalg.norm(half, axis=1) + rho + sigma
+    found = cKDTree(origin).query_ball_point(flat, cutoff + radius + half_a + size.max())
+    i = np.repeat(np.arange(len(flat)), [len(f) for f in found])
+    m = np.concatenate([np.asarray(f, dtype=np.int64) for f in found]) if len(i) else np.zeros(0, dtype=np.int64)
+    d = flat[i] - origin[m]
+    local = np.stack([cos[m] * d[:, 0] + sin[m] * d[:, 1], -sin[m] * d[:, 0] + cos[m] * d[:, 1],
+                      d[:, 2] - np.clip(d[:, 2], -half_a[i], half_a[i])], axis=-1)
+    out[i, bodies[m]] = rounded_box_distance(local, half[m], rho[m], sigma[m]) - radius[i]
 
 
 def _box_gap(centres: FloatArray, primitives: tuple[Primitive, ...], proxies: list[Proxy]) -> FloatArray:

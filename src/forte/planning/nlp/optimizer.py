@@ -7,6 +7,8 @@
 
 A goal task (``goal``) has a free path: its pose rows are the goal's alone (a pose goal:
 ``x(q_N) = x_goal``; a configuration goal: none, ``q_N = q_goal`` by the variables' bounds).
+``keep_level`` adds ``w . R(q_k) a >= cos(max_tilt)`` at the waypoints the solver orients, after
+every other row (:mod:`forte.planning.nlp.keep_level_rows`).
 
 Design:
 
@@ -56,9 +58,11 @@ from forte.planning.nlp.ipopt_nlp import (
     warm_options,
 )
 from forte.planning.nlp.ipopt_progress import IpoptProgress, margin_of
+from forte.planning.nlp.keep_level_rows import keep_bounds, keep_rows, keep_steps
 from forte.planning.nlp.kernels import load_kernels, notice
 from forte.planning.nlp.solvers.result import SolverResult, accepted_violation
 from forte.planning.nlp.solvers.stage_problem import StageNLP, supported
+from forte.planning.tasks.keep_level import KeepLevel
 from forte.settings import (
     DEFAULT_WEIGHT_SET,
     WEIGHT_SETS,
@@ -99,6 +103,10 @@ class TrajectoryOptimizer:
         goal: ``None`` (a pose equality at every waypoint after the first), ``pose`` (at the last
             waypoint only) or ``configuration`` (none: :meth:`solve`'s ``q_goal`` bounds the last
             configuration), :mod:`forte.planning.tasks.goals`.
+        via_steps: a goal task's via waypoints (0-based), each with a pose equality too
+            (:mod:`forte.planning.tasks.goal_poses`).
+        keep_level: a tool axis kept near a world axis (``path.keep_level``): one row per waypoint
+            the solver orients (:mod:`forte.planning.nlp.keep_level_rows`); ``None``: none.
     """
 
     def __init__(
@@ -106,7 +114,7 @@ class TrajectoryOptimizer:
         weights: CostWeights | WeightSet = DEFAULT_TRAJECTORY_WEIGHTS, fix_initial: bool = True,
         options: SolverOptions = SolverOptions(), limits: KinematicLimits = KinematicLimits(),
         keep_multipliers: bool = False, slots: Slots | None = None, settings: TermSettings | None = None,
-        goal: str | None = None,
+        goal: str | None = None, keep_level: KeepLevel | None = None, via_steps: tuple[int, ...] = (),
     ) -> None:
         resolved = get_method(method) if isinstance(method, Method) or method in method_names() else None
         if resolved is None or not resolved.optimized:
@@ -123,7 +131,11 @@ class TrajectoryOptimizer:
         self.limits, self.keep_multipliers = limits, keep_multipliers
         if goal not in (None, "pose", "configuration"):
             raise InvalidInputError(f"goal: expected 'pose' or 'configuration', got {goal!r}")
-        self.goal = goal
+        if via_steps and (goal is None or not all(0 < k < n - 1 for k in via_steps)):
+            raise InvalidInputError(f"via_steps: expected waypoints strictly between the first and the last of a "
+                                    f"goal task, got {list(via_steps)}")
+        self.goal, self.keep_level = goal, keep_level
+        self.via_steps = tuple(sorted({int(k) for k in via_steps}))
         self._warm_solver: Any = None
         self._vel, self._acc = limits.resolve(robot)
         terms = resolved.cost_terms(settings)
@@ -204,8 +216,9 @@ class TrajectoryOptimizer:
         lbg, ubg = layout.constraint_bounds(self._pose_steps.size, kinematic, lifted)
         clear = self._clear_index.size  # clearance rows: >= 0; then the base's lateral rows: = 0
         lateral = np.zeros(self._lateral)
-        return layout.Bounds(lbx, ubx, np.concatenate([lbg, np.zeros(clear), lateral]),
-                             np.concatenate([ubg, np.full(clear, np.inf), lateral]))
+        keep_low, keep_high = keep_bounds(self.keep_level, self._keep_steps.size)  # last: h >= cos(max_tilt)
+        return layout.Bounds(lbx, ubx, np.concatenate([lbg, np.zeros(clear), lateral, keep_low]),
+                             np.concatenate([ubg, np.full(clear, np.inf), lateral, keep_high]))
 
     def _build(self) -> None:
         robot, n, kern = self.robot, self.n, self.kernels
@@ -246,7 +259,10 @@ class TrajectoryOptimizer:
             g = ca.vertcat(g, ca.vec(ck.rows.map(n)(Z, P_f))[rows.tolist()])
         lateral = lateral_rows(robot, X, 2 if self.rests_at_end else 0)  # differential drive: last rows
         self._lateral = lateral.numel()
-        g = ca.vertcat(g, lateral)
+        self._keep_steps = keep_steps(n, first, self._pose_steps, self.rests_at_end, self.goal) \
+            if self.keep_level is not None else np.array([], int)
+        level = keep_rows(robot, self.keep_level, X, self._keep_steps)  # keep_level: the very last rows
+        g = ca.vertcat(g, lateral, level)
         scatter = dm(scatter_matrix(index.T.ravel(), x.numel()))
         # dense: IPOPT reads every entry (a structural zero would be read as garbage)
         grad = ca.densify(ca.mtimes(scatter, ca.vec(kern.grad.map(n)(*stage_args))) + Qx)
@@ -255,15 +271,19 @@ class TrajectoryOptimizer:
             jac = ca.vertcat(jac, clearance_jacobian(ck, Z, P_f, index, rows, x.numel()))
         if self._lateral:
             jac = ca.vertcat(jac, ca.jacobian(lateral, x))
+        if level.numel():
+            jac = ca.vertcat(jac, ca.jacobian(level, x))
         lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", g.numel())
         pattern = hessian_pattern(index, nq, n, Q)  # one pattern: the stage, pose and clearance blocks
         hess = lagrangian_hessian(self, pattern, X, pd, Rd, stage_args, lam_f, lam_g)
-        offset = g.numel() - self._clear_index.size - self._lateral
+        offset = g.numel() - self._clear_index.size - self._lateral - level.numel()
         for ck, P_f, rows in zip(self._clear, clear_par, kept, strict=True):
             hess += clearance_hessian(ck, Z, P_f, lam_g[offset:offset + rows.size], rows, pattern, n)
             offset += rows.size
         if self._lateral:
-            hess += lateral_hessian(lateral, lam_g[offset:], x, hess.sparsity())
+            hess += lateral_hessian(lateral, lam_g[offset:offset + self._lateral], x, hess.sparsity())
+        if level.numel():  # one waypoint per row: the diagonal stage blocks
+            hess += lateral_hessian(level, lam_g[offset + self._lateral:], x, hess.sparsity())
         opts = ipopt_options(self)
         opts["grad_f"] = ca.Function("nlp_grad_f", [x, P], [cost, grad])
         opts["jac_g"] = ca.Function("nlp_jac_g", [x, P], [g, jac])
@@ -289,8 +309,8 @@ class TrajectoryOptimizer:
         whose configurations equal the last one, so their poses are implied (the task holds its
         final pose over them, :func:`forte.planning.tasks.paths.ending_at_rest`)."""
         steps = np.arange(first, self.n)
-        if self.goal is not None:  # a free path: the goal's pose only
-            return steps[-1:] if self.goal == "pose" else steps[:0]
+        if self.goal is not None:  # a free path: the vias' poses and the goal's only
+            return np.array([*self.via_steps, *([self.n - 1] if self.goal == "pose" else [])], dtype=int)
         if self.rests_at_end:
             steps = steps[(steps < self.n - 3) | (steps == self.n - 1)]
         return steps
@@ -400,7 +420,8 @@ class TrajectoryOptimizer:
             from forte.planning.nlp.solvers.stagewise import StagewiseSolver
 
             nlp = self.stage_nlp()
-            why = "goal tasks" if self.goal is not None else supported(nlp)
+            why = "goal tasks" if self.goal is not None else "keep_level rows" if self._keep_steps.size \
+                else supported(nlp)
             self._stagewise = StagewiseSolver(nlp) if why is None else None
             if why is not None:
                 notice(f"the stagewise solver does not handle {why}; solving with IPOPT")

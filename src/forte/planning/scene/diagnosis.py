@@ -4,7 +4,8 @@ When IPOPT stops without a solution (``Infeasible_Problem_Detected``, an iterati
 iterate ``x`` still says which constraints could not be met together. The rows of the NLP
 (:mod:`forte.planning.nlp.optimizer`) are, in order: the end-effector pose equalities (6 per posed
 waypoint: position error in m, then ``vee(R_d^T R - R^T R_d) / 2``), the kinematic rows, the
-lifting rows, the clearance rows, the base's lateral rows. Each row's violation is
+lifting rows, the clearance rows, the base's lateral rows, the ``keep_level`` rows. Each row's
+violation is
 
     v_i = max(lb_i - g_i(x), g_i(x) - ub_i, 0),
 
@@ -41,7 +42,8 @@ class FailedRows(NamedTuple):
     """The constraint the last iterate of a failed solve breaks most.
 
     Attributes:
-        kind: ``clearance`` (a body is in the way) or ``pose`` (the end-effector pose).
+        kind: ``clearance`` (a body is in the way), ``keep_level`` (the tool axis tilted beyond
+            ``path.keep_level``; ``short`` in degrees) or ``pose`` (the end-effector pose).
         body: the scene body (or ``floor``, or ``self: <part>`` for the robot's own part) whose
             clearance rows are violated most; ``None`` for ``pose``.
         part: the robot's part (its primitive's piece) on the worst row; ``None`` for ``pose``.
@@ -64,6 +66,8 @@ class FailedRows(NamedTuple):
         where = f"at t = {self.t:.3g} s, waypoint {self.waypoint}, at the solver's last iterate"
         if self.kind == "clearance":
             return f"in the way: {self.body} ({self.part} {self.short:.3g} m inside the clearance {where})"
+        if self.kind == "keep_level":
+            return f"tilted: the end effector {self.short:.3g} deg beyond keep_level's max_tilt_deg ({where})"
         return f"unreachable: the end-effector pose (missed by {self.short:.3g} {where})"
 
     def to_json(self) -> dict[str, Any]:
@@ -96,7 +100,7 @@ def failed_rows(opt: TrajectoryOptimizer, sol: SolverResult, task: Any, force: A
     pose = excess[: 6 * opt._pose_steps.size].reshape(-1, 6)
     pose_norm = np.linalg.norm(pose, axis=1) if pose.size else np.zeros(0)
     pose_miss = float(pose_norm.max(initial=0.0))
-    first = g.size - opt._clear_index.size - opt._lateral
+    first = g.size - opt._clear_index.size - opt._lateral - opt._keep_steps.size
     clear = excess[first:first + opt._clear_index.size]
     names = list(task.scene.names) + ([FLOOR] if task.scene.floor is not None else [])
     rows = _clearance_rows(opt, names)
@@ -108,6 +112,12 @@ def failed_rows(opt: TrajectoryOptimizer, sol: SolverResult, task: Any, force: A
         body = max(worst, key=lambda b: worst[b][0])
         short, part, k = worst[body]
         return FailedRows("clearance", body, part, short, k, float(task.t[k]), pose_miss)
+    keep = excess[g.size - opt._keep_steps.size:] if opt._keep_steps.size else np.zeros(0)
+    if keep.size and keep.max() > tol:  # rows w . R a >= cos(max_tilt): the excess as an angle
+        j = int(np.argmax(keep))
+        k, limit = int(opt._keep_steps[j]), opt.keep_level.max_tilt
+        beyond = np.degrees(np.arccos(np.clip(g[g.size - keep.size + j], -1.0, 1.0)) - limit)
+        return FailedRows("keep_level", None, None, float(beyond), k, float(task.t[k]), pose_miss)
     if pose_miss > tol:
         j = int(np.argmax(pose_norm))
         k = int(opt._pose_steps[j])

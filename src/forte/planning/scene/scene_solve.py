@@ -39,13 +39,14 @@ def blocked_path(task: Task) -> str | None:
         return None
     from forte.model.clearance import path_clearances
 
-    first = task.n - 1 if task.goal is not None else 0  # a goal task's path is free: its goal pose only
-    found = path_clearances(task.robot, task.scene, task.targets[first:])
+    # a goal task's path is free: its goal pose and via poses only
+    posed = np.arange(task.n) if task.goal is None else np.r_[task.goal.steps(task.t), task.n - 1].astype(int)
+    found = path_clearances(task.robot, task.scene, task.targets[posed])
     k = found.closest()
     if found.distance[k] >= task.clearance:
         return None
-    what = "goal" if task.goal is not None else "path"
-    return (f"{what} blocked: at t = {task.t[first + k]:.3g} s the {what} puts {found.robot[k]} "
+    what = "path" if task.goal is None else "goal" if posed[k] == task.n - 1 else "via pose"
+    return (f"{what} blocked: at t = {task.t[posed[k]]:.3g} s the {what} puts {found.robot[k]} "
             f"{found.distance[k]:.3g} m "
             f"from {found.body[k]} (clearance {task.clearance:g} m)")
 
@@ -53,6 +54,11 @@ def blocked_path(task: Task) -> str | None:
 def goal_kind(task: Task) -> str | None:
     """The NLP's goal of ``task`` (:class:`~forte.planning.nlp.optimizer.TrajectoryOptimizer`'s ``goal``)."""
     return None if task.goal is None else task.goal.kind
+
+
+def goal_vias(task: Task) -> tuple[int, ...]:
+    """The waypoints of a goal task's via poses (the NLP's ``via_steps``), else none."""
+    return () if task.goal is None else tuple(int(k) for k in task.goal.steps(task.t))
 
 
 def goal_configuration(task: Task) -> FloatArray | None:
@@ -97,7 +103,8 @@ def solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatA
                              clear=None if task.goal is None else task.goal.route)
         opt = TrajectoryOptimizer(task.robot, task.n, method, task.weights, fix_initial=fix, options=options,
                                   limits=task.limits, slots=slots, keep_multipliers=keep_multipliers,
-                                  settings=task.settings, goal=goal_kind(task))
+                                  settings=task.settings, goal=goal_kind(task), keep_level=task.keep_level,
+                                  via_steps=goal_vias(task))
         sol = opt.solve(task.t, task.targets, force.f, force.r, task.q_init, start, nominal,
                         term_values=term_values(method, force, task.terms), start=task.start_motion,
                         q_goal=goal_configuration(task))

@@ -38,8 +38,11 @@ from forte.validation import FloatArray
 DURATION_MARGIN = 1.5
 #: C-space step (rad or m) of the straight segment's check.
 SEGMENT_RESOLUTION = 0.02
-#: Seconds the search may take.
-SEARCH_TIME_LIMIT = 5.0
+#: State checks the search may spend (about 5 s on this project's 2-core machine when idle): a
+#: budget of checks, not of seconds, so that a busy machine finds the same routes, only later.
+SEARCH_CHECKS = 150_000
+#: Seconds the search may take all the same.
+SEARCH_TIME_LIMIT = 30.0
 #: Dense samples of the timed path, interpolated onto the task's times.
 DENSE_SAMPLES = 400
 
@@ -59,17 +62,18 @@ def arriving(t: FloatArray, dense_t: FloatArray, dense_q: FloatArray) -> FloatAr
     return np.column_stack([np.interp(s, dense_t, dense_q[:, j]) for j in range(dense_q.shape[1])])
 
 
-def route_path(task: Task) -> tuple[FloatArray | None, dict[str, Any]]:
-    """The collision-free path (M x nq) from the start to the goal, and what finding it took."""
-    q0, q1 = np.asarray(task.q_init, dtype=float), np.asarray(task.goal.q_end, dtype=float)
+def segment_path(task: Task, q0: FloatArray, q1: FloatArray) -> tuple[FloatArray | None, dict[str, Any]]:
+    """A collision-free path (M x nq) from ``q0`` to ``q1``: the straight line when it is free,
+    else the search's; and what finding it took."""
     begin = time.perf_counter()
     facts: dict[str, Any] = {"searched": False}
     if needs_search(task):
         checker = StateChecker(task.robot, task.scene, task.clearance)
         if not segment_free(checker, q0, q1, SEGMENT_RESOLUTION):
             found = find_path(task.robot, task.scene, q0, q1, task.clearance, time_limit=SEARCH_TIME_LIMIT,
-                              seed=task.solver.hold_seed)
-            facts |= {"searched": True, "states": found.states, "checks": found.checks}
+                              seed=task.solver.hold_seed, checks=SEARCH_CHECKS)
+            facts |= {"searched": True, "states": found.states, "checks": found.checks,
+                      "shortcut_s": found.shortcut_s}
             if not found.found:
                 return None, facts | {"time_s": time.perf_counter() - begin, "reason": f"search: {found.reason}"}
             facts["time_s"] = time.perf_counter() - begin
@@ -78,13 +82,76 @@ def route_path(task: Task) -> tuple[FloatArray | None, dict[str, Any]]:
     return np.vstack([q0, q1]), facts
 
 
+def route_path(task: Task) -> tuple[FloatArray | None, dict[str, Any]]:
+    """The collision-free path (M x nq) from the start to the goal, and what finding it took."""
+    return segment_path(task, np.asarray(task.q_init, dtype=float), np.asarray(task.goal.q_end, dtype=float))
+
+
+def via_paths(task: Task) -> tuple[list[FloatArray] | None, dict[str, Any]]:
+    """The paths from the start through the vias' IK configurations to the goal, one per leg, and
+    the facts (summed over the legs; ``reason`` names the leg that has no path)."""
+    knots = [np.asarray(task.q_init, dtype=float), *[v.q for v in task.goal.vias], np.asarray(task.goal.q_end)]
+    paths, facts = [], {"searched": False, "time_s": 0.0}
+    for i, (a, b) in enumerate(zip(knots[:-1], knots[1:], strict=True)):
+        path, leg = segment_path(task, a, b)
+        facts["searched"] |= leg["searched"]
+        facts["time_s"] += leg["time_s"]
+        for key in ("states", "checks", "shortcut_s"):
+            if key in leg:
+                facts[key] = facts.get(key, 0) + leg[key]
+        if path is None:
+            to = f"via {i}" if i < len(knots) - 2 else "the goal"
+            return None, facts | {"reason": f"{leg['reason']} (the leg to {to})"}
+        paths.append(path)
+    return paths, facts
+
+
+def through_legs(t: FloatArray, knot_t: FloatArray, legs: list[Any]) -> FloatArray:
+    """The timed legs (:class:`~forte.planning.search.timing.Timed`) stretched onto the task's
+    times: leg ``i`` from ``knot_t[i]`` to ``knot_t[i + 1]`` (each at rest at its ends), held after the last."""
+    t = np.asarray(t, dtype=float)
+    route = np.empty((t.size, legs[0].q.shape[1]))
+    for i, leg in enumerate(legs):
+        at = t >= knot_t[i] if i else np.ones(t.size, bool)
+        s = np.clip((t - knot_t[i]) / max(knot_t[i + 1] - knot_t[i], 1e-12) * leg.t[-1], 0.0, leg.t[-1])
+        route[at] = np.column_stack([np.interp(s[at], leg.t, leg.q[:, j]) for j in range(leg.q.shape[1])])
+    return route
+
+
+def _via_route(task: Task, stretch: float, paths: list[FloatArray], facts: dict[str, Any]
+               ) -> tuple[Task, dict[str, Any]]:
+    """:func:`routed` through vias: each leg timed by toppra at rest at its ends; without
+    ``duration:`` the duration is ``DURATION_MARGIN stretch max_i(d_i / w_i)`` (``d_i`` the leg's
+    time-optimal duration, ``w_i`` its share of the arrival time under the vias' rule, the share of
+    the slowest leg setting it), as a route without vias gets ``DURATION_MARGIN stretch d``."""
+    begin = time.perf_counter()
+    legs = [retime(task.robot, p, samples=DENSE_SAMPLES, limits=task.limits) for p in paths]
+    shares = np.diff(np.r_[0.0, [v.fraction for v in task.goal.vias], 1.0])
+    slowest = int(np.argmax([leg.duration / max(w, 1e-9) for leg, w in zip(legs, shares, strict=True)]))
+    facts |= {"toppra_duration_s": float(sum(leg.duration for leg in legs)), "limiting": legs[slowest].limiting,
+              "waypoints": int(sum(len(p) for p in paths)), "retime_s": time.perf_counter() - begin}
+    t = task.t
+    if not task.goal.duration_given:  # as without vias: the duration is the margin times the time-optimal one
+        duration = DURATION_MARGIN * stretch * legs[slowest].duration / max(shares[slowest], 1e-9)
+        t = np.linspace(0.0, max(MIN_GOAL_DURATION_S, duration), task.n)
+    knot_t = np.r_[t[0], t[task.goal.steps(t)], t[-3] if t.size >= 4 else t[-1]]
+    route = through_legs(t, knot_t, legs)
+    route[0] = task.q_init
+    goal = replace(task.goal, route=route)
+    return replace(task, t=t, goal=goal, targets=goal_targets(task.robot, goal, route, t)), facts
+
+
 def routed(task: Task, stretch: float = 1.0) -> tuple[Task, dict[str, Any]]:
     """``task`` with its route (initial guess and nominal) and its times; the facts (search, toppra's
     duration and the limit that sets it). ``stretch`` (>= 1) lengthens a chosen duration. A task
     that is not a goal task is returned as it is; a route that cannot be found leaves the task as
-    it is with ``facts["reason"]``."""
+    it is with ``facts["reason"]``. A task with vias routes through their configurations
+    (:func:`via_paths`, :func:`_via_route`)."""
     if task.goal is None:
         return task, {}
+    if task.goal.vias:
+        paths, facts = via_paths(task)
+        return (task, facts) if paths is None else _via_route(task, stretch, paths, facts)
     path, facts = route_path(task)
     if path is None:
         return task, facts
@@ -100,4 +167,4 @@ def routed(task: Task, stretch: float = 1.0) -> tuple[Task, dict[str, Any]]:
     route = arriving(t, dense.t, dense.q)
     route[0] = task.q_init
     goal = replace(task.goal, route=route)
-    return replace(task, t=t, goal=goal, targets=goal_targets(task.robot, goal, route)), facts
+    return replace(task, t=t, goal=goal, targets=goal_targets(task.robot, goal, route, t)), facts

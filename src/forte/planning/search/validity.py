@@ -17,8 +17,12 @@ on the universe. Its collision pairs are
   conservative.
 
 ``pin.computeCollisions(..., stop_at_first_collision=True)`` runs the forward kinematics, places
-every geometry and tries the pairs in order, scene pairs first, until one collides: no Python per
-pair. A state is *valid* when it is within the joint limits and no pair collides.
+every geometry and tests the pairs until one collides: no Python per pair. The pairs go through
+Pinocchio's broad phase (coal's dynamic AABB tree, each geometry's box inflated by its pairs'
+security margins), so only pairs whose boxes overlap reach GJK: 23-25 us per state instead of
+49-90 us trying every pair on MotionBenchMaker's Panda scenes (170-314 pairs; the same verdict on
+3,500 states per scene, measured). A state is *valid* when it is within the joint limits and no pair
+collides.
 """
 
 from __future__ import annotations
@@ -100,6 +104,7 @@ class StateChecker:
         for first, second in scene_pairs:
             index = self.geom.findCollisionPair(pin.CollisionPair(first, second))
             self.geom_data.collisionRequests[index].security_margin = self.clearance
+        self._broad = pin.BroadPhaseManager_DynamicAABBTreeCollisionManager(self.model, self.geom, self.geom_data)
         self.lower, self.upper = robot.lower, robot.upper
         self._q = np.zeros(self.model.nq)
         self.checks = 0
@@ -139,6 +144,13 @@ class StateChecker:
     def valid(self, q: Any) -> bool:
         """Within the joint limits, every scene distance >= the clearance, no self-collision."""
         self.checks += 1
+        arm = np.asarray(q, dtype=float)[N_BASE:]
+        if np.any(arm < self.lower) or np.any(arm > self.upper):
+            return False
+        return not pin.computeCollisions(self.model, self.data, self._broad, self.pin_configuration(q), True)
+
+    def valid_pairwise(self, q: Any) -> bool:
+        """:meth:`valid` without the broad phase (every pair to GJK): the reference it is tested against."""
         arm = np.asarray(q, dtype=float)[N_BASE:]
         if np.any(arm < self.lower) or np.any(arm > self.upper):
             return False

@@ -8,7 +8,8 @@ start's base entries) or an end-effector ``pose`` (position and orientation, rea
 straight line of :func:`straight_line`, then the plan's own, :meth:`Task.following
 <forte.planning.tasks.tasks.Task.following>`), so the payload's force ``m (p'' - g)`` is the force
 along that motion. Only the goal is a pose equality of the NLP (a pose goal: the last waypoint;
-a configuration goal: none, the last configuration is bounded to the goal).
+a configuration goal: none, the last configuration is bounded to the goal), and each via pose at
+its waypoint (``via:`` and pick and place's ``goals:``, :mod:`forte.planning.tasks.goal_poses`).
 """
 
 from __future__ import annotations
@@ -18,19 +19,37 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from forte.exceptions import InvalidInputError
 from forte.model.robot import N_BASE, MobileManipulator
-from forte.model.trajectory import quintic_blend
-from forte.planning.tasks.ik import reachable_pose
-from forte.planning.tasks.schema import Reader, check_joint_limits, rotation
+from forte.model.trajectory import quintic_blend, quintic_path
+from forte.planning.tasks.goal_poses import (
+    GOAL_ANGLE_TOL,
+    GOAL_POSITION_TOL,
+    Via,
+    arrival,
+    reach,
+    read_configuration,
+    read_goal_list,
+    read_grasp,
+    read_pose,
+    read_tolerance,
+    read_vias,
+    timed_vias,
+    via_steps,
+)
+from forte.planning.tasks.schema import Reader
 from forte.settings import KinematicLimits
 from forte.validation import MAX_DURATION_S, MAX_WAYPOINTS, FloatArray
 
 #: The fields of a goal path besides ``kind``, ``samples`` and ``rate``.
-GOAL_FIELDS = frozenset({"configuration", "pose", "tolerance", "duration"})
+GOAL_FIELDS = frozenset({"configuration", "pose", "tolerance", "duration", "via", "goals", "grasp"})
 #: Waypoints of a goal task when neither ``samples`` nor ``rate`` is given.
 DEFAULT_GOAL_SAMPLES = 30
-#: A pose goal's default tolerance: the verdict's tracking tolerances (m, rad).
-GOAL_POSITION_TOL, GOAL_ANGLE_TOL = 0.01, 0.05
+#: A goal task's IPOPT iteration limit when the task file gives none (``solver.max_iter``): of
+#: MotionBenchMaker's 127 feasible plans at df18d3d, 99 % converged within 98 iterations (the most:
+#: 287), while the solves that failed ran to the limit of 500 (tens of seconds with ~1,600 clearance
+#: rows); the route is judged as the plan when the NLP stops (:mod:`forte.planning.planner`).
+GOAL_MAX_ITER = 200
 #: A configuration goal is met when the last configuration is this close (rad, m) at every coordinate.
 GOAL_CONFIGURATION_TOL = 1e-6
 #: The rule's duration: at least this long (s), and this many times the quintic's bound.
@@ -54,6 +73,8 @@ class Goal:
         route: the motion (N x nq, at the task's times) the planner found to the goal
             (:mod:`forte.planning.search.route`), the NLP's guess and nominal; ``None``: the
             straight line.
+        vias: the poses passed on the way, in order (:mod:`forte.planning.tasks.goal_poses`).
+        grasp: the via (index) where the payload attaches (pick and place); ``None``: carried throughout.
     """
 
     q_end: FloatArray
@@ -62,10 +83,23 @@ class Goal:
     angle_tol: float = GOAL_ANGLE_TOL
     duration_given: bool = False
     route: FloatArray | None = None
+    vias: tuple[Via, ...] = ()
+    grasp: int | None = None
 
     def motion(self, q0: FloatArray, t: FloatArray) -> FloatArray:
-        """The guess along ``t``: the route when found, else the straight line from ``q0``."""
-        return self.route if self.route is not None and len(self.route) == len(t) else straight_line(q0, self.q_end, t)
+        """The guess along ``t``: the route when found, else the straight line from ``q0`` (through
+        the vias' configurations, :func:`through_vias`)."""
+        if self.route is not None and len(self.route) == len(t):
+            return self.route
+        return through_vias(q0, self, t) if self.vias else straight_line(q0, self.q_end, t)
+
+    def steps(self, t: FloatArray) -> FloatArray:
+        """The waypoint (0-based) at which each via is passed on the sample times ``t``."""
+        return via_steps(self.vias, t)
+
+    def grasp_step(self, t: FloatArray) -> int | None:
+        """The waypoint where the payload attaches (``None``: no grasp)."""
+        return None if self.grasp is None else int(self.steps(t)[self.grasp])
 
     @property
     def kind(self) -> str:
@@ -107,63 +141,70 @@ def straight_line(q0: FloatArray, q1: FloatArray, t: FloatArray) -> FloatArray:
     return np.asarray(q0, dtype=float)[None] + s[:, None] * (np.asarray(q1, dtype=float) - q0)[None]
 
 
-def goal_targets(robot: MobileManipulator, goal: Goal, q: FloatArray) -> FloatArray:
-    """The end-effector poses of the motion ``q`` (N x nq), the last one the goal pose of a pose goal
-    (the NLP's one pose equality)."""
+def through_vias(q0: FloatArray, goal: Goal, t: FloatArray) -> FloatArray:
+    """Straight lines in configuration space from ``q0`` through the vias' configurations to the
+    goal's, one quintic blend each (at rest at every knot), passing via ``i`` at its waypoint's
+    time and arriving at ``t_{N-3}`` (0-based), at rest over the last two samples."""
+    t = np.asarray(t, dtype=float)
+    knot_t = np.r_[t[0], t[goal.steps(t)], arrival(t)]
+    knots = np.vstack([q0, *[v.q for v in goal.vias], goal.q_end])
+    return quintic_path(knot_t, knots, np.minimum(t, knot_t[-1]))
+
+
+def goal_targets(robot: MobileManipulator, goal: Goal, q: FloatArray, t: FloatArray) -> FloatArray:
+    """The end-effector poses of the motion ``q`` (N x nq) at times ``t``, the last one the goal pose
+    of a pose goal and each via's waypoint its pose (the NLP's pose equalities)."""
     targets = np.array([robot.ee_pose(qk) for qk in np.asarray(q, dtype=float)])
     if goal.pose is not None:
         targets[-1] = goal.pose
+    for via, k in zip(goal.vias, goal.steps(t), strict=True):
+        targets[k] = via.pose
     return targets
 
 
-def _configuration(r: Reader, robot: MobileManipulator, q_init: FloatArray) -> FloatArray:
-    value = r.get("configuration")
-    if not isinstance(value, list | tuple) or len(value) != robot.nq:
-        got = f"{len(value)}" if isinstance(value, list | tuple) else repr(value)
-        raise r.error("configuration", f"expected {robot.nq} numbers (base x, y, yaw, then the arm), got {got}")
-    q = r.vector("configuration", robot.nq)
-    check_joint_limits(r, "configuration", robot, q)
-    if robot.base == "fixed" and not np.allclose(q[:N_BASE], q_init[:N_BASE], atol=1e-9, rtol=0):
-        raise r.error("configuration", f"base entries {q[:N_BASE].tolist()!r} differ from the start's "
-                      f"{q_init[:N_BASE].tolist()!r}; robot.base is fixed")
-    return q
-
-
-def _pose(r: Reader, robot: MobileManipulator, q_init: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """The goal pose and the IK configuration that reaches it from the start."""
+def _end(r: Reader, robot: MobileManipulator, q_init: FloatArray, duration: float | None
+         ) -> tuple[FloatArray | None, FloatArray, float, float, list[Via], int | None]:
+    """The goal ``(pose or None, q_end, position_tol, angle_tol)``, the vias and the grasp: from
+    ``goals:`` (pick and place), else ``configuration`` or ``pose`` with ``via:``."""
+    if r.has("goals"):
+        for name in ("configuration", "pose", "tolerance", "via"):
+            if r.has(name):
+                raise r.error(name, "give goals (the last is where the motion ends) or configuration/pose, not both")
+        vias, end = read_goal_list(r, robot, q_init, duration)
+        return (*end, vias, read_grasp(r, len(vias) + 1))
+    if r.has("grasp"):
+        raise r.error("grasp", "applies to a goal list (path.goals: [pre-grasp, grasp, place])")
+    if r.has("configuration") == r.has("pose"):
+        raise r.error("configuration", "give exactly one of configuration (whole-body) and pose (or a list of goals)")
+    vias = read_vias(r, robot, q_init, duration) if r.has("via") else []
+    seed = vias[-1].q if vias else q_init
+    if r.has("configuration"):
+        if r.has("tolerance"):
+            raise r.error("tolerance", "applies to a pose goal; a configuration goal is met exactly")
+        q_end = read_configuration(r, robot, q_init)
+        return None, q_end, *read_tolerance(r), vias, None
     p = r.sub("pose")
     p.unknown({"position", "orientation"})
-    T = np.eye(4)
-    T[:3, 3] = p.vector("position", 3)
-    T[:3, :3] = rotation(p, "orientation", robot.ee_pose(q_init)[:3, :3])
-    q, err, ok = reachable_pose(robot, T, q_init)
-    if not ok:
-        raise r.error("pose", f"unreachable from the start: the best IK leaves {np.linalg.norm(err[:3]):.4g} m "
-                      f"and {np.linalg.norm(err[3:]):.4g} rad" + (" with the base fixed" if robot.base == "fixed"
-                                                                 else ""))
-    return T, q
+    T = read_pose(p, robot.ee_pose(q_init)[:3, :3])
+    return T, reach(r, "pose", robot, T, seed, "from the last via" if vias else "from the start"), \
+        *read_tolerance(r), vias, None
+
+
+def _rule_duration(robot: MobileManipulator, limits: KinematicLimits, knots: list[FloatArray]) -> float:
+    """:func:`rule_duration` summed over the straight lines between consecutive ``knots``."""
+    total = sum(rule_duration(robot, limits, a, b) for a, b in zip(knots[:-1], knots[1:], strict=True))
+    return float(min(total, MAX_DURATION_S))
 
 
 def read_goal(r: Reader, robot: MobileManipulator, q_init: FloatArray, limits: KinematicLimits,
               waypoints: int | None) -> tuple[FloatArray, Goal]:
     """``path: {kind: goal, ...}``: the sample times and the :class:`Goal`."""
-    r.unknown({"kind", "samples", "rate"} | GOAL_FIELDS)
-    if r.has("configuration") == r.has("pose"):
-        raise r.error("configuration", "give exactly one of configuration (whole-body) and pose")
-    pose = None
-    if r.has("configuration"):
-        if r.has("tolerance"):
-            raise r.error("tolerance", "applies to a pose goal; a configuration goal is met exactly")
-        q_end = _configuration(r, robot, q_init)
-    else:
-        pose, q_end = _pose(r, robot, q_init)
-    tol = r.sub("tolerance") if r.has("tolerance") else Reader({}, r.path, f"{r.key('tolerance')}.")
-    tol.unknown({"position", "angle"})
-    position_tol = tol.number("position", GOAL_POSITION_TOL, positive=True, maximum=1.0, unit=" m")
-    angle_tol = tol.number("angle", GOAL_ANGLE_TOL, positive=True, maximum=np.pi, unit=" rad")
+    r.unknown({"kind", "samples", "rate", "keep_level"} | GOAL_FIELDS)  # keep_level: tasks/keep_level.py
     given = r.has("duration")
-    duration = r.number("duration", positive=True, maximum=MAX_DURATION_S, unit=" s") if given \
-        else rule_duration(robot, limits, q_init, q_end)
+    duration = r.number("duration", positive=True, maximum=MAX_DURATION_S, unit=" s") if given else None
+    pose, q_end, position_tol, angle_tol, vias, grasp = _end(r, robot, q_init, duration)
+    if duration is None:
+        duration = _rule_duration(robot, limits, [q_init, *[v.q for v in vias], q_end])
     if waypoints is not None:
         n = waypoints
     elif r.has("samples"):
@@ -172,7 +213,21 @@ def read_goal(r: Reader, robot: MobileManipulator, q_init: FloatArray, limits: K
         n = int(np.clip(round(duration * r.number("rate", positive=True) + 1), 4, MAX_WAYPOINTS))
     else:
         n = DEFAULT_GOAL_SAMPLES
-    return np.linspace(0.0, duration, n), Goal(q_end, pose, position_tol, angle_tol, given)
+    name = "goals" if r.has("goals") else "via"
+    end = pose[:3, 3] if pose is not None else robot.ee_position(q_end)
+    goal = Goal(q_end, pose, position_tol, angle_tol, given,
+                vias=timed_vias(r, name, vias, robot.ee_position(q_init), end) if vias else (), grasp=grasp)
+    t = np.linspace(0.0, duration, n)
+    for i, via in enumerate(goal.vias):
+        if via.time is not None and via.time >= arrival(t):
+            raise r.error(f"{name}[{i}].time", f"expected a time before the motion arrives at t = {arrival(t):.4g} s "
+                          "(it rests over the last two samples)")
+    if vias:
+        try:
+            goal.steps(t)
+        except InvalidInputError as exc:
+            raise r.error("samples" if waypoints is None else name, str(exc)) from None
+    return t, goal
 
 
 def goal_errors(robot: MobileManipulator, goal: Goal, q_last: FloatArray) -> tuple[float, float]:
@@ -192,4 +247,4 @@ def goal_section(reader: Reader, robot: MobileManipulator, mode: str, q_init: Fl
     if waypoints is not None and not 4 <= waypoints <= MAX_WAYPOINTS:
         raise reader.error("path", f"--waypoints: expected 4 to {MAX_WAYPOINTS} for a goal task, got {waypoints}")
     t, goal = read_goal(reader.sub("path"), robot, q_init, limits, waypoints)
-    return t, goal_targets(robot, goal, straight_line(q_init, goal.q_end, t)), goal
+    return t, goal_targets(robot, goal, goal.motion(q_init, t), t), goal

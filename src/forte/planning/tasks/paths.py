@@ -1,10 +1,12 @@
 """Paths of task files: the end-effector targets as functions of time, and their start and end rules.
 
-Three kinds (``path.kind``): ``waypoints`` (timed positions joined by quintic blends, fixed
-orientation), ``windowed-sine`` (the paper's Section 5.2 formula) and ``taught`` (timed whole-body
+Three kinds (``path.kind``): ``waypoints`` (timed positions joined by quintic blends; each may
+carry an ``orientation``, joined by slerp with the same blend, :func:`slerp_path`),
+``windowed-sine`` (the paper's Section 5.2 formula) and ``taught`` (timed whole-body
 configurations: their forward kinematics joined by Cartesian quintic blends and slerp). A path
 must start at the initial end-effector pose (:func:`starting_at`) and, for a plan that ends at
-rest, holds its final pose over the last samples (:func:`ending_at_rest`).
+rest, holds its final pose over the last samples (:func:`ending_at_rest`). Every kind, goals
+included, may keep a tool axis level (``path.keep_level``, :mod:`forte.planning.tasks.keep_level`).
 """
 
 from __future__ import annotations
@@ -86,6 +88,24 @@ def taught_knots(r: Reader, robot: MobileManipulator) -> tuple[FloatArray, Float
     return kt, np.asarray(qs)
 
 
+def slerp_path(knot_times: FloatArray, rotations: FloatArray, ts: FloatArray) -> FloatArray:
+    """Rotations (K x 3 x 3) at ``ts`` through ``rotations`` (one per knot) by slerp with the
+    positions' rest-to-rest quintic blend ``s`` per segment:
+
+        ``R(t) = R_i exp(s(t) log(R_i^T R_{i+1}))``,  ``s = blend((t - t_i) / (t_{i+1} - t_i))``,
+
+    the shorter turn about one fixed axis, at rest at every knot (``log`` and ``exp`` on SO(3):
+    Pinocchio's ``log3``, ``exp3``)."""
+    ts = np.asarray(ts, dtype=float)
+    seg = np.clip(np.searchsorted(knot_times, ts, side="right") - 1, 0, len(knot_times) - 2)
+    s = quintic_blend(np.clip((ts - knot_times[seg]) / (knot_times[seg + 1] - knot_times[seg]), 0.0, 1.0))
+    out = np.empty((len(ts), 3, 3))
+    for k, (i, sk) in enumerate(zip(seg, s, strict=True)):
+        Ra, Rb = rotations[i], rotations[i + 1]
+        out[k] = Ra @ pin.exp3(sk * pin.log3(Ra.T @ Rb))
+    return out
+
+
 def taught_targets(robot: MobileManipulator, knot_times: FloatArray, knots: FloatArray) -> TargetsAt:
     """End-effector poses through the forward kinematics of taught configurations: positions by
     rest-to-rest quintic blends, orientations by slerp with the same blend, per segment."""
@@ -95,17 +115,40 @@ def taught_targets(robot: MobileManipulator, knot_times: FloatArray, knots: Floa
         ts = np.asarray(ts, dtype=float)
         out = np.repeat(np.eye(4)[None], len(ts), axis=0)
         out[:, :3, 3] = quintic_path(knot_times, poses[:, :3, 3], ts)
-        seg = np.clip(np.searchsorted(knot_times, ts, side="right") - 1, 0, len(knot_times) - 2)
-        s = quintic_blend(np.clip((ts - knot_times[seg]) / (knot_times[seg + 1] - knot_times[seg]), 0.0, 1.0))
-        for k, (i, sk) in enumerate(zip(seg, s, strict=True)):
-            Ra, Rb = poses[i, :3, :3], poses[i + 1, :3, :3]
-            out[k, :3, :3] = Ra @ pin.exp3(sk * pin.log3(Ra.T @ Rb))
+        out[:, :3, :3] = slerp_path(knot_times, poses[:, :3, :3], ts)
         return out
     return targets_at
 
 
+def waypoint_knots(r: Reader, T0: FloatArray, R: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray | None]:
+    """``path.waypoints`` (``[{t, position, orientation}, ...]``, times increasing): their times,
+    positions (world; relative to ``T0``'s with ``relative: true``) and rotations, ``None`` when no
+    waypoint has an orientation (the path holds ``R``). A waypoint without one keeps the one before
+    it (the first: ``R``, the path's ``orientation`` or the start's)."""
+    pts = r.get("waypoints")
+    if not isinstance(pts, list) or len(pts) < 2:
+        raise r.error("waypoints", "expected a list of at least 2 waypoints {t, position}")
+    relative = r.get("relative", False)
+    if not isinstance(relative, bool):
+        raise r.error("relative", f"expected true or false, got {relative!r}")
+    times, positions, rotations, turned = [], [], [], False
+    for i, item in enumerate(pts):
+        w = Reader(item, r.path, f"{r.key('waypoints')}[{i}].")
+        w.unknown({"t", "position", "orientation"})
+        times.append(_time(w))
+        p = w.vector("position", 3)
+        positions.append(T0[:3, 3] + p if relative else p)
+        turned = turned or w.has("orientation")
+        rotations.append(rotation(w, "orientation", rotations[-1] if rotations else R))
+    kt = np.asarray(times)
+    bad = np.flatnonzero(np.diff(kt) <= 0)
+    if bad.size:
+        raise r.error(f"waypoints[{bad[0] + 1}].t", f"times must increase, got {kt[bad[0]]} then {kt[bad[0] + 1]}")
+    return kt, np.asarray(positions), np.asarray(rotations) if turned else None
+
+
 #: The fields of every path, and those of each kind.
-PATH_FIELDS = frozenset({"kind", "samples", "rate", "orientation"})
+PATH_FIELDS = frozenset({"kind", "samples", "rate", "orientation", "keep_level"})
 PATH_KIND_FIELDS = {"waypoints": frozenset({"waypoints", "relative"}),
                     "windowed-sine": frozenset({"duration", "offset", "amplitude", "frequency", "phase"}),
                     "taught": frozenset({"configurations"})}
@@ -124,27 +167,10 @@ def build_path(reader: Reader, T0: FloatArray, waypoints: int | None,
     if kind == "taught" and robot is not None:
         kt, kq = taught_knots(r, robot)
         return _samples(r, kt[0], kt[-1], waypoints), taught_targets(robot, kt, kq)
+    rotations = None
     if kind == "waypoints":
-        pts = r.get("waypoints")
-        if not isinstance(pts, list) or len(pts) < 2:
-            raise r.error("waypoints", "expected a list of at least 2 waypoints {t, position}")
-        times, positions = [], []
-        relative = r.get("relative", False)
-        if not isinstance(relative, bool):
-            raise r.error("relative", f"expected true or false, got {relative!r}")
-        for i, item in enumerate(pts):
-            w = Reader(item, r.path, f"{r.key('waypoints')}[{i}].")
-            w.unknown({"t", "position"})
-            times.append(_time(w))
-            p = w.vector("position", 3)
-            positions.append(T0[:3, 3] + p if relative else p)
-        times_arr = np.asarray(times)
-        bad = np.flatnonzero(np.diff(times_arr) <= 0)
-        if bad.size:
-            raise r.error(f"waypoints[{bad[0] + 1}].t", f"times must increase, got {times_arr[bad[0]]} then "
-                          f"{times_arr[bad[0] + 1]}")
+        times_arr, knots, rotations = waypoint_knots(r, T0, R)
         t = _samples(r, times_arr[0], times_arr[-1], waypoints)
-        knots = np.asarray(positions)
 
         def position_at(ts: FloatArray) -> FloatArray:
             return quintic_path(times_arr, knots, ts)
@@ -160,7 +186,7 @@ def build_path(reader: Reader, T0: FloatArray, waypoints: int | None,
 
     def targets_at(ts: FloatArray) -> FloatArray:
         targets = np.repeat(np.eye(4)[None], len(ts), axis=0)
-        targets[:, :3, :3] = R
+        targets[:, :3, :3] = R if rotations is None else slerp_path(times_arr, rotations, ts)
         targets[:, :3, 3] = position_at(ts)
         return targets
     return t, targets_at
@@ -190,12 +216,16 @@ def starting_at(reader: Reader, first: FloatArray, T0: FloatArray, targets_at: T
         raise reader.error("path", f"starts {gap!r} m from the end-effector position of initial_configuration, "
                            f"{T0[:3, 3].tolist()!r}; start there, or give positions relative to it "
                            "('relative: true')")
-    orientation = reader.get("path", {}).get("orientation") if isinstance(reader.get("path"), dict) else None
+    path = reader.get("path") if isinstance(reader.get("path"), dict) else {}
+    first = path.get("waypoints")[0] if isinstance(path.get("waypoints"), list) and path["waypoints"] else None
+    field = "path.waypoints[0].orientation" if isinstance(first, dict) and first.get("orientation") is not None \
+        else "path.orientation"
+    orientation = first.get("orientation") if field != "path.orientation" else path.get("orientation")
     rpy = orientation.get("rpy") if isinstance(orientation, dict) else None
     hint = ""
     if isinstance(rpy, list) and any(isinstance(v, int | float) and abs(v) > 2 * np.pi for v in rpy):
         hint = "; orientation.rpy is in radians and these values look like degrees"
-    raise reader.error("path.orientation", f"differs by {turn!r} rad from the end-effector orientation of "
+    raise reader.error(field, f"differs by {turn!r} rad from the end-effector orientation of "
                        f"initial_configuration (rpy {pin.rpy.matrixToRpy(T0[:3, :3]).tolist()!r} rad){hint}")
 
 

@@ -5,7 +5,9 @@ with one shape of :data:`forte.model.scene.SHAPE_KINDS` (a mesh's ``file`` is re
 task file); ``scene_file:`` adds the static bodies of a URDF or MJCF file
 (:mod:`forte.model.scene_files`); ``floor:`` is ``{height: h}`` (m, world z; default: the floor
 at z = 0 that MuJoCo's robot rides on) or ``none``; ``clearance:`` is the distance (m) the plan
-keeps from every body and from the floor. Every error names the entry and the field.
+keeps from every body and from the floor. Every error names the entry and the field. An entry
+may also be sensor data, ``point_cloud:`` or ``depth_image:`` (with an optional
+``capture_configuration:``), read into boxes by :mod:`forte.planning.tasks.sensed_section`.
 
 The floor's rules at the start (:func:`check_floor`): a part rigid with the base (the arm's root
 link) more than 1 mm below the floor is an arm mounted at or below it, and in a task whose start
@@ -43,15 +45,17 @@ DEFAULT_CLEARANCE = 0.02
 MAX_LENGTH_M = 100.0
 
 
-def scene_section(reader: Reader, base: Path) -> Scene:
-    """The task's scene (empty without ``scene:`` and ``scene_file:``)."""
+def scene_section(reader: Reader, base: Path, robot: Any = None) -> Scene:
+    """The task's scene (empty without ``scene:`` and ``scene_file:``); ``robot`` filters itself
+    out of sensed entries (:mod:`forte.planning.tasks.sensed_section`)."""
     objects: list[SceneObject] = []
+    floor = floor_value(reader)
     if reader.has("scene"):
         entries = reader.get("scene")
         if not isinstance(entries, list):
             raise reader.error("scene", f"expected a list of bodies, got {type(entries).__name__}")
         for i, entry in enumerate(entries):
-            objects.append(_entry(Reader(entry, reader.path, f"{reader.key('scene')}[{i}]."), i, base))
+            objects += _entry(Reader(entry, reader.path, f"{reader.key('scene')}[{i}]."), i, base, robot, floor)
     if reader.has("scene_file"):
         from forte.model.scene_files import read_scene_file
 
@@ -64,7 +68,7 @@ def scene_section(reader: Reader, base: Path) -> Scene:
     for i, name in enumerate(names):
         if name in names[:i]:
             raise reader.error("scene", f"two bodies are named {name!r}; give each a unique name")
-    return Scene(tuple(objects), floor_value(reader))
+    return Scene(tuple(objects), floor)
 
 
 def floor_value(reader: Reader) -> float | None:
@@ -110,19 +114,28 @@ def clearance_value(reader: Reader) -> float:
     return reader.number("clearance", DEFAULT_CLEARANCE, nonnegative=True, maximum=1.0, unit=" m")
 
 
-def _entry(r: Reader, index: int, base: Path) -> SceneObject:
-    kinds = [k for k in SHAPE_KINDS if k in r.data]
-    r.unknown({"name", "pose", *SHAPE_KINDS})
+def _entry(r: Reader, index: int, base: Path, robot: Any, floor: float | None) -> tuple[SceneObject, ...]:
+    from forte.planning.tasks.sensed_section import SENSED_KINDS, capture_configuration, sensed_objects
+
+    kinds = [k for k in (*SHAPE_KINDS, *SENSED_KINDS) if k in r.data]
+    r.unknown({"name", "pose", "capture_configuration", *SHAPE_KINDS, *SENSED_KINDS})
     if len(kinds) != 1:
         found = f"got {', '.join(kinds)}" if kinds else "got none"
-        raise r.error("", f"expected exactly one shape of {', '.join(SHAPE_KINDS)}; {found}")
+        raise r.error("", f"expected exactly one shape of {', '.join((*SHAPE_KINDS, *SENSED_KINDS))}; {found}")
     name = r.get("name", f"body{index}")
     if not isinstance(name, str) or not name:
         raise r.error("name", f"expected a non-empty string, got {name!r}")
     pose = r.vector("pose", 6)
     if np.any(np.abs(pose[:3]) > MAX_LENGTH_M):
         raise r.error("pose", f"expected a position within {MAX_LENGTH_M:g} m of the robot's start, got {pose[:3]}")
-    return SceneObject(name, _shape(r.sub(kinds[0]), kinds[0], base), pose_matrix(pose))
+    if kinds[0] in SENSED_KINDS:
+        if robot is None and r.has("capture_configuration"):
+            raise r.error("capture_configuration", "needs the task's robot")
+        capture = capture_configuration(r, robot) if robot is not None else None
+        return sensed_objects(r, kinds[0], name, pose_matrix(pose), base, (robot, capture, floor))
+    if r.has("capture_configuration"):
+        raise r.error("capture_configuration", f"belongs to a point_cloud or depth_image entry, not a {kinds[0]}")
+    return (SceneObject(name, _shape(r.sub(kinds[0]), kinds[0], base), pose_matrix(pose)),)
 
 
 def _shape(r: Reader, kind: str, base: Path) -> Any:

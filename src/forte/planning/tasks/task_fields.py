@@ -27,8 +27,11 @@ from forte.planning.tasks.contact_section import (
     MAX_FRICTION_FORCE,
     MAX_STIFFNESS,
 )
+from forte.planning.tasks.goal_poses import MAX_VIAS
 from forte.planning.tasks.goals import DEFAULT_GOAL_SAMPLES, GOAL_ANGLE_TOL, GOAL_POSITION_TOL
+from forte.planning.tasks.keep_level import AXES
 from forte.planning.tasks.scene_section import DEFAULT_CLEARANCE, MAX_LENGTH_M
+from forte.planning.tasks.sensed_section import DEFAULT_MAX_RANGE, DEFAULT_VOXEL, MAX_VOXEL, SENSED_KINDS
 from forte.planning.tasks.task_types import (
     BOOL,
     INERTIA,
@@ -98,7 +101,7 @@ _TOP = [
     Field("limits", MAPPING, "joint velocity and acceleration limits of the planned motion"),
     Field("controller", MAPPING, "gains of the impedance controller 'forte simulate' runs"),
     Field("require_capacity", BOOL, "obsolete: every plan's verdict requires capacity (still read)", default=False),
-    Field("scene", items_of(exactly_one=tuple(SHAPE_KINDS)), "static bodies around the robot",
+    Field("scene", items_of(exactly_one=(*SHAPE_KINDS, *SENSED_KINDS)), "static bodies around the robot",
           default=Prose("none: free space")),
     Field("scene_file", STRING, "a URDF or MJCF file whose static bodies join the scene (relative to the task file)"),
     Field("clearance", number(low=0, high=1.0), "distance the plan keeps from every body and the floor", "m",
@@ -155,6 +158,43 @@ def _rotation(prefix: str, default: str, when: Any = None) -> list[Field]:
             Field(f"{prefix}.orientation.matrix", matrix(3, 3), "an orthonormal 3 x 3 rotation matrix")]
 
 
+def _tolerance(prefix: str, what: str) -> list[Field]:
+    return [Field(f"{prefix}.tolerance", MAPPING, what),
+            Field(f"{prefix}.tolerance.position", number(above=0, high=1.0), "position tolerance", "m",
+                  GOAL_POSITION_TOL),
+            Field(f"{prefix}.tolerance.angle", number(above=0, high=3.141592653589793), "orientation tolerance",
+                  "rad", GOAL_ANGLE_TOL)]
+
+
+def _passing_fields() -> list[Field]:
+    """``path.via`` and pick and place's ``path.goals``/``path.grasp`` (:mod:`forte.planning.tasks.goal_poses`)."""
+    when = ("kind", "goal")
+    at = Prose("by the straight-line distance along start, vias, goal")
+    return [
+        Field("path.via", items_of(min_items=1), "poses the end effector passes on the way to the goal, in order "
+              f"(at most {MAX_VIAS}; each an NLP pose equality at one waypoint)", when=when),
+        Field("path.via[].position", VEC3, "the via position (world)", "m", required=True),
+        *_rotation("path.via[]", "the initial end-effector orientation"),
+        *_tolerance("path.via[]", "how close the plan must pass the via"),
+        Field("path.via[].time", DURATION, "when the via is passed (needs path.duration; all vias or none)", "s",
+              at),
+        Field("path.goals", items_of(min_items=2, exactly_one=("pose", "configuration")),
+              "pick and place: goals in order (e.g. pre-grasp, grasp, place); the last ends the motion, the "
+              "others are passed as vias (instead of pose or configuration)", when=when),
+        Field("path.goals[].pose", MAPPING, "a goal pose of the end effector"),
+        Field("path.goals[].pose.position", VEC3, "the goal position (world)", "m", required=True),
+        *_rotation("path.goals[].pose", "the initial end-effector orientation"),
+        Field("path.goals[].configuration", vector(), f"a whole-body goal configuration ({PER_DOF}; before the "
+              "last: passed as its end-effector pose)", "m, m, rad, rad..."),
+        *_tolerance("path.goals[]", "how close the plan must pass (end at) a goal pose"),
+        Field("path.goals[].time", DURATION, "when the goal is passed (needs path.duration; not the last)", "s",
+              at),
+        Field("path.grasp", integer(0, MAX_VIAS - 2), "the index (from 0) of the goal where the payload attaches: "
+              "its mass and force count from that goal's waypoint on, the approach is unloaded",
+              default=Prose("the goal before the last"), when=when),
+    ]
+
+
 WAYPOINTS, SINE, TAUGHT, GOAL = (("kind", k) for k in ("waypoints", "windowed-sine", "taught", "goal"))
 _PATH = [
     Field("path.kind", choice(("waypoints", "windowed-sine", "taught", "goal")), "how the path is given (goal: "
@@ -163,6 +203,7 @@ _PATH = [
           when=WAYPOINTS),
     Field("path.waypoints[].t", TIME, "the time of the waypoint (increasing)", "s", required=True),
     Field("path.waypoints[].position", VEC3, "the end effector's position (world, or relative)", "m", required=True),
+    *_rotation("path.waypoints[]", "the waypoint before's (the first: path.orientation); joined by slerp"),
     Field("path.relative", BOOL, "positions relative to the initial end-effector position", default=False,
           when=WAYPOINTS),
     Field("path.configurations", items_of(min_items=2), "timed whole-body configurations (their forward "
@@ -182,6 +223,7 @@ _PATH = [
     Field("path.tolerance.position", number(above=0, high=1.0), "position tolerance", "m", GOAL_POSITION_TOL),
     Field("path.tolerance.angle", number(above=0, high=3.141592653589793), "orientation tolerance", "rad",
           GOAL_ANGLE_TOL),
+    *_passing_fields(),
     Field("path.duration", DURATION, "the motion's duration", "s", Prose("from the joints' velocity and "
           "acceleration limits, at least 1 s"), when=GOAL),
     Field("path.duration", DURATION, "the sine path's duration", "s", required=True, when=SINE),
@@ -189,6 +231,13 @@ _PATH = [
     Field("path.amplitude", VEC3, "a in w(t) (c + a sin(2 pi f t + phi))", "m", required=True, when=SINE),
     Field("path.frequency", VEC3, "f in w(t) (c + a sin(2 pi f t + phi))", "Hz", required=True, when=SINE),
     Field("path.phase", VEC3, "phi in w(t) (c + a sin(2 pi f t + phi))", "rad", ZERO3, when=SINE),
+    Field("path.keep_level", MAPPING, "keep a tool axis near a world axis along the whole plan (a tray, an open "
+          "cup; any path kind): arccos(w . R a) <= max_tilt", default=Prose("none")),
+    Field("path.keep_level.axis", choice(AXES), "the world axis w (sign included: z is up)", default="z"),
+    Field("path.keep_level.max_tilt_deg", number(above=0, below=180), "the largest angle between the tool axis "
+          "and the world axis", "deg", required=True),
+    Field("path.keep_level.tool_axis", choice(AXES), "the end effector's axis a (-z: a hand pointing down)",
+          default="z"),
 ]
 
 _POSE = [
@@ -259,17 +308,41 @@ _SHAPES = {
              Field("scene[].mesh.scale", either(number(above=0), vector(3, above=0)), "scale factors (one or x, y, z)",
                    default=1.0)],
 }
+_VOXEL = number(above=0, high=MAX_VOXEL)
+_SENSED = [
+    Field("scene[].capture_configuration", vector(), "the robot's whole-body configuration when the sensor "
+          "data was taken: points on the robot are removed (point_cloud, depth_image only)", "m, m, rad, rad...",
+          Prose("no self-filter")),
+    Field("scene[].point_cloud", MAPPING, "a point cloud whose occupied voxels become boxes"),
+    Field("scene[].point_cloud.file", STRING, "a .ply, .pcd or .npy (N x 3) file (relative to the task file)",
+          required=True),
+    Field("scene[].point_cloud.voxel", _VOXEL, "voxel size", "m", DEFAULT_VOXEL),
+    Field("scene[].depth_image", MAPPING, "a depth image (pose: the camera's optical frame, z forward, x right, "
+          "y down) whose occupied voxels become boxes"),
+    Field("scene[].depth_image.file", STRING, "a .png (grey) or .npy (H x W) file (relative to the task file)",
+          required=True),
+    Field("scene[].depth_image.scale", number(above=0), "metres per image unit",
+          default=Prose("0.001 for .png, 1 for .npy")),
+    Field("scene[].depth_image.intrinsics", MAPPING, "the pinhole camera: fx, fy, cx, cy (pixels)", required=True),
+    *(Field(f"scene[].depth_image.intrinsics.{k}", number(above=0) if k[0] == "f" else number(), what, "px",
+            required=True) for k, what in (("fx", "focal length along x"), ("fy", "focal length along y"),
+                                           ("cx", "principal point's column"), ("cy", "principal point's row"))),
+    Field("scene[].depth_image.max_range", number(above=0, high=1000.0), "depths beyond it are no return", "m",
+          DEFAULT_MAX_RANGE),
+    Field("scene[].depth_image.voxel", _VOXEL, "voxel size", "m", DEFAULT_VOXEL),
+]
 _SCENE = [
     Field("scene[].name", STRING, "the body's name (unique)", default=Prose("body<i>")),
     Field("scene[].pose", vector(6), "x, y, z, roll, pitch, yaw in the world", "m, rad", required=True),
     *(f for kind in SHAPE_KINDS for f in [Field(f"scene[].{kind}", MAPPING, f"a {kind} (exactly one shape per "
                                                 "body)"), *_SHAPES[kind]]),
+    *_SENSED,
     Field("floor.height", number(low=-MAX_LENGTH_M, high=MAX_LENGTH_M), "the floor's height (world z)", "m",
           required=True),
 ]
 
 _SOLVER_DOCS = {
-    "max_iter": (integer(1, 10**9), "IPOPT iteration limit", ""),
+    "max_iter": (integer(1, 10**9), "IPOPT iteration limit (a goal task: 200 unless given)", ""),
     "tol": (number(above=0, high=1e12), "IPOPT convergence tolerance", ""),
     "constraint_tol": (number(above=0, high=1e12), "accepted constraint violation of a successful result", ""),
     "codegen": (BOOL, "generate, compile and cache C code for the NLP (a C compiler; else the CasADi VM)", ""),

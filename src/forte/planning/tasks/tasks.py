@@ -25,6 +25,7 @@ from forte.force.taskforce import (
     FORCE_MODELS,
     RADIUS_RULES,
     TaskForce,
+    attached_from,
     authors_force,
     mass_range_radius,
     payload_force,
@@ -34,7 +35,8 @@ from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import StartMotion, quintic_path, start_through
 from forte.planning.tasks.contact_section import read_contact
-from forte.planning.tasks.goals import Goal, goal_section, goal_targets
+from forte.planning.tasks.goals import GOAL_MAX_ITER, Goal, goal_section, goal_targets
+from forte.planning.tasks.keep_level import KeepLevel, keep_level_section
 from forte.planning.tasks.motion_section import force_profile, limits_section, path_targets, start_configuration
 from forte.planning.tasks.paths import (
     ForceAt,
@@ -125,6 +127,9 @@ class Task:
     #: A goal task's goal (``path.kind: goal``, :mod:`forte.planning.tasks.goals`): its path is
     #: free and its targets are the forward kinematics of a motion (:meth:`following`).
     goal: Goal | None = None
+    #: ``path.keep_level``: a tool axis kept near a world axis along the plan
+    #: (:mod:`forte.planning.tasks.keep_level`); ``None``: no orientation constraint.
+    keep_level: KeepLevel | None = None
 
     def with_weights(self, weight_set: WeightSet) -> Task:
         """The task with a named set's weights and term settings (the task's own ``terms:``
@@ -161,7 +166,7 @@ class Task:
             goal = self.goal
             if goal.route is not None:  # the route on the new samples
                 goal = replace(goal, route=np.column_stack([np.interp(t, self.t, c) for c in goal.route.T]))
-            return replace(self, t=t, goal=goal, targets=goal_targets(self.robot, goal, goal.motion(self.q_init, t)))
+            return replace(self, t=t, goal=goal, targets=goal_targets(self.robot, goal, goal.motion(self.q_init, t), t))
         if self.mode != "trajectory" or self.targets_at is None:
             raise TaskFileError(f"{self._where('path')}: only a trajectory task can be resampled")
         if n < 2 or n > MAX_WAYPOINTS:
@@ -182,7 +187,7 @@ class Task:
         its force is its path's."""
         if self.goal is None:
             return self
-        return replace(self, targets=goal_targets(self.robot, self.goal, q))
+        return replace(self, targets=goal_targets(self.robot, self.goal, q, self.t))
 
     def with_payload(self, payload: Payload) -> Task:
         """The same task carrying ``payload``."""
@@ -201,6 +206,9 @@ class Task:
         paper's Section 5.2), and the profile plus the payload's force (with its radii) when it
         has one: ``forte simulate`` carries that payload too. A payload with an offset centre of
         mass or an inertia adds its moment (:func:`~forte.force.wrench.with_payload_moment`).
+        A pick-and-place task (``path.goals``) carries the payload from its grasp's waypoint on:
+        before it the payload's share, its radius and its moment are zero
+        (:func:`~forte.force.taskforce.attached_from`).
         """
         if self.contact is not None:
             return self._contact_force(mass)
@@ -226,7 +234,9 @@ class Task:
             force = TaskForce(self.t, profile.f + force.f, profile.r)
         elif self.radius_rule == "mass-range" and mass is None and self.payload.mass_range is not None:
             force = mass_range_radius(force, total, m, self.payload.mass_range, self.radius)
-        return with_payload_moment(force, self.payload, self.targets[:, :3, :3], share)
+        force = with_payload_moment(force, self.payload, self.targets[:, :3, :3], share)
+        grasp = None if self.goal is None else self.goal.grasp_step(self.t)
+        return force if grasp is None else attached_from(force, share, grasp)
 
     def ee_start(self) -> StartMotion | None:
         """The end effector's start motion: its positions along ``start_motion``'s history."""
@@ -332,19 +342,25 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
     if force_at is None and contact is None and (payload is None or payload.mass == 0):
         payload = payload or Payload(mass=0.0, source="none")  # an empty hand: the tool's load only
         radius = radius if reader.has("uncertainty_radius") else 0.0  # no payload: no uncertainty about it
+    if goal is not None and goal.grasp is not None and (force_at is not None or contact is not None):
+        raise reader.error("force" if force_at is not None else "contact",
+                           "a pick-and-place task (path.goals) carries its payload from the grasp on; "
+                           "give payload, not a force profile or a contact")
     if force_at is not None and reader.has("force_model"):
         raise reader.error("force_model", "sets a payload's force; this task gives its force profile directly")
     weights, settings = read_weights(reader, mode, robot)
-    solver = dataclass_from(reader, "solver", SolverOptions, SolverOptions())
+    solver = dataclass_from(reader, "solver", SolverOptions,
+                            SolverOptions() if goal is None else SolverOptions(max_iter=GOAL_MAX_ITER))
     if targets_at is not None and limits.end_at_rest:
         t, targets_at = ending_at_rest(targets_at, t)
         targets = targets_at(t)
         force_at = force_with_hold(force_at, targets_at, t)
+    keep_level = keep_level_section(reader, robot, q_init, t, targets, goal) if mode == "trajectory" else None
     require_capacity = reader.get("require_capacity", False)
     if not isinstance(require_capacity, bool):
         raise reader.error("require_capacity", f"expected true or false, got {require_capacity!r}")
     name = str(reader.get("name", path.stem if path else "task"))
-    scene, clearance = scene_section(reader, base), clearance_value(reader)
+    scene, clearance = scene_section(reader, base, robot), clearance_value(reader)
     start_field = "initial_configuration" if reader.has("initial_configuration") else \
         "path.configurations[0].q" if knots is not None else "robot.home_arm"
     check_floor(reader, robot, q_init, scene, clearance, mode != "hold", start_field)
@@ -354,6 +370,7 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
                 solver=solver, teaching=teaching, limits=limits, raw=data, controller=controller_section(reader),
                 targets_at=targets_at, force_at=force_at, require_capacity=require_capacity, knots=knots,
                 radius_rule=radius_rule, force_model=force_model, scene=scene,
-                clearance=clearance, terms=terms_section(reader), contact=contact, goal=goal)
+                clearance=clearance, terms=terms_section(reader), contact=contact, goal=goal,
+                keep_level=keep_level)
 
 

@@ -58,6 +58,8 @@ class Context(NamedTuple):
             :class:`Clearance` computes it when the scene is not empty).
         goal: a goal task's goal (:class:`~forte.planning.tasks.goals.Goal`): tracking judges the
             last configuration against it alone; ``None``: the task's path (``targets``).
+        keep_level: the task's ``path.keep_level`` (:class:`~forte.planning.tasks.keep_level.KeepLevel`),
+            judged by :class:`forte.planning.verdict.keep_level.TiltLimit`; ``None``: none.
     """
 
     robot: MobileManipulator
@@ -73,6 +75,7 @@ class Context(NamedTuple):
     clearance: float = DEFAULT_CLEARANCE
     distances: Clearances | None = None
     goal: Any = None
+    keep_level: Any = None
 
 
 def exceeded(ctx: Context, name: str, value: FloatArray, limit: float, units: str, what: str,

@@ -17,6 +17,8 @@ much. :func:`forte.planning.verdict.verdict.judge` runs the list :data:`REQUIREM
 - :class:`~forte.planning.verdict.base_requirements.BaseMode`: the base moves as its mode allows
   (:attr:`MobileManipulator.base`): a fixed base stays put, a differential drive has no lateral velocity;
 - :class:`Tracking`: the end effector on the task's path (position and orientation);
+- :class:`~forte.planning.verdict.keep_level.TiltLimit`: the tool axis within ``path.keep_level``'s
+  tilt of its world axis;
 - :class:`SelfCollision`: no collision between the arm's URDF collision meshes;
 - :class:`Clearance`: the whole robot (arm collision meshes, base box, payload) keeps the task's
   ``clearance`` from every scene body and the floor (but the parts rigid with the base, which rest
@@ -47,6 +49,7 @@ from forte.planning.verdict.base_requirements import (
     BaseMode,
     Tipover,
 )
+from forte.planning.verdict.keep_level import TiltLimit
 from forte.planning.verdict.motion_samples import MotionSamples
 from forte.planning.verdict.requirement_base import Context, Measure, Requirement, Violation, exceeded
 from forte.validation import FloatArray
@@ -179,7 +182,7 @@ def orientation_errors(ee: FloatArray, targets: FloatArray) -> FloatArray:
 class Tracking(Requirement):
     """The end effector within :data:`TRACKING_POSITION_TOL` (m) and
     :data:`TRACKING_ORIENTATION_TOL` (rad) of the task's path at every sample; a goal task (its
-    path free): the last sample at the goal (:func:`goal_measures`)."""
+    path free): the last sample at the goal and each via at its waypoint (:func:`goal_measures`)."""
 
     name: ClassVar[str] = "tracking"
 
@@ -206,12 +209,29 @@ def goal_measures(ctx: Context) -> list[Measure]:
         gap = np.abs(s.q[end] - goal.q_end)
         worst = int(np.argmax(gap))
         return [Measure(np.where(at_end, gap[worst], 0.0), GOAL_CONFIGURATION_TOL, "rad or m",
-                        "the plan does not end at the goal configuration", [joint_names(ctx.robot)[worst]] * len(s.t))]
+                        "the plan does not end at the goal configuration", [joint_names(ctx.robot)[worst]] * len(s.t)),
+                *via_measures(ctx)]
     ee = s.ee[end]
     position = np.where(at_end, np.linalg.norm(ee[:3, 3] - goal.pose[:3, 3]), 0.0)
     angle = np.where(at_end, orientation_errors(ee[None], goal.pose[None])[0], 0.0)
     return [Measure(position, goal.position_tol, "m", "the end effector ends away from the goal position"),
-            Measure(angle, goal.angle_tol, "rad", "the end effector ends turned away from the goal orientation")]
+            Measure(angle, goal.angle_tol, "rad", "the end effector ends turned away from the goal orientation"),
+            *via_measures(ctx)]
+
+
+def via_measures(ctx: Context) -> list[Measure]:
+    """Each via pose at its waypoint ``k_i`` (:mod:`forte.planning.tasks.goal_poses`; zero elsewhere):
+    the position and angle errors within the via's tolerances."""
+    goal, s = ctx.goal, ctx.samples
+    measures = []
+    for i, (via, k) in enumerate(zip(goal.vias, goal.steps(s.t[s.waypoint]), strict=True)):
+        at = s.t == s.t[s.waypoint[k]]
+        ee = s.ee[s.waypoint[k]]
+        position = np.where(at, np.linalg.norm(ee[:3, 3] - via.pose[:3, 3]), 0.0)
+        angle = np.where(at, orientation_errors(ee[None], via.pose[None])[0], 0.0)
+        measures += [Measure(position, via.position_tol, "m", f"the end effector misses via {i}'s position"),
+                     Measure(angle, via.angle_tol, "rad", f"the end effector passes via {i} turned away")]
+    return measures
 
 
 @dataclass(frozen=True)
@@ -317,10 +337,11 @@ class Solver(Requirement):
 #: that runs into the scene is reported for that first: one line names the pair).
 REQUIREMENTS: tuple[Requirement, ...] = (
     Solver(), Clearance(), Capacity(), TorqueWithForce(), Tipover(), JointPositions(), JointVelocities(),
-    JointAccelerations(), BaseMode(), Tracking(), SelfCollision(),
+    JointAccelerations(), BaseMode(), Tracking(), TiltLimit(), SelfCollision(),
 )
 
 __all__ = ["CONVERGED", "FIXED_BASE_TOL", "LATERAL_SPEED_TOL", "REQUIREMENTS", "SPLINE_LATERAL_SPEED_TOL",
            "BaseMode", "Capacity", "Clearance", "Context", "JointAccelerations", "JointPositions", "JointVelocities",
-           "Measure", "Requirement", "SelfCollision", "Solver", "Tipover", "TorqueWithForce", "Tracking", "Violation",
+           "Measure", "Requirement", "SelfCollision", "Solver", "TiltLimit", "Tipover", "TorqueWithForce", "Tracking",
+           "Violation",
            "exceeded", "orientation_errors", "scene_distances"]

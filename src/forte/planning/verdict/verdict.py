@@ -139,7 +139,7 @@ def _label(violations: tuple[Violation, ...]) -> str:
 def context(robot: MobileManipulator, samples: MotionSamples, force: TaskForce, alpha: float,
             targets_at: Callable[[FloatArray], FloatArray] | None, limits: KinematicLimits | None,
             solver: dict[str, Any], optimized: bool, scene: Scene | None = None,
-            clearance: float = DEFAULT_CLEARANCE, goal: Any = None) -> Context:
+            clearance: float = DEFAULT_CLEARANCE, goal: Any = None, keep_level: Any = None) -> Context:
     """The :class:`~forte.planning.verdict.requirements.Context` of a sampled plan (the exact
     clearance at every sample computed once here when ``scene`` has bodies or a floor; ``None``:
     no world to keep clear of, not even a floor)."""
@@ -150,7 +150,7 @@ def context(robot: MobileManipulator, samples: MotionSamples, force: TaskForce, 
     if force.has_moment:  # the wrench requirement needs the angular Jacobians too
         samples = with_angular(robot, samples)
     return Context(robot, samples, force_at(force, samples.t), float(alpha), targets, vel, acc, solver, optimized,
-                   scene, float(clearance), distances, goal)
+                   scene, float(clearance), distances, goal, keep_level)
 
 
 def clearance_summary(ctx: Context) -> dict[str, Any] | None:
@@ -280,7 +280,8 @@ def judge_plan(task: Any, q: Any, force: TaskForce, solver: dict[str, Any] | Non
     when the motion fails even with no payload, ``unloaded_failed`` (which requirements then)."""
     samples = sample_motion(task.robot, task.t, q, per_interval, task.start_motion)
     ctx = context(task.robot, samples, force, task.settings.alpha, _task_targets(task), task.limits,
-                  solver or {}, solver is not None, task.scene, task.clearance, getattr(task, "goal", None))
+                  solver or {}, solver is not None, task.scene, task.clearance, getattr(task, "goal", None),
+                  getattr(task, "keep_level", None))
     verdict = judge_context(ctx, REQUIREMENTS, per_interval)
     mass, by_mass = task.payload.mass, {r.name for r in REQUIREMENTS if r.mass_dependent}
     # a solver failure is not the payload's: no row of the NLP depends on the mass

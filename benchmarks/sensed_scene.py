@@ -1,0 +1,141 @@
+"""Planning among sensed scenes: time and clearance against occupied cells and voxel size (issue 40).
+
+    python benchmarks/sensed_scene.py [--voxels 0.06 0.02 0.0067] [--max-boxes 5000] [--out FILE.md]
+
+The task is examples/tasks/sensed-crate.yaml's motion (1 kg carried 2.4 m forward; the base
+must drive around a crate, a table stands to its right); its scene is the truth of
+examples/sensed_scene.py given four ways:
+
+- ``primitives``: the crate and the table as two boxes (the reference);
+- ``faces``: a cloud sampled on every face of both (spacing voxel / 3), as a scanner that saw
+  all around them would give;
+- ``faces + 1 cm``: that cloud with 1 cm Gaussian noise on every coordinate;
+- ``depth``: one depth image from the example's camera (its resolution scaled so that a pixel
+  covers about a third of a voxel at 2 m: 320 x 240 at 2 cm), ray-cast by MuJoCo without the robot.
+
+Each sensed scene is read at each voxel size (floor points dropped, as a task file does), so the
+occupied cells go from ~1k to ~100k. A row reports the cells, the merged boxes, the time to make
+the boxes, the wall time of ``forte.plan`` (one plan after a first plan of the primitives has
+compiled the kernels) and the smallest exact clearance (coal; the waypoints and the executed
+spline between them) to the sensed boxes and to the true crate and table. A scene with more than
+``--max-boxes`` boxes is reported, not planned. Nothing is asserted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from forte.execution.depth_camera import ray_depth
+from forte.model.clearance import clearances
+from forte.model.occupancy import Intrinsics, box_objects, depth_points, occupancy
+from forte.model.scene import Scene, pose_matrix
+from forte.planning.planner import plan
+from forte.planning.tasks.tasks import load_task
+from forte.planning.verdict.motion_samples import sample_motion
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def example():
+    spec = importlib.util.spec_from_file_location("sensed_example", ROOT / "examples" / "sensed_scene.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def face_points(scene: Scene, step: float) -> np.ndarray:
+    """Points on every face of the scene's boxes, a grid of spacing <= ``step``, edges included."""
+    out = []
+    for o in scene.objects:
+        lo, hi = o.pose[:3, 3] - np.array(o.shape.size) / 2, o.pose[:3, 3] + np.array(o.shape.size) / 2
+        axes = [np.linspace(a, b, int(np.ceil((b - a) / step)) + 1) for a, b in zip(lo, hi, strict=True)]
+        for k in range(3):
+            i, j = [a for a in range(3) if a != k]
+            u, v = np.meshgrid(axes[i], axes[j], indexing="ij")
+            for side in (lo[k], hi[k]):
+                face = np.empty((u.size, 3))
+                face[:, i], face[:, j], face[:, k] = u.ravel(), v.ravel(), side
+                out.append(face)
+    return np.vstack(out)
+
+
+def sensed_points(source: str, voxel: float, ex) -> np.ndarray:
+    """The world points of one sensed ``source`` at ``voxel`` (m), the floor's dropped."""
+    if source == "depth":
+        s = 0.02 / voxel
+        width, height = int(320 * s), int(240 * s)
+        k = Intrinsics(200 * s, 200 * s, (width - 1) / 2, (height - 1) / 2)
+        pose = pose_matrix(ex.CAMERA_POSE)
+        points = depth_points(ray_depth(ex.TRUE_SCENE, pose, k, width, height, ex.MAX_RANGE), k, ex.MAX_RANGE, pose)
+    else:
+        points = face_points(ex.TRUE_SCENE, voxel / 3)
+        if source == "faces + 1 cm":
+            points = points + np.random.default_rng(0).normal(0.0, 0.01, points.shape)
+    return points[points[:, 2] >= voxel]
+
+
+def planned(task, scene: Scene, truth: Scene) -> dict:
+    t0 = time.perf_counter()
+    result = plan(replace(task, scene=scene))
+    seconds = time.perf_counter() - t0
+    q = sample_motion(result.robot, result.t, result.q).q
+    return {"plan_s": seconds, "feasible": result.feasible,
+            "own_m": float(clearances(result.robot, scene, q).distance.min()),
+            "true_m": float(clearances(result.robot, truth, q).distance.min())}
+
+
+def rows(voxels: list[float], max_boxes: int) -> list[dict]:
+    ex = example()
+    task = load_task(ROOT / "examples" / "tasks" / "sensed-crate.yaml")
+    truth = ex.TRUE_SCENE
+    plan(replace(task, scene=truth))  # compiles the kernels
+    out = [{"source": "primitives", "voxel": "-", "cells": "-", "boxes": len(truth.objects), "boxes_s": 0.0,
+            **planned(task, truth, truth)}]
+    print(out[-1], flush=True)
+    for source in ("faces", "faces + 1 cm", "depth"):
+        for voxel in voxels:
+            points = sensed_points(source, voxel, ex)
+            t0 = time.perf_counter()
+            occ = occupancy(points, voxel)
+            objects = box_objects("sensed", occ)
+            row = {"source": source, "voxel": voxel, "cells": occ.cells, "boxes": len(objects),
+                   "boxes_s": time.perf_counter() - t0}
+            if len(objects) <= max_boxes:
+                row.update(planned(task, Scene(objects, truth.floor), truth))
+            out.append(row)
+            print(row, flush=True)
+    return out
+
+
+def table(found: list[dict]) -> str:
+    lines = ["| scene | voxel (m) | occupied cells | boxes | boxes made (s) | plan (s) | feasible | "
+             "clearance to its boxes (m) | clearance to the truth (m) |", "|---|---|---|---|---|---|---|---|---|"]
+    for r in found:
+        if "plan_s" in r:
+            tail = f"{r['plan_s']:.1f} | {'yes' if r['feasible'] else 'no'} | {r['own_m']:.3f} | {r['true_m']:.3f}"
+        else:
+            tail = "not planned (more boxes than --max-boxes) | | |"
+        lines.append(f"| {r['source']} | {r['voxel']} | {r['cells']} | {r['boxes']} | {r['boxes_s']:.2f} | {tail} |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--voxels", type=float, nargs="+", default=[0.06, 0.02, 0.0067])
+    parser.add_argument("--max-boxes", type=int, default=5000)
+    parser.add_argument("--out", type=Path)
+    args = parser.parse_args()
+    text = table(rows(args.voxels, args.max_boxes))
+    print(text)
+    if args.out:
+        args.out.write_text(text)
+
+
+if __name__ == "__main__":
+    main()
