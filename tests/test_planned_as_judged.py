@@ -199,13 +199,13 @@ def test_a_force_profile_holds_its_end_value_over_hold_samples_after_the_path():
 def test_refinement_rounds_keep_the_self_collision_rows_of_a_plan_kept_apart(monkeypatch):
     """A plan that self-collision rows kept apart is re-solved by the velocity rounds with those rows
     (without them, a round's re-solve could bring the arm back through the robot)."""
-    from forte.planning import planner
+    from forte.planning import rounds
     from forte.planning.methods.catalog import get_method
 
     task = forte.load_task(LIFT, mass=0.35, waypoints=9)
     force = task.force()
     q = task.nominal()
-    sol = planner.SolverResult(q=q, success=True, status="Solve_Succeeded", iterations=1, objective=0.0,
+    sol = rounds.SolverResult(q=q, success=True, status="Solve_Succeeded", iterations=1, objective=0.0,
                                constraint_violation=0.0, build_time=0.0, solve_time=0.0, codegen="python")
     calls = []
 
@@ -213,13 +213,13 @@ def test_refinement_rounds_keep_the_self_collision_rows_of_a_plan_kept_apart(mon
         calls.append(self_rows)
         return sol, {}
 
-    monkeypatch.setattr(planner, "optimize", optimize)
-    monkeypatch.setattr(planner, "limit_ratios", lambda task, q: (np.full(task.robot.nq, 1.2),
+    monkeypatch.setattr(rounds, "optimize", optimize)
+    monkeypatch.setattr(rounds, "limit_ratios", lambda task, q: (np.full(task.robot.nq, 1.2),
                                                                     np.full(task.robot.n_arm, 0.5)))
     verdict = type("V", (), {"failed": ("velocity",), "violations": (), "feasible": False, "label": "infeasible"})()
     feasible = type("V", (), {"failed": (), "violations": (), "feasible": True, "label": "feasible"})()
-    monkeypatch.setattr(planner, "judge_plan", lambda *a, **k: feasible)
+    monkeypatch.setattr(rounds, "judge_plan", lambda *a, **k: feasible)
     for kept in (True, False):
         calls.clear()
-        planner._refine(task, get_method("forte"), force, sol, {"self_rows": {"kept": kept}}, verdict)
+        rounds.refine(task, get_method("forte"), force, sol, {"self_rows": {"kept": kept}}, verdict)
         assert calls == [kept]

@@ -289,7 +289,7 @@ class SolverOptions:
         hold_seed: seed of those extra starts.
         refine_rounds: rounds of verdict-driven refinement of a converged plan that fails only
             where the NLP's waypoint view falls short of the executed motion (capacity, arm
-            accelerations; :func:`forte.planning.planner._refine`); 0 returns the NLP's own optimum.
+            accelerations; :func:`forte.planning.rounds.refine`); 0 returns the NLP's own optimum.
         backend: ``ipopt`` (default, the reference) or ``stagewise``, the stage-structured
             interior-point method of :mod:`forte.planning.nlp.solvers` (same problem, same
             convergence test; several times faster per re-plan; problems with a scene or a

@@ -12,6 +12,8 @@
   naming what is in the way);
 - :mod:`~forte.planning.solve`: solving a task with an optimized method (initial guess,
   coarse-to-fine, clearance rows, several starts for a hold);
+- :mod:`~forte.planning.rounds`: the verdict of a solve and the rounds for a plan that fails it
+  (its own force, self-collision rows, refinement, a slower route, the route as the plan);
 - :mod:`~forte.planning.planner`: the entry point (:func:`~forte.planning.planner.plan`: solve,
   judge, refine);
 - :mod:`~forte.planning.online`: re-planning while the robot moves;

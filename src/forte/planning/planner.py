@@ -9,29 +9,25 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
-
-import numpy as np
 
 from forte.exceptions import EstimationError, InvalidInputError, TaskFileError
 from forte.force.contact import Contact
 from forte.force.payload import Payload
 from forte.force.taskforce import TaskForce
-from forte.model.robot import N_BASE, MobileManipulator
+from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
-from forte.model.trajectory import backward_differences
 from forte.planning.methods.catalog import METHODS, Method, get_method, method_names
-from forte.planning.nlp.optimizer import SolverResult
+from forte.planning.rounds import apart, judged, own_force, passing, refine, route_as_plan, slower
 from forte.planning.scene.scene_solve import blocked_path
 from forte.planning.search.route import routed
 from forte.planning.solve import optimize, start_guess
-from forte.planning.tasks.keep_level import tightened
 from forte.planning.tasks.tasks import Task
 from forte.planning.tasks.terms_section import with_task_terms
-from forte.planning.terms.wrench_terms import for_requirement, uses_capability
+from forte.planning.terms.wrench_terms import for_requirement
 from forte.planning.verdict.evaluation import evaluate
-from forte.planning.verdict.verdict import SOLVER_FAILED, Verdict, capacity_shortfall, judge_plan, limit_ratios
+from forte.planning.verdict.verdict import SOLVER_FAILED, Verdict
 from forte.validation import FloatArray
 
 
@@ -126,210 +122,6 @@ def resolve_payload(task: Task, estimator_options: dict[str, Any] | None = None)
     return task.with_payload(task.payload.with_estimate(estimate))
 
 
-#: What a refinement round adds to the shortfall it covers (N).
-REFINE_SLACK_N = 0.5
-#: How far below the executed peak a refinement round sets a velocity or acceleration bound.
-REFINE_MARGIN = 1.05
-
-
-def _tightened(limits: FloatArray, peaks: FloatArray, ratios: FloatArray) -> FloatArray:
-    """The NLP's bound of every coordinate whose executed motion exceeds its limit by ``x``
-    (``ratios``): ``min(limit, largest waypoint value) / (1.05 x)``, so the tighter bound binds."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(ratios > 1.0, np.minimum(limits, peaks) / (REFINE_MARGIN * ratios), limits)
-
-
-def judged(task: Task, q: FloatArray, force: TaskForce, solver: dict[str, Any] | None = None
-           ) -> tuple[Verdict, TaskForce]:
-    """The verdict of ``q`` planned for ``task`` with ``force``, and the force it was judged with: a
-    goal task's is the force along the plan's own end-effector motion (:meth:`Task.following
-    <forte.planning.tasks.tasks.Task.following>`), whatever force it was planned with."""
-    if task.goal is None:
-        return judge_plan(task, q, force, solver), force
-    own = task.following(q)
-    force = own.force()
-    return judge_plan(own, q, force, solver), force
-
-
-def _refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info: dict[str, Any],
-            verdict: Verdict) -> tuple[SolverResult, dict[str, Any], Verdict, TaskForce]:
-    """Re-solve a converged plan whose verdict fails only where the NLP's discrete view of the
-    motion falls short of the executed one.
-
-    The NLP checks the force ball, the joint velocities and accelerations at the waypoints, on
-    backward differences; the verdict also checks the executed spline between them, whose torques,
-    velocities and accelerations differ (forte's 0.35 kg lift on the moca-like robot: arm
-    accelerations within the limits at every waypoint, 1.45 x a limit on the spline; a Kinova
-    riding its 0.628 rad/s joint limits at the waypoints: 1.014 x on the spline). Each round,
-    solved again from the current plan:
-
-    - ``capacity`` (methods whose objective uses the ball, the ``capability`` term): ``r_k`` grows
-      at the waypoints next to every failing sample by the shortfall there plus
-      :data:`REFINE_SLACK_N`;
-    - ``velocity``, ``acceleration``: the NLP's limit of each coordinate (base and arm velocities,
-      arm accelerations) that exceeds its limit on the spline by the ratio ``x`` becomes
-      ``min(limit, largest waypoint value) / (1.05 x)``;
-    - ``keep_level`` (a goal task: a given path fixes its orientations, the NLP has no such rows):
-      the NLP's tilt limit drops by twice the spline's excess over the task's
-      (:func:`~forte.planning.tasks.keep_level.tightened`; its rows hold at the waypoints only).
-
-    The metrics, the cost terms and the verdict keep the task's own radii and limits. At most
-    ``task.solver.refine_rounds`` rounds (0: none); the first feasible plan is kept, else the original.
-    ``info["refinement"]`` records the rounds. Returns the kept plan, its facts, its verdict and the
-    force it was judged with (:func:`judged`; a goal task's: its own motion's).
-    """
-    fixable = {"velocity", "acceleration"} | ({"capacity"} if uses_capability(spec) else set())
-    fixable |= {"keep_level"} if task.goal is not None else set()  # a given path has no keep_level rows
-    if not sol.success or not verdict.failed or not set(verdict.failed) <= fixable or not task.solver.refine_rounds:
-        return sol, info, verdict, force
-    radius = force.r.copy()
-    vel, acc = (limit.copy() for limit in task.limits.resolve(task.robot))
-    acc, keep = acc[N_BASE:], task.keep_level
-    rounds, current, current_verdict = [], sol, verdict
-    apart = bool(info.get("self_rows", {}).get("kept"))  # a plan kept apart by self rows keeps them
-    for _ in range(task.solver.refine_rounds):
-        if "capacity" in current_verdict.failed:
-            short = capacity_shortfall(task, current.q, force)
-            radius = radius + np.where(short > 0, short + REFINE_SLACK_N, 0.0)
-        if {"velocity", "acceleration"} & set(current_verdict.failed):
-            v_ratio, a_ratio = limit_ratios(task, current.q)
-            v_peak, a_peak = (np.max(np.abs(x), axis=0) for x in backward_differences(
-                np.asarray(current.q), task.t, start=task.start_motion))
-            vel = _tightened(vel, v_peak, v_ratio)
-            acc = _tightened(acc, a_peak[N_BASE:], a_ratio)
-        for v in (v for v in current_verdict.violations if v.requirement == "keep_level"):
-            keep = tightened(keep, np.radians(v.worst - v.limit))
-        trial_task = replace(task, limits=replace(task.limits, arm_acceleration=tuple(acc),
-                                                  arm_velocity=tuple(vel[N_BASE:]),
-                                                  base_velocity=tuple(vel[:N_BASE])), keep_level=keep)
-        trial, trial_info = optimize(trial_task, spec, replace(force, r=radius), current.q,
-                                     reported=force, self_rows=apart)
-        trial_verdict, trial_force = judged(task, trial.q, force, trial_info)
-        rounds.append({"max_added_radius_n": float(np.max(radius - force.r)), "arm_acceleration": acc.tolist(),
-                       "velocity": vel.tolist(), "verdict": trial_verdict.label,
-                       "keep_level_max_tilt_deg": None if keep is None else float(np.degrees(keep.max_tilt)),
-                       "failed": list(trial_verdict.failed), "iterations": trial.iterations,
-                       "solve_time_s": trial.solve_time})
-        if trial_verdict.feasible:
-            trial_info["refinement"] = {"rounds": rounds, "radius": radius.tolist()}
-            return trial, trial_info, trial_verdict, trial_force
-        if not trial.success or not set(trial_verdict.failed) <= fixable:
-            break
-        current, current_verdict = trial, trial_verdict
-    info["refinement"] = {"rounds": rounds, "kept": "original"}
-    return sol, info, verdict, force
-
-
-def _apart(task: Task, spec: Method, force: TaskForce, guess: FloatArray | None, sol: SolverResult,
-           info: dict[str, Any], verdict: Verdict) -> tuple[SolverResult, dict[str, Any], Verdict, TaskForce]:
-    """Solve again with self-collision rows a plan without clearance rows whose arm runs into the robot.
-
-    A task without scene bodies near the robot has no rows for the robot's own pairs (most tasks
-    never bring two parts close, and rows cost time); a plan the verdict finds in self-collision
-    (exact meshes) is solved again, from the same guess, with rows for the robot's pairs near it
-    (:func:`~forte.planning.scene.scene_solve.solve_in_scene`; a pair whose covers already overlap at
-    the start keeps its start distance, :func:`~forte.planning.nlp.collision_slots.self_margins`).
-    The new plan is kept when it no longer collides; ``info["self_rows"]`` records the try. Returns
-    the force the kept plan was judged with too (:func:`judged`).
-    """
-    if "clearance_rows" in info or "self_collision" not in verdict.failed:
-        return sol, info, verdict, force
-    trial, trial_info = optimize(task, spec, force, guess, self_rows=True)
-    trial_verdict, trial_force = judged(task, trial.q, force, trial_info)
-    kept = "self_collision" not in trial_verdict.failed
-    record = {"verdict": trial_verdict.label, "failed": list(trial_verdict.failed), "kept": kept,
-              "iterations": trial.iterations, "solve_time_s": trial.solve_time}
-    if kept:
-        return trial, trial_info | {"self_rows": record}, trial_verdict, trial_force
-    return sol, info | {"self_rows": record}, verdict, force
-
-
-def _own_force(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info: dict[str, Any],
-               verdict: Verdict) -> tuple[SolverResult, dict[str, Any], Verdict, TaskForce]:
-    """A goal task planned with its guess's force whose plan fails on a force requirement
-    (capacity, torque) with its own motion's ``force``: solved once more, from the plan, with that
-    force; the new plan is kept when it converged (``info["own_force"]`` records the try)."""
-    by_force = {"capacity", "torque"}
-    if task.goal is None or not sol.success or not set(verdict.failed) & by_force:
-        return sol, info, verdict, force
-    own = task.following(sol.q)
-    trial, trial_info = optimize(own, spec, force, sol.q)
-    trial_verdict, trial_force = judged(own, trial.q, force, trial_info)
-    record = {"verdict": trial_verdict.label, "failed": list(trial_verdict.failed), "kept": trial.success,
-              "iterations": trial.iterations, "solve_time_s": trial.solve_time}
-    if trial.success:
-        return trial, trial_info | {"own_force": record}, trial_verdict, trial_force
-    return sol, info | {"own_force": record}, verdict, force
-
-
-#: What a longer duration can fix, and how much longer each round makes it.
-BY_DURATION = frozenset({"velocity", "acceleration", "torque", "capacity"})
-SLOWER, SLOWER_ROUNDS = 1.5, 3
-
-
-def _slower(unrouted: Task, spec: Method, task: Task, sol: SolverResult, info: dict[str, Any], verdict: Verdict,
-            force: TaskForce, route: dict[str, Any]) -> tuple[Task, SolverResult, dict[str, Any], Verdict, TaskForce]:
-    """A goal task whose duration forte chose (toppra's, :mod:`forte.planning.search.route`) and whose
-    converged plan fails only on what a slower motion fixes (:data:`BY_DURATION`: the payload's
-    torques and the capacity margin are not in toppra's problem): planned again on a route
-    :data:`SLOWER` times longer, at most :data:`SLOWER_ROUNDS` times; the first feasible plan is kept.
-    ``info["search"]`` records the route, the duration and the limit that set it."""
-    rounds: list[dict[str, Any]] = []
-    limiting = route.get("limiting", "")
-    stretch = 1.0
-    while (not task.goal.duration_given and sol.success and not verdict.feasible and len(rounds) < SLOWER_ROUNDS
-           and set(verdict.failed) <= BY_DURATION):
-        stretch *= SLOWER
-        trial_task, _ = routed(unrouted, stretch)
-        trial_task = trial_task.following(trial_task.goal.route)
-        trial, trial_info = optimize(trial_task, spec, trial_task.force(), None)
-        trial_verdict, trial_force = judged(trial_task, trial.q, trial_task.force(), trial_info)
-        rounds.append({"duration_s": float(trial_task.t[-1]), "verdict": trial_verdict.label,
-                       "failed": list(trial_verdict.failed), "iterations": trial.iterations})
-        if trial_verdict.feasible or not trial.success:
-            limiting = f"{', '.join(verdict.failed)} with the task's force" if trial_verdict.feasible else limiting
-            if trial_verdict.feasible:
-                task, sol, info, verdict, force = trial_task, trial, trial_info, trial_verdict, trial_force
-            break
-    info["search"] = route | {"duration_s": float(task.t[-1] - task.t[0]), "limiting": limiting,
-                              "slower_rounds": rounds}
-    return task, sol, info, verdict, force
-
-
-def _passing(task: Task) -> dict[str, Any]:
-    """A goal task's via times (s) and, for pick and place, the grasp's time (``forte simulate``
-    attaches the payload then); empty without vias."""
-    if not task.goal.vias:
-        return {}
-    steps = task.goal.steps(task.t)
-    facts: dict[str, Any] = {"via_times_s": [float(task.t[k]) for k in steps]}
-    if task.goal.grasp is not None:
-        facts["grasp_time_s"] = float(task.t[steps[task.goal.grasp]])
-    return facts
-
-
-def _route_as_plan(task: Task, sol: SolverResult, info: dict[str, Any], verdict: Verdict,
-                   force: TaskForce) -> tuple[FloatArray, bool, str, dict[str, Any], Verdict, TaskForce]:
-    """A goal task whose optimized plan is not feasible (the NLP did not converge, or its plan fails
-    the verdict): its route (the search's collision-free path timed by toppra,
-    :mod:`forte.planning.search.route`) judged as it is, and kept when the verdict calls it
-    feasible. The route keeps the exact clearance between its states and the limits on toppra's
-    time law, but its force capability is not optimized: ``info["fallback"]`` says so, and the
-    status names what the NLP did."""
-    keep = sol.q, sol.success, sol.status, info, verdict, force
-    route = task.goal.route if task.goal is not None else None
-    if verdict.feasible or route is None or len(route) != task.n:
-        return keep
-    route_verdict, route_force = judged(task, route, force)
-    record = {"verdict": route_verdict.label, "failed": list(route_verdict.failed), "kept": route_verdict.feasible,
-              "optimized": {"status": sol.status, "verdict": verdict.label, "failed": list(verdict.failed)}}
-    if not route_verdict.feasible:
-        return (*keep[:3], info | {"fallback": record}, verdict, force)
-    status = (f"route: the optimized plan was {verdict.label} ({sol.status}); the searched route, timed by toppra, "
-              "is judged feasible as it is (its force capability not optimized)")
-    return route, True, status, info | {"fallback": record}, route_verdict, route_force
-
-
 def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,
          guess: FloatArray | None = None) -> Plan:
     """Plan ``task`` with ``method`` and judge it; never raises for a solver failure or an
@@ -367,12 +159,12 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         solved_as = with_task_terms(for_requirement(spec, force), task.terms)
         sol, info = optimize(task, solved_as, force, guess)
         verdict, force = judged(task, sol.q, force, info)
-        sol, info, verdict, force = _own_force(task, solved_as, force, sol, info, verdict)
-        sol, info, verdict, force = _apart(task, solved_as, force, guess, sol, info, verdict)
-        sol, info, verdict, force = _refine(task, solved_as, force, sol, info, verdict)
+        sol, info, verdict, force = own_force(task, solved_as, force, sol, info, verdict)
+        sol, info, verdict, force = apart(task, solved_as, force, guess, sol, info, verdict)
+        sol, info, verdict, force = refine(task, solved_as, force, sol, info, verdict)
         if route:
-            task, sol, info, verdict, force = _slower(unrouted, solved_as, task, sol, info, verdict, force, route)
-            q, solved, status, info, verdict, force = _route_as_plan(task, sol, info, verdict, force)
+            task, sol, info, verdict, force = slower(unrouted, solved_as, task, sol, info, verdict, force, route)
+            q, solved, status, info, verdict, force = route_as_plan(task, sol, info, verdict, force)
         else:
             q, solved, status = sol.q, sol.success, sol.status
     else:
@@ -382,7 +174,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
     if task.goal is not None:  # the plan's own end-effector motion (its force is the judged one)
         task = task.following(q)
         info["goal"] = {"kind": task.goal.kind, "duration_s": float(task.t[-1] - task.t[0]),
-                        "duration_given": task.goal.duration_given} | _passing(task)
+                        "duration_given": task.goal.duration_given} | passing(task)
     metrics = evaluate(task.robot, q, task.t, force, task.settings.capability_params, task.scene,
                        task.start_motion)
     return Plan(method=spec.name, robot=task.robot, t=task.t, q=q, force=force, payload=task.payload,
