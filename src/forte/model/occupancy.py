@@ -15,6 +15,13 @@ the scene's boxes go to the optimizer's rounded-box rows, coal's exact check and
 ordinary :class:`~forte.model.scene.Box` bodies. A flat surface seen by a camera (a table top,
 a box face) becomes a few boxes however many cells it has.
 
+**Cover.** By default (:func:`sensed_boxes`) the cells become a conservative *coarse cover*
+instead (:mod:`forte.model.occupancy_cover`): disjoint boxes that hold every occupied cell and
+may hold free cells too, but none farther than ``slack`` (default two voxels, at least 4 cm)
+from an occupied cell,
+in at most ``max_boxes`` boxes; a noisy or slanted surface becomes a few slabs instead of a
+staircase of thousands of boxes. The exact merge stays available (``cover=None``).
+
 **Depth images** (:func:`depth_points`): the pixel in column ``u``, row ``v`` with depth ``z``
 (m, along the optical axis, as ROS's, OpenCV's and MuJoCo's depth images are) is the point
 ``((u - cx) z / fx, (v - cy) z / fy, z)`` in the camera's *optical* frame: z forward (out of
@@ -35,11 +42,14 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from forte.exceptions import InvalidInputError
+from forte.model.occupancy_cover import CoverSettings, cover_boxes, slack_for
 from forte.model.scene import Box, SceneObject
 from forte.validation import FloatArray
 
 #: The most cells the dense grid around a cloud may have (a bool each).
 MAX_GRID_CELLS = 50_000_000
+#: The coarse cover's settings when a caller does not say (:mod:`forte.model.occupancy_cover`).
+DEFAULT_COVER = CoverSettings()
 #: How far (m) beyond the robot's collision cover the self-filter removes points.
 SELF_FILTER_PADDING = 0.03
 
@@ -118,9 +128,30 @@ def merged_boxes(grid: Any) -> Any:
     return np.array(out, dtype=np.int64).reshape(-1, 6)
 
 
-def box_objects(name: str, occ: Occupancy) -> tuple[SceneObject, ...]:
-    """The occupancy's merged boxes as scene bodies ``name/0``, ``name/1``, ... (world axes)."""
-    boxes = merged_boxes(occ.grid)
+class SensedBoxes(NamedTuple):
+    """Boxes of an occupancy (B x 6 integer cells: low corner, high corner exclusive), how far
+    (m) any point of them may lie from an occupied cell, and the free cells they hold."""
+
+    boxes: Any
+    excess: float
+    free_cells: int
+
+
+def sensed_boxes(occ: Occupancy, cover: CoverSettings | None = DEFAULT_COVER) -> SensedBoxes:
+    """The occupancy's boxes: ``cover`` (default :data:`DEFAULT_COVER`) the conservative coarse
+    cover (:mod:`forte.model.occupancy_cover`), ``None`` the exact merge (no excess)."""
+    if cover is None:
+        return SensedBoxes(merged_boxes(occ.grid), 0.0, 0)
+    return SensedBoxes(*cover_boxes(occ.grid, occ.voxel, slack_for(occ.voxel, cover.slack), cover.max_boxes))
+
+
+def box_objects(name: str, occ: Occupancy, cover: CoverSettings | None = DEFAULT_COVER) -> tuple[SceneObject, ...]:
+    """The occupancy's boxes (:func:`sensed_boxes`) as scene bodies ``name/0``, ``name/1``, ... (world axes)."""
+    return boxes_as_objects(name, occ, sensed_boxes(occ, cover).boxes)
+
+
+def boxes_as_objects(name: str, occ: Occupancy, boxes: Any) -> tuple[SceneObject, ...]:
+    """Integer boxes of ``occ`` (B x 6 cells) as scene bodies ``name/0``, ``name/1``, ... (world axes)."""
     lo = (boxes[:, :3] + occ.origin) * occ.voxel
     hi = (boxes[:, 3:] + occ.origin) * occ.voxel
     out = []
