@@ -434,6 +434,49 @@ def test_a_task_entry_chooses_the_exact_merge_or_the_cover(tmp_path):
     assert volume[0] == pytest.approx(len(above) * 0.02**3) and volume[0] < volume[1] < volume[2]
 
 
+def test_a_second_scan_carves_what_its_rays_see_through():
+    """The table and the box seen by the camera, then the table alone (the box taken away): fusing
+    the second scan into the first clears the box's cells its rays pass through (all but those
+    within two voxels of the table top, where the rays end, and a few a ray only clips), keeps
+    every cell of the second scan, adds none the scans did not hold, and every cleared cell is
+    pierced by a ray of the second scan short of its point by a voxel (a slab test per cell)."""
+    from forte.execution.depth_camera import ray_depth
+    from forte.model.occupancy import fused
+
+    def scan(scene):
+        return depth_points(ray_depth(scene, CAMERA, K, W, H), K, 10.0, CAMERA)
+
+    first, rays = scan(TRUE_SCENE), scan(Scene(TRUE_SCENE.objects[:1], 0.0))
+    first, second = first[first[:, 2] >= VOXEL], rays[rays[:, 2] >= VOXEL]  # the floor's points: rays, no cells
+    before = occupancy(first, VOXEL)
+    after = fused(before, CAMERA[:3, 3], rays, VOXEL, rays[:, 2] >= VOXEL)
+    assert fused(None, CAMERA[:3, 3], first, VOXEL).grid.tolist() == before.grid.tolist()
+    assert after.occupied(occupancy(second, VOXEL).centres()).all()
+    assert (before.occupied(after.centres()) | occupancy(second, VOXEL).occupied(after.centres())).all()
+    box = TRUE_SCENE.objects[1]
+    lo, hi = box.pose[:3, 3] - np.array(box.shape.size) / 2, box.pose[:3, 3] + np.array(box.shape.size) / 2
+    centres = before.centres()
+    on_box = np.all((centres > lo - VOXEL) & (centres < hi + VOXEL), axis=1) & (centres[:, 2] > lo[2] + 2 * VOXEL)
+    assert on_box.sum() > 100
+    cleared_on_box = ~after.occupied(centres[on_box])
+    assert cleared_on_box.mean() > 0.95
+    cleared = centres[~after.occupied(centres) & ~occupancy(second, VOXEL).occupied(centres)]
+    assert len(cleared) >= on_box.sum() * 0.95
+    origin = CAMERA[:3, 3]
+    d = rays - origin
+    length = np.linalg.norm(d, axis=1)
+    end = origin + d * ((length - VOXEL) / length)[:, None]
+    for c in cleared:
+        assert any(_segment_hits_box(origin, e, c - VOXEL / 2, c + VOXEL / 2) for e in end[_near(origin, end, c)])
+
+
+def _near(origin, end, c):
+    """The rays (origin to each end) passing within a voxel's diagonal of ``c`` (a cheap pre-filter)."""
+    d = end - origin
+    t = np.clip(((c - origin) @ d.T) / np.einsum("ij,ij->i", d, d), 0, 1)
+    return np.linalg.norm(origin + t[:, None] * d - c, axis=1) <= np.sqrt(3) * VOXEL
+
+
 def _crate_task(tmp_path, scene):
     return {"name": "sensed-crate", "path": {"kind": "waypoints", "relative": True, "samples": 41, "waypoints": [
         {"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 8.0, "position": [2.4, 0.0, 0.0]}]},
@@ -448,9 +491,9 @@ def test_a_cloud_of_a_crate_and_the_crate_give_plans_of_the_same_clearance_withi
     cloud's coarse cover (the default merge) is a few dozen boxes, not the exact merge's hundreds;
     its plan keeps the clearance from the truth, exceeds the box's by no more than what the cover
     may add (its excess, a voxel's diagonal, 5 sigma of noise), and runs without a touch too."""
-    from forte.model.occupancy import sensed_boxes
     import forte
     from forte.model.clearance import clearances
+    from forte.model.occupancy import sensed_boxes
     from forte.planning.tasks.tasks import task_from_dict
     from forte.planning.verdict.motion_samples import sample_motion
 

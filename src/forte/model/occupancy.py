@@ -162,6 +162,57 @@ def boxes_as_objects(name: str, occ: Occupancy, boxes: Any) -> tuple[SceneObject
     return tuple(out)
 
 
+def seen_through(occ: Occupancy, origin: Any, points: Any, chunk: int = 2048) -> Any:
+    """The cells of ``occ``'s grid (a bool grid of its shape) that the rays from the sensor at
+    ``origin`` (3, world) to ``points`` (N x 3, world) pass through, up to one voxel short of each
+    point: each ray, clipped to the grid's bounds, is sampled every half voxel, and a cell holding
+    a sample is seen through. Sampling can miss a cell a ray only clips (it then stays as it was:
+    the conservative side); the last voxel before a point is never cleared by its own ray, so a
+    ray grazing the surface it ends on does not clear that surface's cells."""
+    origin, points = np.asarray(origin, dtype=float), np.asarray(points, dtype=float)
+    v, shape = occ.voxel, np.array(occ.grid.shape)
+    lo, hi = occ.origin * v, (occ.origin + shape) * v
+    seen = np.zeros(occ.grid.shape, dtype=bool)
+    d = points - origin
+    length = np.linalg.norm(d, axis=1)
+    keep = length > v
+    d, length = d[keep] / length[keep, None], length[keep] - v
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = (lo - origin) / d, (hi - origin) / d
+    enter = np.nan_to_num(np.max(np.minimum(t0, t1), axis=1), nan=-np.inf).clip(0.0)
+    leave = np.minimum(np.nan_to_num(np.min(np.maximum(t0, t1), axis=1), nan=np.inf), length)
+    hit = enter < leave
+    d, enter, leave = d[hit], enter[hit], leave[hit]
+    for start in range(0, len(d), chunk):
+        e, f, u = enter[start:start + chunk], leave[start:start + chunk], d[start:start + chunk]
+        t = e[:, None] + np.arange(int(np.ceil((f - e).max() / (v / 2))) + 1) * (v / 2)
+        t = np.where(t <= f[:, None], t, np.nan)
+        samples = (origin + u[:, None, :] * t[..., None])[~np.isnan(t)]
+        index = np.floor(samples / v).astype(np.int64) - occ.origin
+        index = index[np.all((index >= 0) & (index < shape), axis=1)]
+        seen[tuple(index.T)] = True
+    return seen
+
+
+def fused(previous: Occupancy | None, origin: Any, points: Any, voxel: float,
+          occupying: Any = None) -> Occupancy | None:
+    """The occupancy after a new scan: ``previous``'s cells minus those the scan's rays (from the
+    sensor at ``origin`` to every one of ``points``) see through (:func:`seen_through`), plus the
+    cells of the points that occupy (``occupying``: a mask; default all; the floor's and the
+    robot's own points are rays, not bodies). A cell a new point lies in is occupied whatever the
+    rays say. ``None`` when no cell is left."""
+    points = np.asarray(points, dtype=float)
+    mine = points if occupying is None else points[np.asarray(occupying, dtype=bool)]
+    cells = [np.argwhere(o.grid) + o.origin for o in ([occupancy(mine, voxel)] if len(mine) else [])]
+    if previous is not None:
+        if previous.voxel != voxel:
+            raise ValueError(f"fused: a {previous.voxel:g} m occupancy and {voxel:g} m voxels")
+        seen = seen_through(previous, origin, points) if len(points) else np.zeros_like(previous.grid)
+        cells.append(np.argwhere(previous.grid & ~seen) + previous.origin)
+    cells = [c for c in cells if len(c)]
+    return occupancy((np.vstack(cells) + 0.5) * voxel, voxel) if cells else None
+
+
 def transformed(points: Any, pose: Any) -> FloatArray:
     """``points`` (N x 3) in the frame of ``pose`` (4x4) expressed in the world."""
     pose = np.asarray(pose, dtype=float)

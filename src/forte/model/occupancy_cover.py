@@ -17,12 +17,18 @@ occupied cells, and loses at most ``e`` of clearance against them.
 **Splitting.** The cover starts as the occupied cells' bounding box and splits, largest excess
 first, the box whose excess exceeds ``slack`` (m) until none does or there are ``max_boxes``
 boxes. A box is split by one plane between cell slices, along the axis and at the cut that
-minimise ``sqrt(f_1) + sqrt(f_2)``, ``f_i`` the free cells of child ``i``'s bounding box of its
-occupied cells (computed for every cut at once from prefix unions of the slices' projections).
-The square root is concave: it prefers a cut that leaves one child nearly full (peeling a face off
-a hollow box, cutting a dense surface away from its sparse fringe) to a cut that halves the
-waste, and a cut through an empty gap (both children shrink) to either. Each child is the tight
-box of its occupied cells, so the boxes are disjoint and every occupied cell is in exactly one.
+minimise the children's Gini impurity ``sum_i n_i p_i (1 - p_i)``, ``n_i`` the cells of child
+``i``'s bounding box of its occupied cells and ``p_i`` their occupied fraction (for every cut at
+once, from prefix unions of the slices' projections), as a decision tree separates classes. It
+prefers a cut that leaves a child nearly full (peeling a face off a hollow box, a dense noisy
+surface off its sparse fringe) to one that halves the waste, and a cut through an empty gap
+(both children shrink) to either; the excess, a maximum, would not tell these apart (a hollow
+box's centre stays in one child). Each child is the tight box of its occupied cells, so the
+boxes are disjoint and every occupied cell is in exactly one.
+
+**Why not grow boxes through free cells** (the exact merge, allowed into free cells within the
+slack): seeded at the first cell in scan order, a noisy surface's first cells are its sparse
+outliers, whose runs stay short; a top-down split sees the whole surface first.
 """
 
 from __future__ import annotations
@@ -118,7 +124,7 @@ def _tight(grid: Any, lo: Any, hi: Any) -> Any:
 
 
 def _split(grid: Any, box: Any) -> tuple[Any, Any]:
-    """``box`` cut in two by the plane of least ``sqrt(f_1) + sqrt(f_2)`` (module docstring)."""
+    """``box`` cut in two by the plane of least Gini impurity of the children (module docstring)."""
     lo, hi = np.array(box[:3]), np.array(box[3:])
     sub = grid[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]]
     best = (np.inf, 0, 0)
