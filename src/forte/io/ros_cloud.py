@@ -7,7 +7,7 @@ points that are not finite (a live sensor writes NaN where it has no return).
 ``point_cloud:`` entry does (:mod:`forte.planning.tasks.sensed_section`): placed in the world by
 ``pose`` (the cloud's frame; default: the points are in the world frame, the robot's start base
 frame), the floor's points and the robot's own (at the configuration it is given) dropped,
-occupied voxels merged into boxes named ``cloud/<i>`` next to the task's own bodies. It is
+occupied voxels covered by boxes named ``cloud/<i>`` next to the task's own bodies. It is
 *throttled*: a cloud is taken at most once per ``period`` seconds (the latest one that arrived;
 those in between are dropped) and *latched*: a new scene comes out only when the occupied
 cells differ from the last ones, so a static world re-plans once. The cells become the default

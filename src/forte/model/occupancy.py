@@ -1,4 +1,4 @@
-"""Occupancy from sensed points: voxels on a world-aligned grid, merged into boxes.
+"""Occupancy from sensed points: voxels on a world-aligned grid, merged into boxes or covered by a few.
 
 **Voxels.** A point ``p`` (world frame, m) occupies the cell of integer index ``floor(p / v)``
 of the grid of voxel size ``v`` (cell ``i`` spans ``[i v, (i + 1) v)`` on each axis; the grid is
