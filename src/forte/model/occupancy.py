@@ -206,7 +206,7 @@ def fused(previous: Occupancy | None, origin: Any, points: Any, voxel: float,
     cells = [np.argwhere(o.grid) + o.origin for o in ([occupancy(mine, voxel)] if len(mine) else [])]
     if previous is not None:
         if previous.voxel != voxel:
-            raise ValueError(f"fused: a {previous.voxel:g} m occupancy and {voxel:g} m voxels")
+            raise InvalidInputError(f"fused: a {previous.voxel:g} m occupancy and {voxel:g} m voxels")
         seen = seen_through(previous, origin, points) if len(points) else np.zeros_like(previous.grid)
         cells.append(np.argwhere(previous.grid & ~seen) + previous.origin)
     cells = [c for c in cells if len(c)]
