@@ -404,6 +404,28 @@ def test_the_cover_of_a_noisy_cloud_stays_under_its_budget_and_is_exact_at_zero_
     assert np.array_equal(_cells_of(zero.boxes, occ.grid.shape), occ.grid.astype(int))
 
 
+def test_the_cover_of_a_noisy_wall_leaves_its_doorway_open():
+    """A 3 m x 2.2 m wall (1 cm noise) with a 0.9 m x 2 m doorway, at 2 cm voxels: a few dozen boxes
+    (the exact merge: ten times as many or more), and none reaches into the doorway farther than
+    the excess (points of the opening more than that from the door frame are outside every box)."""
+    from forte.model.occupancy import sensed_boxes
+
+    y, z = np.meshgrid(np.arange(-1.5, 1.5, 0.007), np.arange(0.0, 2.2, 0.007))
+    door = (np.abs(y) < 0.45) & (z < 2.0)
+    wall = np.column_stack([np.full(np.count_nonzero(~door), 2.0), y[~door], z[~door]])
+    occ = occupancy(wall + np.random.default_rng(8).normal(0, 0.01, wall.shape), VOXEL)
+    made = sensed_boxes(occ)
+    assert len(made.boxes) <= 40 and 10 * len(made.boxes) < len(merged_boxes(occ.grid))
+    assert made.excess <= 0.04 + 1e-9
+    boxes = Scene(box_objects("w", occ, None), None)  # the exact cells: the distance to the door frame
+    lo, hi = (made.boxes[:, :3] + occ.origin) * VOXEL, (made.boxes[:, 3:] + occ.origin) * VOXEL
+    yy, zz = np.meshgrid(np.linspace(-0.45, 0.45, 46), np.linspace(0.05, 1.95, 96))
+    opening = np.column_stack([np.full(yy.size, 2.0), yy.ravel(), zz.ravel()])
+    far = opening[boxes.distance(opening).min(axis=1) > made.excess + 1e-9]
+    assert len(far) > 0.5 * len(opening)
+    assert not np.any(np.all((far[:, None] >= lo) & (far[:, None] <= hi), axis=2))
+
+
 def test_the_cut_scores_bounding_volumes_are_the_brute_force_ones():
     """_prefix_volumes: the volume of the bounding box of the occupied cells of each prefix of slices."""
     from forte.model.occupancy_cover import _prefix_volumes
