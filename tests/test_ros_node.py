@@ -182,6 +182,37 @@ def test_the_live_cloud_is_throttled_and_latched():
     assert moved is not None and moved.scene.objects[0].pose[2, 3] > first.scene.objects[0].pose[2, 3] + 0.25
 
 
+def test_a_carving_live_cloud_keeps_what_it_cannot_see_and_clears_what_it_sees_through():
+    """Clouds from a sensor 1 m up: a wall, a plate in front of it and a plate off to the side; then
+    the wall alone, the side plate out of view. Carving, the plate in front is cleared (the rays to
+    the wall pass through it) and the side plate stays; without carving the new cloud replaces all."""
+    from forte.io.ros_cloud import LiveCloud, cloud_message
+    from forte.model.robot import default_robot
+    from forte.model.scene import Scene, pose_matrix
+
+    def plate(x, y, half):
+        u, v = np.meshgrid(np.linspace(-half, half, 21), np.linspace(-half, half, 21))
+        return np.column_stack([np.full(u.size, x), y + u.ravel(), v.ravel()])  # the cloud frame's x forward
+
+    robot = default_robot()
+    wall, front, side = plate(2.5, 0.0, 0.4), plate(1.5, 0.0, 0.1), plate(1.5, 1.2, 0.1)
+    sensor = pose_matrix([0.0, 0.0, 1.0, 0, 0, 0])
+    found = {}
+    for carve in (True, False):
+        live = LiveCloud(Scene(floor=0.0), robot, voxel=0.05, period=0.0, pose=sensor, carve=carve)
+        live.offer(cloud_message(np.vstack([wall, front, side])))
+        first = live.poll(0.0, robot.home())
+        live.offer(cloud_message(wall))
+        second = live.poll(1.0, robot.home())
+        centres = [o.pose[:3, 3] for o in second.scene.objects]
+        found[carve] = {name: any(np.linalg.norm(c - (p.mean(axis=0) + [0, 0, 1.0])) < 0.2 for c in centres)
+                        for name, p in (("front", front), ("side", side))}
+        assert first.points == len(wall) + 2 * len(front) and second.points == len(wall)
+        assert any(c[0] > 2.4 for c in centres)  # the wall
+    assert found[True] == {"front": False, "side": True}
+    assert found[False] == {"front": False, "side": False}
+
+
 @pytest.mark.slow
 def test_a_crate_on_the_cloud_topic_is_driven_around(tmp_path):
     """``forte ros --cloud-topic``: the straight drive of around-the-crate without its crate; a cloud

@@ -113,7 +113,7 @@ def test_a_box_surface_cloud_occupies_exactly_the_cells_the_box_surface_meets():
     boxes = merged_boxes(occ.grid)
     assert np.array_equal(union_grid(boxes, occ.grid.shape), occ.grid)
     assert len(boxes) <= 12 < occ.cells  # six faces: a few slabs, not thousands of cells
-    objects = box_objects("cloud", occ)
+    objects = box_objects("cloud", occ, None)
     lo = np.min([o.pose[:3, 3] - np.array(o.shape.size) / 2 for o in objects], axis=0)
     hi = np.max([o.pose[:3, 3] + np.array(o.shape.size) / 2 for o in objects], axis=0)
     assert np.all((LO - VOXEL < lo) & (lo <= LO)) and np.all((HI <= hi) & (hi < HI + VOXEL))
@@ -126,7 +126,7 @@ def test_the_merged_boxes_and_coals_octree_give_the_same_distances():
 
     rng = np.random.default_rng(2)
     occ = occupancy(box_surface(LO, HI, VOXEL / 4) + rng.normal(0, 0.003, (1, 3)), VOXEL)
-    tree, objects = octree(occ), box_objects("c", occ)
+    tree, objects = octree(occ), box_objects("c", occ, None)
     assert len(tree.toBoxes()) == occ.cells
     truth = coal.Box(*(HI - LO))
     sphere, request = coal.Sphere(0.05), coal.DistanceRequest()
@@ -292,6 +292,10 @@ def _arm_points(robot, q):
     ({"depth_image": {"file": "ok.npy"}}, "scene[0].depth_image.intrinsics: expected {fx, fy, cx, cy}"),
     ({"box": {"size": [1, 1, 1]}, "capture_configuration": [0] * 10}, "scene[0].capture_configuration: belongs"),
     ({"point_cloud": {"file": "ok.npy"}, "capture_configuration": [0, 0]}, "scene[0].capture_configuration: "),
+    ({"point_cloud": {"file": "ok.npy", "merge": "rough"}}, "scene[0].point_cloud.merge: expected exact or {slack"),
+    ({"depth_image": {"file": "ok.npy", "merge": {"slack": -1}}}, "scene[0].depth_image.merge.slack: expected a "
+                                                                   "number >= 0"),
+    ({"point_cloud": {"file": "ok.npy", "merge": {"max_boxes": 0}}}, "scene[0].point_cloud.merge.max_boxes: "),
 ])
 def test_bad_sensed_entries_exit_2_with_one_line(tmp_path, entry, field):
     np.save(tmp_path / "nan.npy", np.array([[1.0, 1, 1], [np.nan, 0, 0], [2, 2, 2]]))
@@ -326,7 +330,7 @@ def test_the_k_d_tree_broad_phase_equals_the_dense_one():
     rng = np.random.default_rng(4)
     cells = rng.uniform([0.3, -0.6, 0.05], [1.2, 0.6, 1.2], (400, 3))
     occ = occupancy(cells, 0.05)
-    scene = Scene((*box_objects("c", occ), SceneObject("tilted", Box((0.2, 0.3, 0.4)),
+    scene = Scene((*box_objects("c", occ, None), SceneObject("tilted", Box((0.2, 0.3, 0.4)),
                                                        pose_matrix([1.0, 0.5, 0.5, 0.3, 0, 0.7]))), 0.0)
     assert len(scene.objects) > SPHERE_CULL_BODIES
     q = np.array([np.r_[x, 0.2 * x, 0.3 * x, robot.home_arm] for x in np.linspace(-0.5, 0.5, 6)])
@@ -341,6 +345,160 @@ def test_the_k_d_tree_broad_phase_equals_the_dense_one():
         assert np.all(culled <= full + 1e-12)
 
 
+def _noisy_crate(voxel, sigma=0.01):
+    points = box_surface(LO, HI, voxel / 3)
+    return occupancy(points + np.random.default_rng(5).normal(0, sigma, points.shape), voxel)
+
+
+def _cells_of(boxes, shape):
+    """How many boxes hold each cell (an int grid)."""
+    grid = np.zeros(shape, dtype=int)
+    for x0, y0, z0, x1, y1, z1 in boxes:
+        grid[x0:x1, y0:y1, z0:z1] += 1
+    return grid
+
+
+@pytest.mark.parametrize("voxel", [0.02, 0.01])
+def test_the_cover_holds_every_occupied_cell_and_no_point_beyond_its_excess(voxel):
+    """The coarse cover of a noisy cloud: every occupied voxel centre lies in exactly one box; every
+    box cell centre is within the reported excess of an occupied centre (a k-d tree, not the distance
+    transform); random points of the boxes are within it of the occupied cubes (the exact boxes'
+    distance: their union is the cells); the excess is within the slack, far fewer boxes than the
+    exact merge's, and the free volume added is what the boxes hold beyond the cells."""
+    from scipy.spatial import cKDTree
+
+    from forte.model.occupancy import sensed_boxes
+    from forte.model.occupancy_cover import CoverSettings
+
+    occ = _noisy_crate(voxel)
+    made = sensed_boxes(occ, CoverSettings(0.04, 10_000))
+    held = _cells_of(made.boxes, occ.grid.shape)
+    assert held.max() == 1 and np.all(held[occ.grid] == 1)  # disjoint, every occupied cell in one box
+    inside = np.argwhere(held > 0)
+    far, _ = cKDTree(np.argwhere(occ.grid)).query(inside)
+    assert far.max() * voxel == pytest.approx(made.excess) and 0 < made.excess <= 0.04
+    assert made.free_cells == len(inside) - occ.cells > 0
+    exact = Scene(box_objects("e", occ, None), None)
+    rng = np.random.default_rng(6)
+    for x0, y0, z0, x1, y1, z1 in made.boxes[:: max(1, len(made.boxes) // 40)]:
+        lo, hi = (np.array([x0, y0, z0]) + occ.origin) * voxel, (np.array([x1, y1, z1]) + occ.origin) * voxel
+        points = rng.uniform(lo, hi, (50, 3))
+        assert exact.distance(points).min(axis=1).max() <= made.excess + 1e-9
+    assert len(made.boxes) < len(exact.objects) / 5
+
+
+def test_the_cover_of_a_noisy_cloud_stays_under_its_budget_and_is_exact_at_zero_slack():
+    """A budget smaller than the slack needs is kept (the excess grows instead, and still bounds
+    every box); slack 0 gives boxes whose union is exactly the occupied cells."""
+    from forte.model.occupancy import sensed_boxes
+    from forte.model.occupancy_cover import CoverSettings
+
+    occ = _noisy_crate(0.02)
+    loose = sensed_boxes(occ, CoverSettings(0.04, 10_000))
+    tight = sensed_boxes(occ, CoverSettings(0.04, 12))
+    assert len(loose.boxes) > 12 >= len(tight.boxes) and tight.excess > loose.excess
+    held = _cells_of(tight.boxes, occ.grid.shape)
+    assert np.all(held[occ.grid] == 1)
+    zero = sensed_boxes(occ, CoverSettings(0.0, 10_000))
+    assert zero.excess == 0 and zero.free_cells == 0
+    assert np.array_equal(_cells_of(zero.boxes, occ.grid.shape), occ.grid.astype(int))
+
+
+def test_the_cover_of_a_noisy_wall_leaves_its_doorway_open():
+    """A 3 m x 2.2 m wall (1 cm noise) with a 0.9 m x 2 m doorway, at 2 cm voxels: a few dozen boxes
+    (the exact merge: ten times as many or more), and none reaches into the doorway farther than
+    the excess (points of the opening more than that from the door frame are outside every box)."""
+    from forte.model.occupancy import sensed_boxes
+
+    y, z = np.meshgrid(np.arange(-1.5, 1.5, 0.007), np.arange(0.0, 2.2, 0.007))
+    door = (np.abs(y) < 0.45) & (z < 2.0)
+    wall = np.column_stack([np.full(np.count_nonzero(~door), 2.0), y[~door], z[~door]])
+    occ = occupancy(wall + np.random.default_rng(8).normal(0, 0.01, wall.shape), VOXEL)
+    made = sensed_boxes(occ)
+    assert len(made.boxes) <= 40 and 10 * len(made.boxes) < len(merged_boxes(occ.grid))
+    assert made.excess <= 0.04 + 1e-9
+    boxes = Scene(box_objects("w", occ, None), None)  # the exact cells: the distance to the door frame
+    lo, hi = (made.boxes[:, :3] + occ.origin) * VOXEL, (made.boxes[:, 3:] + occ.origin) * VOXEL
+    yy, zz = np.meshgrid(np.linspace(-0.45, 0.45, 46), np.linspace(0.05, 1.95, 96))
+    opening = np.column_stack([np.full(yy.size, 2.0), yy.ravel(), zz.ravel()])
+    far = opening[boxes.distance(opening).min(axis=1) > made.excess + 1e-9]
+    assert len(far) > 0.5 * len(opening)
+    assert not np.any(np.all((far[:, None] >= lo) & (far[:, None] <= hi), axis=2))
+
+
+def test_the_cut_scores_bounding_volumes_are_the_brute_force_ones():
+    """_prefix_volumes: the volume of the bounding box of the occupied cells of each prefix of slices."""
+    from forte.model.occupancy_cover import _prefix_volumes
+
+    rng = np.random.default_rng(7)
+    slab = rng.random((9, 6, 7)) < 0.08
+    slab[0, 2, 3] = True
+    expected = []
+    for k in range(9):
+        cells = np.argwhere(slab[:k + 1])
+        expected.append(int(np.prod(cells.max(axis=0) - cells.min(axis=0) + 1)) if len(cells) else 0)
+    assert _prefix_volumes(slab).tolist() == expected
+
+
+def test_a_task_entry_chooses_the_exact_merge_or_the_cover(tmp_path):
+    from forte.planning.tasks.tasks import load_task
+
+    occ = _noisy_crate(0.02)
+    np.save(tmp_path / "noisy.npy", occ.centres())
+    entry = {"name": "c", "pose": [0] * 6, "point_cloud": {"file": "noisy.npy"}}
+    default = load_task(_task(tmp_path, entry)).scene.objects
+    exact = load_task(_task(tmp_path, {**entry, "point_cloud": {"file": "noisy.npy", "merge": "exact"}})).scene.objects
+    small = load_task(_task(tmp_path, {**entry, "point_cloud": {"file": "noisy.npy",
+                                                              "merge": {"slack": 0.1, "max_boxes": 5}}})).scene.objects
+    assert len(small) <= 5 < len(default) <= 128 < len(exact)
+    volume = [sum(np.prod(o.shape.size) for o in objects) for objects in (exact, default, small)]
+    above = occ.centres()[occ.centres()[:, 2] >= 0.02]  # the floor's points are dropped
+    assert volume[0] == pytest.approx(len(above) * 0.02**3) and volume[0] < volume[1] < volume[2]
+
+
+def test_a_second_scan_carves_what_its_rays_see_through():
+    """The table and the box seen by the camera, then the table alone (the box taken away): fusing
+    the second scan into the first clears the box's cells its rays pass through (all but those
+    within two voxels of the table top, where the rays end, and a few a ray only clips), keeps
+    every cell of the second scan, adds none the scans did not hold, and every cleared cell is
+    pierced by a ray of the second scan short of its point by a voxel (a slab test per cell)."""
+    from forte.execution.depth_camera import ray_depth
+    from forte.model.occupancy import fused
+
+    def scan(scene):
+        return depth_points(ray_depth(scene, CAMERA, K, W, H), K, 10.0, CAMERA)
+
+    first, rays = scan(TRUE_SCENE), scan(Scene(TRUE_SCENE.objects[:1], 0.0))
+    first, second = first[first[:, 2] >= VOXEL], rays[rays[:, 2] >= VOXEL]  # the floor's points: rays, no cells
+    before = occupancy(first, VOXEL)
+    after = fused(before, CAMERA[:3, 3], rays, VOXEL, rays[:, 2] >= VOXEL)
+    assert fused(None, CAMERA[:3, 3], first, VOXEL).grid.tolist() == before.grid.tolist()
+    assert after.occupied(occupancy(second, VOXEL).centres()).all()
+    assert (before.occupied(after.centres()) | occupancy(second, VOXEL).occupied(after.centres())).all()
+    box = TRUE_SCENE.objects[1]
+    lo, hi = box.pose[:3, 3] - np.array(box.shape.size) / 2, box.pose[:3, 3] + np.array(box.shape.size) / 2
+    centres = before.centres()
+    on_box = np.all((centres > lo - VOXEL) & (centres < hi + VOXEL), axis=1) & (centres[:, 2] > lo[2] + 2 * VOXEL)
+    assert on_box.sum() > 100
+    cleared_on_box = ~after.occupied(centres[on_box])
+    assert cleared_on_box.mean() > 0.95
+    cleared = centres[~after.occupied(centres) & ~occupancy(second, VOXEL).occupied(centres)]
+    assert len(cleared) >= on_box.sum() * 0.95
+    origin = CAMERA[:3, 3]
+    d = rays - origin
+    length = np.linalg.norm(d, axis=1)
+    end = origin + d * ((length - VOXEL) / length)[:, None]
+    for c in cleared:
+        assert any(_segment_hits_box(origin, e, c - VOXEL / 2, c + VOXEL / 2) for e in end[_near(origin, end, c)])
+
+
+def _near(origin, end, c):
+    """The rays (origin to each end) passing within a voxel's diagonal of ``c`` (a cheap pre-filter)."""
+    d = end - origin
+    t = np.clip(((c - origin) @ d.T) / np.einsum("ij,ij->i", d, d), 0, 1)
+    return np.linalg.norm(origin + t[:, None] * d - c, axis=1) <= np.sqrt(3) * VOXEL
+
+
 def _crate_task(tmp_path, scene):
     return {"name": "sensed-crate", "path": {"kind": "waypoints", "relative": True, "samples": 41, "waypoints": [
         {"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 8.0, "position": [2.4, 0.0, 0.0]}]},
@@ -351,9 +509,13 @@ def _crate_task(tmp_path, scene):
 def test_a_cloud_of_a_crate_and_the_crate_give_plans_of_the_same_clearance_within_a_voxel(tmp_path):
     """The crate of test_scene_planning as a box and as a cloud sampled on its faces (and with 1 cm
     noise): every plan keeps the clearance from the true crate (coal, between waypoints too), the
-    clean cloud's plan within a voxel of the box's, and it runs in MuJoCo without a touch."""
+    clean cloud's plan within a voxel of the box's, and it runs in MuJoCo without a touch. The noisy
+    cloud's coarse cover (the default merge) is a few dozen boxes, not the exact merge's hundreds;
+    its plan keeps the clearance from the truth, exceeds the box's by no more than what the cover
+    may add (its excess, a voxel's diagonal, 5 sigma of noise), and runs without a touch too."""
     import forte
     from forte.model.clearance import clearances
+    from forte.model.occupancy import sensed_boxes
     from forte.planning.tasks.tasks import task_from_dict
     from forte.planning.verdict.motion_samples import sample_motion
 
@@ -372,12 +534,17 @@ def test_a_cloud_of_a_crate_and_the_crate_give_plans_of_the_same_clearance_withi
         samples = sample_motion(plan.robot, plan.t, plan.q).q
         true_clearance[label] = float(clearances(plan.robot, crate, samples).distance.min())
         assert true_clearance[label] >= task.clearance, label
-        if label == "cloud":
-            assert len(task.scene.objects) <= 12
+        if label != "box":
             from test_scene_planning import _simulated_without_contact
 
-            _simulated_without_contact(plan, tmp_path)
+            assert len(task.scene.objects) <= (12 if label == "cloud" else 128)
+            _simulated_without_contact(plan, tmp_path / label)
     assert abs(true_clearance["cloud"] - true_clearance["box"]) <= VOXEL, true_clearance
+    noisy = np.load(tmp_path / "noisy.npy")
+    noisy = occupancy(noisy[noisy[:, 2] >= VOXEL], VOXEL)  # the floor's points dropped, as the entry does
+    assert len(sensed_boxes(noisy, None).boxes) > 300  # the exact merge's staircase
+    excess = sensed_boxes(noisy).excess
+    assert true_clearance["noisy"] - true_clearance["box"] <= excess + np.sqrt(3) * VOXEL + 0.05, true_clearance
 
 
 def _example():

@@ -103,6 +103,9 @@ def _probes() -> dict[str, dict[str, Any]]:
         probes[f"scene[].{kind}"] = {**BASE, "scene": [{kind: {**shape, BOGUS: 1}, "pose": [5, 5, 0, 0, 0, 0]}]}
     for kind, sensed in SENSED.items():
         probes[f"scene[].{kind}"] = {**BASE, "scene": [{kind: {**sensed, BOGUS: 1}, "pose": [5, 5, 0, 0, 0, 0]}]}
+    for kind, sensed in SENSED.items():
+        probes[f"scene[].{kind}.merge"] = {**BASE, "scene": [{kind: {**sensed, "merge": {BOGUS: 1}},
+                                                               "pose": [5, 5, 0, 0, 0, 0]}]}
     probes["scene[].depth_image.intrinsics"] = {**BASE, "scene": [{"depth_image": {
         **SENSED["depth_image"], "intrinsics": {**SENSED["depth_image"]["intrinsics"], BOGUS: 1}},
         "pose": [5, 5, 0, 0, 0, 0]}]}

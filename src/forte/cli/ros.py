@@ -32,6 +32,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="take a cloud at most once per this many seconds (default 1)")
     p.add_argument("--cloud-pose", type=float, nargs=6, default=None, metavar=("X", "Y", "Z", "ROLL", "PITCH", "YAW"),
                    help="the cloud frame's pose in the world (default: the points are in the world frame)")
+    p.add_argument("--cloud-carve", action="store_true",
+                   help="accumulate clouds: a new one clears the earlier cells its rays (from the cloud frame's "
+                        "origin) pass through (default: each cloud replaces the last)")
     p.set_defaults(func=run)
 
 
@@ -52,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
         if not 0 <= args.cloud_period <= 3600:
             raise InvalidInputError(f"--cloud-period: expected 0 to 3600 s, got {args.cloud_period}")
         pose = None if args.cloud_pose is None else pose_matrix(args.cloud_pose)
-        cloud = CloudOptions(args.cloud_topic, args.cloud_voxel, args.cloud_period, pose)
+        cloud = CloudOptions(args.cloud_topic, args.cloud_voxel, args.cloud_period, pose, args.cloud_carve)
     require_rclpy()  # before the plan: a missing extra is one line, not a wasted solve
     task = load_task(args.task, waypoints=args.waypoints)
     return run_node(task, args.method, args.start_timeout, args.node_name, cloud)

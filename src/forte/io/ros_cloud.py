@@ -7,10 +7,15 @@ points that are not finite (a live sensor writes NaN where it has no return).
 ``point_cloud:`` entry does (:mod:`forte.planning.tasks.sensed_section`): placed in the world by
 ``pose`` (the cloud's frame; default: the points are in the world frame, the robot's start base
 frame), the floor's points and the robot's own (at the configuration it is given) dropped,
-occupied voxels merged into boxes named ``cloud/<i>`` next to the task's own bodies. It is
+occupied voxels covered by boxes named ``cloud/<i>`` next to the task's own bodies. It is
 *throttled*: a cloud is taken at most once per ``period`` seconds (the latest one that arrived;
 those in between are dropped) and *latched*: a new scene comes out only when the occupied
-cells differ from the last ones, so a static world re-plans once.
+cells differ from the last ones, so a static world re-plans once. The cells become the default
+coarse cover (:mod:`forte.model.occupancy_cover`). Each cloud replaces the last, unless
+``carve``: then the cells *accumulate*, and a new cloud clears the earlier cells its rays (from
+the cloud frame's origin, the sensor, to each of its points, the floor's and the robot's
+included) pass through (:func:`forte.model.occupancy.fused`): an object taken away disappears
+once the sensor sees past it, one out of view stays.
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from forte.exceptions import InvalidInputError
-from forte.model.occupancy import box_objects, occupancy, self_filter, transformed
+from forte.model.occupancy import box_objects, fused, occupancy, self_filter, transformed
 from forte.model.scene import Scene
 from forte.validation import FloatArray
 
@@ -70,13 +75,15 @@ def cloud_message(points: Any, frame_id: str = "world") -> Any:
 
 
 class CloudOptions(NamedTuple):
-    """``forte ros``'s cloud: the ``topic``, the ``voxel`` (m), the throttle ``period`` (s) and the
-    cloud frame's ``pose`` in the world (4x4; ``None``: the world frame)."""
+    """``forte ros``'s cloud: the ``topic``, the ``voxel`` (m), the throttle ``period`` (s), the
+    cloud frame's ``pose`` in the world (4x4; ``None``: the world frame) and whether clouds
+    accumulate, carved along their rays (``carve``: :class:`LiveCloud`)."""
 
     topic: str
     voxel: float = 0.02
     period: float = 1.0
     pose: Any = None
+    carve: bool = False
 
 
 class CloudScene(NamedTuple):
@@ -93,9 +100,10 @@ class LiveCloud:
     """The latest cloud as the task's scene, throttled and latched (module docstring)."""
 
     def __init__(self, base: Scene, robot: Any, voxel: float = 0.02, period: float = 1.0,
-                 pose: Any = None) -> None:
+                 pose: Any = None, carve: bool = False) -> None:
         self.base, self.robot, self.voxel, self.period = base, robot, float(voxel), float(period)
         self.pose = np.eye(4) if pose is None else np.asarray(pose, dtype=float)
+        self.carve, self.cells = bool(carve), None
         self.pending: Any = None
         self.last_taken = -np.inf
         self.key: str | None = None
@@ -111,11 +119,15 @@ class LiveCloud:
             return None
         msg, self.pending, self.last_taken = self.pending, None, now
         points = transformed(cloud_points(msg), self.pose)
+        keep = np.ones(len(points), dtype=bool)
         if self.base.floor is not None:
-            points = points[points[:, 2] >= self.base.floor + self.voxel]
-        if len(points):
-            points = points[self_filter(points, self.robot, q)]
-        occ = occupancy(points, self.voxel) if len(points) else None
+            keep &= points[:, 2] >= self.base.floor + self.voxel
+        if keep.any():
+            keep[keep] = self_filter(points[keep], self.robot, q)
+        if self.carve:  # the earlier cells, less those this cloud's rays see through
+            occ = self.cells = fused(self.cells, self.pose[:3, 3], points, self.voxel, keep)
+        else:
+            occ = occupancy(points[keep], self.voxel) if keep.any() else None
         digest = hashlib.sha1()
         if occ is not None:
             digest.update(np.asarray(occ.origin, dtype=np.int64).tobytes() + str(occ.grid.shape).encode()
@@ -124,5 +136,5 @@ class LiveCloud:
             return None
         self.key = digest.hexdigest()
         boxes = box_objects(CLOUD_NAME, occ) if occ is not None else ()
-        return CloudScene(Scene((*self.base.objects, *boxes), self.base.floor), len(points),
+        return CloudScene(Scene((*self.base.objects, *boxes), self.base.floor), int(keep.sum()),
                           occ.cells if occ is not None else 0, len(boxes))

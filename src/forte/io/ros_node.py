@@ -201,7 +201,7 @@ def _cloud_poller(node: Any, cloud: CloudOptions, live: dict[str, Any], method: 
     from std_msgs.msg import String
 
     base = live["task"]
-    cloud_scene = LiveCloud(base.scene, base.robot, cloud.voxel, cloud.period, cloud.pose)
+    cloud_scene = LiveCloud(base.scene, base.robot, cloud.voxel, cloud.period, cloud.pose, cloud.carve)
     node.create_subscription(PointCloud2, cloud.topic, cloud_scene.offer, qos_profile_sensor_data)
 
     def poll() -> None:

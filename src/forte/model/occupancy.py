@@ -1,4 +1,4 @@
-"""Occupancy from sensed points: voxels on a world-aligned grid, merged into boxes.
+"""Occupancy from sensed points: voxels on a world-aligned grid, merged into boxes or covered by a few.
 
 **Voxels.** A point ``p`` (world frame, m) occupies the cell of integer index ``floor(p / v)``
 of the grid of voxel size ``v`` (cell ``i`` spans ``[i v, (i + 1) v)`` on each axis; the grid is
@@ -14,6 +14,13 @@ exactly the occupied cells, so a distance to the boxes *is* the distance to the 
 the scene's boxes go to the optimizer's rounded-box rows, coal's exact check and MuJoCo as
 ordinary :class:`~forte.model.scene.Box` bodies. A flat surface seen by a camera (a table top,
 a box face) becomes a few boxes however many cells it has.
+
+**Cover.** By default (:func:`sensed_boxes`) the cells become a conservative *coarse cover*
+instead (:mod:`forte.model.occupancy_cover`): disjoint boxes that hold every occupied cell and
+may hold free cells too, but none farther than ``slack`` (default two voxels, at least 4 cm)
+from an occupied cell,
+in at most ``max_boxes`` boxes; a noisy or slanted surface becomes a few slabs instead of a
+staircase of thousands of boxes. The exact merge stays available (``cover=None``).
 
 **Depth images** (:func:`depth_points`): the pixel in column ``u``, row ``v`` with depth ``z``
 (m, along the optical axis, as ROS's, OpenCV's and MuJoCo's depth images are) is the point
@@ -35,11 +42,14 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from forte.exceptions import InvalidInputError
+from forte.model.occupancy_cover import CoverSettings, cover_boxes, slack_for
 from forte.model.scene import Box, SceneObject
 from forte.validation import FloatArray
 
 #: The most cells the dense grid around a cloud may have (a bool each).
 MAX_GRID_CELLS = 50_000_000
+#: The coarse cover's settings when a caller does not say (:mod:`forte.model.occupancy_cover`).
+DEFAULT_COVER = CoverSettings()
 #: How far (m) beyond the robot's collision cover the self-filter removes points.
 SELF_FILTER_PADDING = 0.03
 
@@ -118,9 +128,30 @@ def merged_boxes(grid: Any) -> Any:
     return np.array(out, dtype=np.int64).reshape(-1, 6)
 
 
-def box_objects(name: str, occ: Occupancy) -> tuple[SceneObject, ...]:
-    """The occupancy's merged boxes as scene bodies ``name/0``, ``name/1``, ... (world axes)."""
-    boxes = merged_boxes(occ.grid)
+class SensedBoxes(NamedTuple):
+    """Boxes of an occupancy (B x 6 integer cells: low corner, high corner exclusive), how far
+    (m) any point of them may lie from an occupied cell, and the free cells they hold."""
+
+    boxes: Any
+    excess: float
+    free_cells: int
+
+
+def sensed_boxes(occ: Occupancy, cover: CoverSettings | None = DEFAULT_COVER) -> SensedBoxes:
+    """The occupancy's boxes: ``cover`` (default :data:`DEFAULT_COVER`) the conservative coarse
+    cover (:mod:`forte.model.occupancy_cover`), ``None`` the exact merge (no excess)."""
+    if cover is None:
+        return SensedBoxes(merged_boxes(occ.grid), 0.0, 0)
+    return SensedBoxes(*cover_boxes(occ.grid, occ.voxel, slack_for(occ.voxel, cover.slack), cover.max_boxes))
+
+
+def box_objects(name: str, occ: Occupancy, cover: CoverSettings | None = DEFAULT_COVER) -> tuple[SceneObject, ...]:
+    """The occupancy's boxes (:func:`sensed_boxes`) as scene bodies ``name/0``, ``name/1``, ... (world axes)."""
+    return boxes_as_objects(name, occ, sensed_boxes(occ, cover).boxes)
+
+
+def boxes_as_objects(name: str, occ: Occupancy, boxes: Any) -> tuple[SceneObject, ...]:
+    """Integer boxes of ``occ`` (B x 6 cells) as scene bodies ``name/0``, ``name/1``, ... (world axes)."""
     lo = (boxes[:, :3] + occ.origin) * occ.voxel
     hi = (boxes[:, 3:] + occ.origin) * occ.voxel
     out = []
@@ -129,6 +160,57 @@ def box_objects(name: str, occ: Occupancy) -> tuple[SceneObject, ...]:
         pose[:3, 3] = (a + b) / 2
         out.append(SceneObject(f"{name}/{i}", Box(tuple(float(s) for s in b - a)), pose))
     return tuple(out)
+
+
+def seen_through(occ: Occupancy, origin: Any, points: Any, chunk: int = 2048) -> Any:
+    """The cells of ``occ``'s grid (a bool grid of its shape) that the rays from the sensor at
+    ``origin`` (3, world) to ``points`` (N x 3, world) pass through, up to one voxel short of each
+    point: each ray, clipped to the grid's bounds, is sampled every half voxel, and a cell holding
+    a sample is seen through. Sampling can miss a cell a ray only clips (it then stays as it was:
+    the conservative side); the last voxel before a point is never cleared by its own ray, so a
+    ray grazing the surface it ends on does not clear that surface's cells."""
+    origin, points = np.asarray(origin, dtype=float), np.asarray(points, dtype=float)
+    v, shape = occ.voxel, np.array(occ.grid.shape)
+    lo, hi = occ.origin * v, (occ.origin + shape) * v
+    seen = np.zeros(occ.grid.shape, dtype=bool)
+    d = points - origin
+    length = np.linalg.norm(d, axis=1)
+    keep = length > v
+    d, length = d[keep] / length[keep, None], length[keep] - v
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = (lo - origin) / d, (hi - origin) / d
+    enter = np.nan_to_num(np.max(np.minimum(t0, t1), axis=1), nan=-np.inf).clip(0.0)
+    leave = np.minimum(np.nan_to_num(np.min(np.maximum(t0, t1), axis=1), nan=np.inf), length)
+    hit = enter < leave
+    d, enter, leave = d[hit], enter[hit], leave[hit]
+    for start in range(0, len(d), chunk):
+        e, f, u = enter[start:start + chunk], leave[start:start + chunk], d[start:start + chunk]
+        t = e[:, None] + np.arange(int(np.ceil((f - e).max() / (v / 2))) + 1) * (v / 2)
+        t = np.where(t <= f[:, None], t, np.nan)
+        samples = (origin + u[:, None, :] * t[..., None])[~np.isnan(t)]
+        index = np.floor(samples / v).astype(np.int64) - occ.origin
+        index = index[np.all((index >= 0) & (index < shape), axis=1)]
+        seen[tuple(index.T)] = True
+    return seen
+
+
+def fused(previous: Occupancy | None, origin: Any, points: Any, voxel: float,
+          occupying: Any = None) -> Occupancy | None:
+    """The occupancy after a new scan: ``previous``'s cells minus those the scan's rays (from the
+    sensor at ``origin`` to every one of ``points``) see through (:func:`seen_through`), plus the
+    cells of the points that occupy (``occupying``: a mask; default all; the floor's and the
+    robot's own points are rays, not bodies). A cell a new point lies in is occupied whatever the
+    rays say. ``None`` when no cell is left."""
+    points = np.asarray(points, dtype=float)
+    mine = points if occupying is None else points[np.asarray(occupying, dtype=bool)]
+    cells = [np.argwhere(o.grid) + o.origin for o in ([occupancy(mine, voxel)] if len(mine) else [])]
+    if previous is not None:
+        if previous.voxel != voxel:
+            raise InvalidInputError(f"fused: a {previous.voxel:g} m occupancy and {voxel:g} m voxels")
+        seen = seen_through(previous, origin, points) if len(points) else np.zeros_like(previous.grid)
+        cells.append(np.argwhere(previous.grid & ~seen) + previous.origin)
+    cells = [c for c in cells if len(c)]
+    return occupancy((np.vstack(cells) + 0.5) * voxel, voxel) if cells else None
 
 
 def transformed(points: Any, pose: Any) -> FloatArray:

@@ -16,9 +16,13 @@ The points (a cloud's, or a depth image's back-projected: :func:`forte.model.occ
 are placed in the world by ``pose``; those lower than one voxel above the floor are dropped (the
 floor is in every world already, :attr:`forte.model.scene.Scene.floor`), and so are the robot's
 own at ``capture_configuration`` (a whole-body configuration;
-:func:`forte.model.occupancy.self_filter`); the rest occupy cells of ``voxel`` (m), merged into
+:func:`forte.model.occupancy.self_filter`); the rest occupy cells of ``voxel`` (m), covered by
 boxes named ``<name>/<i>`` (:mod:`forte.model.occupancy`): every consumer of the scene takes
-them as box bodies. A file is relative to the task file. ``scale`` turns the image's values into
+them as box bodies. ``merge`` says how: by default (or ``merge: {slack: 0.04, max_boxes: 128}``;
+the default slack is two voxels, at least 0.04 m) a conservative coarse cover, boxes holding
+every occupied cell and free space only within ``slack`` (m) of one
+(:mod:`forte.model.occupancy_cover`); ``merge: exact``, boxes whose union is exactly the
+occupied cells. A file is relative to the task file. ``scale`` turns the image's values into
 metres (default 0.001 for a PNG, millimetres as depth cameras write them; 1 for a ``.npy``).
 Every error is one line naming the entry's field and, for a file's content, the file.
 """
@@ -39,6 +43,7 @@ from forte.model.occupancy import (
     self_filter,
     transformed,
 )
+from forte.model.occupancy_cover import DEFAULT_MAX_BOXES, CoverSettings
 from forte.model.scene import SceneObject
 from forte.planning.tasks.schema import Reader
 from forte.validation import FloatArray
@@ -53,6 +58,9 @@ MAX_VOXEL = 1.0
 DEFAULT_MAX_RANGE = 10.0
 #: The most points a sensed entry's file may hold.
 MAX_POINTS = 20_000_000
+#: The largest cover slack (m) and box budget forte accepts.
+MAX_SLACK = 1.0
+MAX_BOXES = 100_000
 
 
 def sensed_objects(r: Reader, kind: str, name: str, pose: FloatArray, base: Path,
@@ -62,13 +70,10 @@ def sensed_objects(r: Reader, kind: str, name: str, pose: FloatArray, base: Path
     height (``None``: no floor), below which and up to one voxel above which points are the floor."""
     robot, capture, floor = filters
     sub = r.sub(kind)
-    if kind == "point_cloud":
-        sub.unknown({"file", "voxel"})
-        points = transformed(_read(sub, base, cloud=True), pose)
-    else:
-        sub.unknown({"file", "scale", "intrinsics", "max_range", "voxel"})
-        points = _depth_image(sub, base, pose)
+    sub.unknown({"file", "voxel", "merge"} | ({"scale", "intrinsics", "max_range"} if kind == "depth_image" else set()))
     voxel = sub.number("voxel", DEFAULT_VOXEL, positive=True, maximum=MAX_VOXEL, unit=" m")
+    cover = merge_settings(sub)
+    points = transformed(_read(sub, base, cloud=True), pose) if kind == "point_cloud" else _depth_image(sub, base, pose)
     source = Path(str(sub.get("file"))).name
     if floor is not None:  # the floor is every world's half-space already: its points are no body
         points = points[points[:, 2] >= floor + voxel]
@@ -79,9 +84,25 @@ def sensed_objects(r: Reader, kind: str, name: str, pose: FloatArray, base: Path
         raise r.error(field, f"no point of {source} is left " + ("off the robot at the capture configuration"
                                                                   if capture is not None else "in range"))
     try:
-        return box_objects(name, occupancy(points, voxel))
+        return box_objects(name, occupancy(points, voxel), cover)
     except ForteError as exc:
         raise sub.error("voxel", f"{source}: {exc}") from exc
+
+
+def merge_settings(sub: Reader) -> CoverSettings | None:
+    """The entry's ``merge``: ``exact`` (``None``: the cells merged into boxes exactly) or the
+    coarse cover's ``{slack, max_boxes}`` (defaults :class:`~forte.model.occupancy_cover.CoverSettings`)."""
+    merge = sub.get("merge")
+    if merge is None:
+        return CoverSettings()
+    if merge == "exact":
+        return None
+    if not isinstance(merge, dict):
+        raise sub.error("merge", f"expected exact or {{slack, max_boxes}}, got {merge!r}")
+    m = sub.sub("merge")
+    m.unknown({"slack", "max_boxes"})
+    slack = m.number("slack", nonnegative=True, maximum=MAX_SLACK, unit=" m") if m.has("slack") else None
+    return CoverSettings(slack, m.integer("max_boxes", DEFAULT_MAX_BOXES, maximum=MAX_BOXES))
 
 
 def capture_configuration(r: Reader, robot: Any) -> FloatArray | None:

@@ -17,6 +17,7 @@ from typing import Any
 from forte.force.contact import CONTACT_KINDS
 from forte.force.payload import MAX_COM_OFFSET_M
 from forte.force.taskforce import DEFAULT_RADIUS, FORCE_MODELS, RADIUS_RULES
+from forte.model.occupancy_cover import DEFAULT_MAX_BOXES, DEFAULT_SLACK, DEFAULT_SLACK_VOXELS
 from forte.model.presets import ROBOT_PRESETS
 from forte.model.robot import BASE_MODES, STANDARD_GRAVITY
 from forte.model.scene import SHAPE_KINDS
@@ -31,7 +32,14 @@ from forte.planning.tasks.goal_poses import MAX_VIAS
 from forte.planning.tasks.goals import DEFAULT_GOAL_SAMPLES, GOAL_ANGLE_TOL, GOAL_POSITION_TOL
 from forte.planning.tasks.keep_level import AXES
 from forte.planning.tasks.scene_section import DEFAULT_CLEARANCE, MAX_LENGTH_M
-from forte.planning.tasks.sensed_section import DEFAULT_MAX_RANGE, DEFAULT_VOXEL, MAX_VOXEL, SENSED_KINDS
+from forte.planning.tasks.sensed_section import (
+    DEFAULT_MAX_RANGE,
+    DEFAULT_VOXEL,
+    MAX_BOXES,
+    MAX_SLACK,
+    MAX_VOXEL,
+    SENSED_KINDS,
+)
 from forte.planning.tasks.task_types import (
     BOOL,
     INERTIA,
@@ -309,6 +317,20 @@ _SHAPES = {
                    default=1.0)],
 }
 _VOXEL = number(above=0, high=MAX_VOXEL)
+
+
+def _merge(kind: str) -> list[Field]:
+    """The sensed entry's ``merge`` (:func:`forte.planning.tasks.sensed_section.merge_settings`)."""
+    return [Field(f"scene[].{kind}.merge", either(choice(("exact",)), MAPPING), "how the occupied voxels become "
+                  "boxes: exact (their union is the voxels) or a coarse cover {slack, max_boxes} (boxes holding "
+                  "every voxel and free space only within slack of one)", default=Prose("the cover's defaults")),
+            Field(f"scene[].{kind}.merge.slack", number(low=0, high=MAX_SLACK), "the cover's boxes stay within "
+                  "this of an occupied voxel (until max_boxes)", "m",
+                  Prose(f"{DEFAULT_SLACK_VOXELS} voxels, at least {DEFAULT_SLACK:g} m")),
+            Field(f"scene[].{kind}.merge.max_boxes", integer(1, MAX_BOXES), "the most boxes of the cover",
+                  default=DEFAULT_MAX_BOXES)]
+
+
 _SENSED = [
     Field("scene[].capture_configuration", vector(), "the robot's whole-body configuration when the sensor "
           "data was taken: points on the robot are removed (point_cloud, depth_image only)", "m, m, rad, rad...",
@@ -317,6 +339,7 @@ _SENSED = [
     Field("scene[].point_cloud.file", STRING, "a .ply, .pcd or .npy (N x 3) file (relative to the task file)",
           required=True),
     Field("scene[].point_cloud.voxel", _VOXEL, "voxel size", "m", DEFAULT_VOXEL),
+    *_merge("point_cloud"),
     Field("scene[].depth_image", MAPPING, "a depth image (pose: the camera's optical frame, z forward, x right, "
           "y down) whose occupied voxels become boxes"),
     Field("scene[].depth_image.file", STRING, "a .png (grey) or .npy (H x W) file (relative to the task file)",
@@ -330,6 +353,7 @@ _SENSED = [
     Field("scene[].depth_image.max_range", number(above=0, high=1000.0), "depths beyond it are no return", "m",
           DEFAULT_MAX_RANGE),
     Field("scene[].depth_image.voxel", _VOXEL, "voxel size", "m", DEFAULT_VOXEL),
+    *_merge("depth_image"),
 ]
 _SCENE = [
     Field("scene[].name", STRING, "the body's name (unique)", default=Prose("body<i>")),
