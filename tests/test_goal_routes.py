@@ -72,3 +72,12 @@ def test_a_route_is_the_plan_when_the_nlp_does_not_converge_and_the_verdict_pass
     assert np.array_equal(plan.q, plan.task.goal.route)
     dense = np.vstack([plan.q[:-1] + s * np.diff(plan.q, axis=0) for s in np.linspace(0, 1, 5)])
     assert clearances(task.robot, task.scene, dense).distance.min() >= task.clearance - 1e-3
+    # a route that keeps less than ROUTE_MARGIN beyond the asked clearance is not the plan
+    from forte.planning.rounds import ROUTE_MARGIN, route_margin_short
+
+    closest = plan.verdict.clearance["min_m"]
+    ends = clearances(task.robot, task.scene, plan.q[[0, -1]]).distance.min()
+    assert ends > closest + ROUTE_MARGIN  # the start and goal keep more than the route's closest
+    near = replace(plan.task, clearance=closest - ROUTE_MARGIN / 2)
+    assert route_margin_short(near, plan.q, plan.verdict).startswith("the route comes within")
+    assert route_margin_short(replace(plan.task, clearance=closest - 2 * ROUTE_MARGIN), plan.q, plan.verdict) == ""
