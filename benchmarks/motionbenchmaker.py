@@ -192,6 +192,7 @@ def main() -> None:
     ap.add_argument("--payload", type=float, default=None)
     ap.add_argument("--per-scenario", type=int, default=None)
     ap.add_argument("--scenarios", nargs="*")
+    ap.add_argument("--only", nargs="*", metavar="SCENARIO/NNNN", help="only these problems (e.g. cage_panda/0005)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--stage", choices=("plan", "search"), default="plan")
     ap.add_argument("--no-sim", action="store_true")
@@ -206,7 +207,8 @@ def main() -> None:
         print(text)
         return
     todo = [(s, r, sc, args.payload, args.stage, not args.no_sim)
-            for s, r, sc in problems(args.root, args.per_scenario, args.scenarios)]
+            for s, r, sc in problems(args.root, args.per_scenario, args.scenarios)
+            if not args.only or f"{s}/{r.stem.replace('request', '')}" in args.only]
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
     with ProcessPoolExecutor(max_workers=args.workers) as pool, \
