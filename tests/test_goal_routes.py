@@ -10,6 +10,7 @@ import pytest
 
 import forte
 from forte.model.clearance import clearances
+from forte.planning.rounds import judged
 from forte.planning.search.route import arriving
 from forte.planning.search.validity import StateChecker, segment_free
 from forte.planning.tasks.tasks import task_from_dict
@@ -72,12 +73,26 @@ def test_a_route_is_the_plan_when_the_nlp_does_not_converge_and_the_verdict_pass
     assert np.array_equal(plan.q, plan.task.goal.route)
     dense = np.vstack([plan.q[:-1] + s * np.diff(plan.q, axis=0) for s in np.linspace(0, 1, 5)])
     assert clearances(task.robot, task.scene, dense).distance.min() >= task.clearance - 1e-3
-    # a route that keeps less than ROUTE_MARGIN beyond the asked clearance is not the plan
-    from forte.planning.rounds import ROUTE_MARGIN, route_margin_short
+    # asked for 0 m, the motion still keeps the executor's margin where its ends do: a plan that
+    # comes within it mid-motion fails clearance, one whose closest approach is at an end does not
+    from forte.planning.verdict.requirements import EXECUTION_MARGIN, kept_clearance
 
+    assert kept_clearance(0.0, np.array([0.05, 0.001, 0.04])) == EXECUTION_MARGIN
+    assert kept_clearance(0.0, np.array([0.05, 0.001, 0.0005])) == 0.0005  # the goal is that close
+    assert kept_clearance(0.02, np.array([0.05, 0.03, 0.04])) == 0.02  # an asked clearance above it
     closest = plan.verdict.clearance["min_m"]
     ends = clearances(task.robot, task.scene, plan.q[[0, -1]]).distance.min()
-    assert ends > closest + ROUTE_MARGIN  # the start and goal keep more than the route's closest
-    near = replace(plan.task, clearance=closest - ROUTE_MARGIN / 2)
-    assert route_margin_short(near, plan.q, plan.verdict).startswith("the route comes within")
-    assert route_margin_short(replace(plan.task, clearance=closest - 2 * ROUTE_MARGIN), plan.q, plan.verdict) == ""
+    assert ends > closest + EXECUTION_MARGIN
+    lifted = judged(replace(plan.task, clearance=0.0), plan.q, plan.force)[0]
+    assert "clearance" not in lifted.failed  # closest 0.05 m: far beyond the margin
+    # the wall moved towards the plan's closest point until 1 mm is left there
+    summary = plan.verdict.clearance
+    shift = (np.array(summary["witness_robot"]) - np.array(summary["witness_body"])) * (1 - 0.001 / closest)
+    moved = [o._replace(pose=o.pose.copy()) for o in task.scene.objects]
+    for o in moved:
+        o.pose[:3, 3] += shift
+    near_task = replace(plan.task, clearance=0.0, scene=task.scene._replace(objects=tuple(moved)))
+    d = clearances(task.robot, near_task.scene, plan.q[[0, -1]]).distance
+    near = judged(near_task, plan.q, plan.force)[0]
+    assert 0 < near.clearance["min_m"] < EXECUTION_MARGIN and d.min() > EXECUTION_MARGIN
+    assert near.failed == ("clearance",) and "raised to what execution needs" in near.reason()

@@ -17,7 +17,6 @@ from typing import Any
 import numpy as np
 
 from forte.force.taskforce import TaskForce
-from forte.model.clearance import clearances
 from forte.model.robot import N_BASE
 from forte.model.trajectory import backward_differences
 from forte.planning.methods.catalog import Method
@@ -212,32 +211,13 @@ def passing(task: Task) -> dict[str, Any]:
     return facts
 
 
-#: How much more than the asked clearance (m) a route must keep to be the plan (where its start and
-#: goal themselves keep that much): the executor tracks the spline to a few millimetres, and on
-#: MotionBenchMaker 3 of the 149 routes kept as plans at 0.02-0.9 mm touched in MuJoCo (of the 153
-#: optimized plans, 1 at 0.7 mm).
-ROUTE_MARGIN = 0.002
-
-
-def route_margin_short(task: Task, route: FloatArray, verdict: Verdict) -> str:
-    """Why the route comes too close to be the plan (:data:`ROUTE_MARGIN`), or ``""``."""
-    if verdict.clearance is None:
-        return ""
-    ends = float(clearances(task.robot, task.scene, route[[0, -1]]).distance.min())
-    needed = min(task.clearance + ROUTE_MARGIN, ends)
-    closest = float(verdict.clearance["min_m"])
-    if closest >= needed:
-        return ""
-    return (f"the route comes within {closest * 1000:.2f} mm of {verdict.clearance['body']}, less than the "
-            f"{needed * 1000:.1f} mm a route keeps to be executed as it is")
-
-
 def route_as_plan(task: Task, sol: SolverResult, info: dict[str, Any], verdict: Verdict,
                    force: TaskForce) -> tuple[FloatArray, bool, str, dict[str, Any], Verdict, TaskForce]:
     """A goal task whose optimized plan is not feasible (the NLP did not converge, or its plan fails
     the verdict): its route (the search's collision-free path timed by toppra,
     :mod:`forte.planning.search.route`) judged as it is, and kept when the verdict calls it
-    feasible and it keeps :data:`ROUTE_MARGIN` beyond the asked clearance. The route keeps the exact
+    feasible (its clearance with the executor's margin included,
+    :data:`~forte.planning.verdict.requirements.EXECUTION_MARGIN`). The route keeps the exact
     clearance between its states and the limits on toppra's time law, but its force capability is
     not optimized: ``info["fallback"]`` says so, and the status names what the NLP did."""
     keep = sol.q, sol.success, sol.status, info, verdict, force
@@ -245,12 +225,9 @@ def route_as_plan(task: Task, sol: SolverResult, info: dict[str, Any], verdict: 
     if verdict.feasible or route is None or len(route) != task.n:
         return keep
     route_verdict, route_force = judged(task, route, force)
-    short = route_margin_short(task, route, route_verdict) if route_verdict.feasible else ""
-    kept = route_verdict.feasible and not short
-    record = {"verdict": route_verdict.label, "failed": list(route_verdict.failed), "kept": kept,
-              "optimized": {"status": sol.status, "verdict": verdict.label, "failed": list(verdict.failed)},
-              **({"too_close": short} if short else {})}
-    if not kept:
+    record = {"verdict": route_verdict.label, "failed": list(route_verdict.failed), "kept": route_verdict.feasible,
+              "optimized": {"status": sol.status, "verdict": verdict.label, "failed": list(verdict.failed)}}
+    if not route_verdict.feasible:
         return (*keep[:3], info | {"fallback": record}, verdict, force)
     status = (f"route: the optimized plan was {verdict.label} ({sol.status}); the searched route, timed by toppra, "
               "is judged feasible as it is (its force capability not optimized)")

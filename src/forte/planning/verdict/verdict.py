@@ -44,6 +44,7 @@ from forte.planning.verdict.requirements import (
     JointVelocities,
     Requirement,
     Violation,
+    kept_clearance,
     scene_distances,
 )
 from forte.settings import KinematicLimits
@@ -163,7 +164,8 @@ def clearance_summary(ctx: Context) -> dict[str, Any] | None:
         return None
     i, s = found.closest(), ctx.samples
     return {"min_m": float(found.distance[i]), "robot": found.robot[i], "body": found.body[i],
-            "t": float(s.t[i]), "waypoint": s.segment_of(i), "required_m": float(ctx.clearance),
+            "t": float(s.t[i]), "waypoint": s.segment_of(i),
+            "required_m": kept_clearance(ctx.clearance, found.distance),
             "witness_robot": found.witness_robot[i].tolist(), "witness_body": found.witness_body[i].tolist(),
             "samples": len(s.t)}
 
