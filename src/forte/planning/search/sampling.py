@@ -10,7 +10,7 @@ sideways, and the NLP that takes the path as its initial guess enforces the driv
 no self-collision, and every scene distance >= the clearance. The search keeps
 :data:`SEARCH_MARGIN` more than the asked ``clearance`` when the start and goal allow it, so the
 NLP that smooths the path and keeps only the asked clearance starts strictly inside it; a search
-that finds no path in :data:`MARGIN_SHARE` of its time limit with the margin spends the rest
+that finds no path in :data:`MARGIN_SHARE` of its budget with the margin spends the rest
 without it (a narrow passage, a shelf's slot, is often open at the asked clearance only). Motions
 between states are checked every :data:`CHECK_STEP` (C-space distance: rad for a joint, m for the
 base), i.e. 1-2 cm of end-effector motion for a hand up to ~1 m from the moving joint.
@@ -36,7 +36,8 @@ from forte.validation import FloatArray
 
 #: Extra clearance (m) the search keeps beyond the asked one (when the start and goal have it).
 SEARCH_MARGIN = 0.01
-#: The share of the time limit the search spends with the margin before it tries without.
+#: The share of the time limit (and of the check budget) the search spends with the margin before it
+#: tries without.
 MARGIN_SHARE = 0.4
 #: Largest C-space step (rad or m) between two checked states of a motion.
 CHECK_STEP = 0.015
