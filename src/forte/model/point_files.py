@@ -35,14 +35,20 @@ _PCD_TYPES = {("F", 4): "f4", ("F", 8): "f8", ("I", 1): "i1", ("I", 2): "i2", ("
               ("U", 1): "u1", ("U", 2): "u2", ("U", 4): "u4", ("U", 8): "u8"}
 
 
-def read_points(path: Path) -> FloatArray:
-    """The points (N x 3, float) of a ``.ply``, ``.pcd`` or ``.npy`` file (module docstring)."""
+def _existing(path: Path, suffixes: tuple[str, ...], kind: str) -> tuple[Path, str]:
+    """``path`` and its lower-case suffix, or one line: no such file, or not a ``kind`` file."""
     path = Path(path)
     if not path.is_file():
         raise InvalidInputError(f"{path}: no such file")
     suffix = path.suffix.lower()
-    if suffix not in CLOUD_SUFFIXES:
-        raise InvalidInputError(f"{path.name}: expected a point cloud file ({', '.join(CLOUD_SUFFIXES)})")
+    if suffix not in suffixes:
+        raise InvalidInputError(f"{path.name}: expected a {kind} file ({', '.join(suffixes)})")
+    return path, suffix
+
+
+def read_points(path: Path) -> FloatArray:
+    """The points (N x 3, float) of a ``.ply``, ``.pcd`` or ``.npy`` file (module docstring)."""
+    path, suffix = _existing(path, CLOUD_SUFFIXES, "point cloud")
     try:
         if suffix == ".npy":
             points = _npy(path, 2)
@@ -66,12 +72,7 @@ def read_points(path: Path) -> FloatArray:
 
 def read_depth(path: Path) -> FloatArray:
     """The raw values (H x W, float; NaN kept) of a depth image ``.png`` or ``.npy``."""
-    path = Path(path)
-    if not path.is_file():
-        raise InvalidInputError(f"{path}: no such file")
-    suffix = path.suffix.lower()
-    if suffix not in DEPTH_SUFFIXES:
-        raise InvalidInputError(f"{path.name}: expected a depth image file ({', '.join(DEPTH_SUFFIXES)})")
+    path, suffix = _existing(path, DEPTH_SUFFIXES, "depth image")
     try:
         image = _npy(path, 2) if suffix == ".npy" else _png(path)
     except InvalidInputError:

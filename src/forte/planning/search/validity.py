@@ -141,21 +141,20 @@ class StateChecker:
         self._q[4:] = q[N_BASE:]
         return self._q
 
+    def _in_range(self, q: Any) -> bool:
+        arm = np.asarray(q, dtype=float)[N_BASE:]
+        return not (np.any(arm < self.lower) or np.any(arm > self.upper))
+
     def valid(self, q: Any) -> bool:
         """Within the joint limits, every scene distance >= the clearance, no self-collision."""
         self.checks += 1
-        arm = np.asarray(q, dtype=float)[N_BASE:]
-        if np.any(arm < self.lower) or np.any(arm > self.upper):
-            return False
-        return not pin.computeCollisions(self.model, self.data, self._broad, self.pin_configuration(q), True)
+        return self._in_range(q) and not pin.computeCollisions(self.model, self.data, self._broad,
+                                                               self.pin_configuration(q), True)
 
     def valid_pairwise(self, q: Any) -> bool:
         """:meth:`valid` without the broad phase (every pair to GJK): the reference it is tested against."""
-        arm = np.asarray(q, dtype=float)[N_BASE:]
-        if np.any(arm < self.lower) or np.any(arm > self.upper):
-            return False
-        return not pin.computeCollisions(self.model, self.data, self.geom, self.geom_data,
-                                         self.pin_configuration(q), True)
+        return self._in_range(q) and not pin.computeCollisions(self.model, self.data, self.geom, self.geom_data,
+                                                               self.pin_configuration(q), True)
 
     def why(self, q: Any) -> str:
         """Why ``q`` is not valid, in words (``""`` when it is): the joint beyond its limit, the
