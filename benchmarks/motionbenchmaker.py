@@ -55,15 +55,17 @@ def problems(root: Path, per_scenario: int | None, scenarios: list[str] | None) 
 CLEARANCE = 0.0
 
 
-def load(request: Path, scene: Path, folder: Path, payload: float | None) -> Any:
+def load(request: Path, scene: Path, folder: Path, payload: float | None, route_first: bool = False) -> Any:
     """The problem as forte's goal task (what ``forte import moveit --floor none`` writes, with
-    ``clearance:`` :data:`CLEARANCE`)."""
+    ``clearance:`` :data:`CLEARANCE`, and ``solver.route_first`` when asked)."""
     from forte.io.moveit_import import task_document, write_task
     from forte.planning.tasks.tasks import load_task
 
     out = folder / "task.yaml"
     doc, _ = task_document(request, scene, out, payload=payload, floor="none")
     doc["clearance"] = CLEARANCE
+    if route_first:
+        doc.setdefault("solver", {})["route_first"] = True
     write_task(out, doc, (request, scene))
     return load_task(out)
 
@@ -96,7 +98,7 @@ def plan_and_simulate(task: Any, folder: Path, simulate: bool) -> dict[str, Any]
         "toppra_s": search.get("toppra_duration_s", np.nan), "limiting": search.get("limiting", ""),
         "path_length_rad": float(np.abs(np.diff(plan.q[:, 3:], axis=0)).sum()),
         "iterations": info.get("iterations", -1),
-        "route_plan": bool(info.get("fallback", {}).get("kept", False)),  # the route judged as the plan
+        "route_plan": bool(info.get("fallback", {}).get("kept", False) or info.get("route_first", False)),
         "min_clearance_m": np.nan if plan.verdict.clearance is None else plan.verdict.clearance.get("min_m",
                                                                                                    np.nan),
     }
@@ -121,12 +123,12 @@ def plan_and_simulate(task: Any, folder: Path, simulate: bool) -> dict[str, Any]
     return row
 
 
-def run_one(args: tuple[str, Path, Path, float | None, str, bool]) -> dict[str, Any]:
-    scenario, request, scene, payload, stage, simulate = args
+def run_one(args: tuple[str, Path, Path, float | None, str, bool, bool]) -> dict[str, Any]:
+    scenario, request, scene, payload, stage, simulate, route_first = args
     row: dict[str, Any] = {"scenario": scenario, "problem": request.stem.replace("request", "")}
     try:
         with tempfile.TemporaryDirectory() as tmp:
-            task = load(request, scene, Path(tmp), payload)
+            task = load(request, scene, Path(tmp), payload, route_first)
             row |= search_only(task) if stage == "search" else plan_and_simulate(task, Path(tmp), simulate)
     except Exception as exc:  # a benchmark row, not a crash: the reason is the result
         row |= {"success": False, "verdict": "error", "reason": f"{type(exc).__name__}: {exc}"[:300],
@@ -196,6 +198,8 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--stage", choices=("plan", "search"), default="plan")
     ap.add_argument("--no-sim", action="store_true")
+    ap.add_argument("--route-first", action="store_true",
+                    help="solver.route_first: a route that passes the verdict is the plan, no NLP")
     ap.add_argument("--summarize", type=Path, help="only write summary.md from this results.csv")
     args = ap.parse_args()
     if args.summarize:
@@ -206,7 +210,7 @@ def main() -> None:
         (args.out / "summary.md").write_text(text)
         print(text)
         return
-    todo = [(s, r, sc, args.payload, args.stage, not args.no_sim)
+    todo = [(s, r, sc, args.payload, args.stage, not args.no_sim, args.route_first)
             for s, r, sc in problems(args.root, args.per_scenario, args.scenarios)
             if not args.only or f"{s}/{r.stem.replace('request', '')}" in args.only]
     args.out.mkdir(parents=True, exist_ok=True)

@@ -96,3 +96,29 @@ def test_a_route_is_the_plan_when_the_nlp_does_not_converge_and_the_verdict_pass
     near = judged(near_task, plan.q, plan.force)[0]
     assert 0 < near.clearance["min_m"] < EXECUTION_MARGIN and d.min() > EXECUTION_MARGIN
     assert near.failed == ("clearance",) and "raised to what execution needs" in near.reason()
+
+
+def test_route_first_returns_a_route_the_verdict_passes_without_the_nlp():
+    """``solver.route_first``: the searched route, timed by toppra, is judged before any NLP; the
+    verdict passes it here, so it is the plan (no IPOPT iterations) and the plan says so."""
+    from dataclasses import replace
+
+    task = forte.load_task(WALL)
+    plan = forte.plan(replace(task, solver=replace(task.solver, route_first=True)))
+    assert plan.feasible and plan.solver["route_first"] and "iterations" not in plan.solver
+    assert plan.status.startswith("route: the searched route") and "solver.route_first" in plan.status
+    assert np.array_equal(plan.q, plan.task.goal.route)
+    assert plan.solver["search"]["searched"] and plan.solver["search"]["toppra_duration_s"] <= plan.t[-1]
+    verdict, _ = judged(plan.task, plan.q, plan.force)  # judged again: the same verdict
+    assert verdict.feasible and verdict.clearance["min_m"] >= 0.002
+
+
+def test_route_first_is_read_from_the_task_file_and_checked():
+    from forte.exceptions import TaskFileError
+
+    base = {"robot": PANDA, "initial_configuration": [0, 0, 0, -1.0, 0.3, 0.0, -1.8, 0.0, 2.1, 0.785],
+            "path": {"kind": "goal", "configuration": [0, 0, 0, -0.6, 0.3, 0.0, -1.8, 0.0, 2.1, 0.785]}}
+    assert task_from_dict(base | {"solver": {"route_first": True}}).solver.route_first
+    assert not task_from_dict(base).solver.route_first
+    with pytest.raises(TaskFileError, match="solver.route_first"):
+        task_from_dict(base | {"solver": {"route_first": "maybe"}})

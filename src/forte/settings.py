@@ -294,6 +294,12 @@ class SolverOptions:
             interior-point method of :mod:`forte.planning.nlp.solvers` (same problem, same
             convergence test; several times faster per re-plan; problems with a scene or a
             differential base go to IPOPT).
+        route_first: a goal task whose route (the searched path timed by toppra,
+            :mod:`forte.planning.search.route`) passes the verdict as it is becomes the plan
+            without the NLP: an answer in the time of the search and one verdict, its force
+            capability checked (the verdict's ``capacity``) but not optimized. ``False`` (default)
+            optimizes every goal task (the paper's NLP), and the route is the plan only when the
+            optimized one is not feasible.
     """
 
     max_iter: int = 500
@@ -307,6 +313,7 @@ class SolverOptions:
     hold_seed: int = 0
     refine_rounds: int = 3
     backend: str = "ipopt"
+    route_first: bool = False
 
     def __post_init__(self) -> None:
         if self.backend not in SOLVER_BACKENDS:
@@ -323,6 +330,8 @@ class SolverOptions:
             value = getattr(self, name)
             if not (_finite(value) and value > 0):
                 raise InvalidInputError(f"{name}: expected a finite number > 0, got {value!r}")
+        if not isinstance(self.route_first, bool):
+            raise InvalidInputError(f"route_first: expected true or false, got {self.route_first!r}")
         if not (isinstance(self.print_level, int) and 0 <= self.print_level <= 12):
             raise InvalidInputError(f"print_level: expected an integer in 0..12, got {self.print_level!r}")
 

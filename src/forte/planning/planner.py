@@ -122,6 +122,23 @@ def resolve_payload(task: Task, estimator_options: dict[str, Any] | None = None)
     return task.with_payload(task.payload.with_estimate(estimate))
 
 
+def route_plan(task: Task, force: TaskForce, route: dict[str, Any]
+               ) -> tuple[FloatArray, bool, str, dict[str, Any], Verdict, TaskForce] | None:
+    """``solver.route_first``: a goal task's route (searched, timed by toppra) judged as the plan
+    before any NLP; the plan and its facts when the verdict calls it feasible, else ``None`` (the
+    NLP then runs as without the option)."""
+    if task.goal is None or task.goal.route is None or len(task.goal.route) != task.n:
+        return None
+    verdict, judged_force = judged(task, task.goal.route, force)
+    if not verdict.feasible:
+        return None
+    info = {"status": "route", "success": True, "route_first": True,
+            "search": route | {"duration_s": float(task.t[-1] - task.t[0])}}
+    status = ("route: the searched route, timed by toppra, judged feasible as it is (solver.route_first: "
+              "no NLP; its force capability checked, not optimized)")
+    return task.goal.route, True, status, info, verdict, judged_force
+
+
 def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,
          guess: FloatArray | None = None) -> Plan:
     """Plan ``task`` with ``method`` and judge it; never raises for a solver failure or an
@@ -154,6 +171,8 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         q, solved, status = start_guess(task) if guess is None else guess, False, blocked
         info = {"status": status, "success": False, "path_blocked": True, **({"search": route} if route else {})}
         verdict, force = judged(task, q, force)
+    elif route and task.solver.route_first and (first := route_plan(task, force, route)) is not None:
+        q, solved, status, info, verdict, force = first
     elif spec.optimized:
         # J1 on the wrench when the payload needs a moment; the task's own terms (e.g. tipover) added
         solved_as = with_task_terms(for_requirement(spec, force), task.terms)

@@ -376,6 +376,8 @@ _SOLVER_DOCS = {
     "hold_seed": (integer(0, 10**9), "seed of the extra hold starts", ""),
     "refine_rounds": (integer(0, 10**9), "rounds of verdict-driven refinement (0: the NLP's optimum)", ""),
     "backend": (choice(SOLVER_BACKENDS), "the NLP solver: IPOPT or forte's stage-structured interior point", ""),
+    "route_first": (BOOL, "a goal task: its route becomes the plan without the NLP when the verdict passes it "
+                          "(fast; capacity checked, not optimized)", ""),
 }
 _LIMIT_DOCS = {
     "enabled": (BOOL, "false: the paper's NLP exactly (no velocity or acceleration limits)", ""),
