@@ -55,9 +55,11 @@ def problems(root: Path, per_scenario: int | None, scenarios: list[str] | None) 
 CLEARANCE = 0.0
 
 
-def load(request: Path, scene: Path, folder: Path, payload: float | None, route_first: bool = False) -> Any:
+def load(request: Path, scene: Path, folder: Path, payload: float | None, route_first: bool = False,
+         base: str = "fixed") -> Any:
     """The problem as forte's goal task (what ``forte import moveit --floor none`` writes, with
-    ``clearance:`` :data:`CLEARANCE`, and ``solver.route_first`` when asked)."""
+    ``clearance:`` :data:`CLEARANCE`, and ``solver.route_first`` when asked); ``base: holonomic``
+    puts the same arm on the authors' base (:func:`on_the_base`)."""
     from forte.io.moveit_import import task_document, write_task
     from forte.planning.tasks.tasks import load_task
 
@@ -66,6 +68,54 @@ def load(request: Path, scene: Path, folder: Path, payload: float | None, route_
     doc["clearance"] = CLEARANCE
     if route_first:
         doc.setdefault("solver", {})["route_first"] = True
+    if base == "holonomic":
+        return on_the_base(doc, request, scene, out)
+    write_task(out, doc, (request, scene))
+    return load_task(out)
+
+
+#: The authors' arm mount on their base (m, base frame): the holonomic variant's arm sits here.
+AUTHORS_MOUNT = (0.2575, 0.0, 0.52)
+
+
+def scene_entries(scene: Path, mount: Any) -> list[dict[str, Any]]:
+    """The PlanningScene's boxes and cylinders as task ``scene:`` entries, each placed by ``mount``
+    (4 x 4): the world of the arm's base becomes the mount's frame on the mobile base."""
+    import pinocchio as pin
+
+    from forte.model.scene import Box, Cylinder
+    from forte.model.scene_files import read_scene_file
+
+    entries = []
+    for body in read_scene_file(scene):
+        pose = mount @ body.pose
+        shape = ({"box": {"size": [float(x) for x in body.shape.size]}} if isinstance(body.shape, Box) else
+                 {"cylinder": {"radius": float(body.shape.radius), "length": float(body.shape.length)}}
+                 if isinstance(body.shape, Cylinder) else None)
+        if shape is None:
+            raise ValueError(f"{scene}: {body.name}: only boxes and cylinders are placed on the base")
+        entries.append({"name": body.name, **shape,
+                        "pose": [*map(float, pose[:3, 3]), *map(float, pin.rpy.matrixToRpy(pose[:3, :3]))]})
+    return entries
+
+
+def on_the_base(doc: dict[str, Any], request: Path, scene: Path, out: Path) -> Any:
+    """The problem with the Panda on the authors' holonomic base (arm at :data:`AUTHORS_MOUNT`, the
+    base at the origin at the start, the scene placed relative to the mount) and the goal as the
+    hand's pose at the goal configuration (default tolerances): the base may end anywhere."""
+    from forte.io.moveit_import import write_task
+    from forte.planning.tasks.tasks import load_task
+
+    mount = np.eye(4)
+    mount[:3, 3] = AUTHORS_MOUNT
+    doc["robot"] |= {"base": "holonomic", "mount": {"xyz": list(AUTHORS_MOUNT)}}
+    doc["scene"] = scene_entries(Path(doc.pop("scene_file")), mount)
+    write_task(out, doc, (request, scene))
+    goal = np.asarray(load_task(out).goal.q_end, dtype=float)
+    robot = load_task(out).robot
+    pose = robot.ee_pose(goal)
+    doc["path"] = {"kind": "goal", "pose": {"position": [float(x) for x in pose[:3, 3]],
+                                            "orientation": {"matrix": pose[:3, :3].tolist()}}}
     write_task(out, doc, (request, scene))
     return load_task(out)
 
@@ -123,12 +173,12 @@ def plan_and_simulate(task: Any, folder: Path, simulate: bool) -> dict[str, Any]
     return row
 
 
-def run_one(args: tuple[str, Path, Path, float | None, str, bool, bool]) -> dict[str, Any]:
-    scenario, request, scene, payload, stage, simulate, route_first = args
+def run_one(args: tuple[str, Path, Path, float | None, str, bool, bool, str]) -> dict[str, Any]:
+    scenario, request, scene, payload, stage, simulate, route_first, base = args
     row: dict[str, Any] = {"scenario": scenario, "problem": request.stem.replace("request", "")}
     try:
         with tempfile.TemporaryDirectory() as tmp:
-            task = load(request, scene, Path(tmp), payload, route_first)
+            task = load(request, scene, Path(tmp), payload, route_first, base)
             row |= search_only(task) if stage == "search" else plan_and_simulate(task, Path(tmp), simulate)
     except Exception as exc:  # a benchmark row, not a crash: the reason is the result
         row |= {"success": False, "verdict": "error", "reason": f"{type(exc).__name__}: {exc}"[:300],
@@ -198,6 +248,8 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--stage", choices=("plan", "search"), default="plan")
     ap.add_argument("--no-sim", action="store_true")
+    ap.add_argument("--base", choices=("fixed", "holonomic"), default="fixed",
+                    help="holonomic: the arm on the authors' base, the goal as the hand's pose")
     ap.add_argument("--route-first", action="store_true",
                     help="solver.route_first: a route that passes the verdict is the plan, no NLP")
     ap.add_argument("--summarize", type=Path, help="only write summary.md from this results.csv")
@@ -210,7 +262,7 @@ def main() -> None:
         (args.out / "summary.md").write_text(text)
         print(text)
         return
-    todo = [(s, r, sc, args.payload, args.stage, not args.no_sim, args.route_first)
+    todo = [(s, r, sc, args.payload, args.stage, not args.no_sim, args.route_first, args.base)
             for s, r, sc in problems(args.root, args.per_scenario, args.scenarios)
             if not args.only or f"{s}/{r.stem.replace('request', '')}" in args.only]
     args.out.mkdir(parents=True, exist_ok=True)

@@ -122,3 +122,46 @@ def test_route_first_is_read_from_the_task_file_and_checked():
     assert not task_from_dict(base).solver.route_first
     with pytest.raises(TaskFileError, match="solver.route_first"):
         task_from_dict(base | {"solver": {"route_first": "maybe"}})
+
+
+def _post_at_the_elbow() -> tuple:
+    """A Panda pose goal whose reader IK configuration puts the arm through a sphere at the elbow
+    of the configuration that defined the pose."""
+    import pinocchio as pin
+
+    q_start = [0, 0, 0, 0, -0.785, 0, -2.356, 0, 1.571, 0.785]
+    q_pose = np.array([0, 0, 0, 0.6, 0.2, 0.0, -1.9, 0.0, 2.1, 0.785])
+    robot = task_from_dict({"robot": PANDA, "initial_configuration": q_start,
+                            "path": {"kind": "goal", "configuration": q_pose.tolist()}}).robot
+    data = robot.model.createData()
+    pin.forwardKinematics(robot.model, data, q_pose[3:])
+    elbow = data.oMi[robot.model.getJointId("panda_joint4")].translation
+    T = robot.ee_pose(q_pose)
+    task = task_from_dict({
+        "robot": PANDA, "initial_configuration": q_start, "clearance": 0.0,
+        "path": {"kind": "goal", "pose": {"position": T[:3, 3].tolist(),
+                                          "orientation": {"matrix": T[:3, :3].tolist()}}},
+        "scene": [{"name": "post", "sphere": {"radius": 0.04}, "pose": [*elbow.tolist(), 0, 0, 0]}]})
+    return task, T
+
+
+def test_a_pose_goal_whose_ik_configuration_collides_gets_a_clear_one():
+    from forte.planning.search.goal_ik import free_goal
+    from forte.planning.search.route import clear_goal
+    from forte.planning.tasks.ik import pose_error
+
+    task, T = _post_at_the_elbow()
+    checker = StateChecker(task.robot, task.scene, 0.0)
+    assert not checker.valid(task.goal.q_end)  # the reader's IK runs the arm through the post
+    found = free_goal(task.robot, task.scene, 0.0, task.q_init, task.goal.q_end, task.goal.pose)
+    assert found.q is not None and checker.valid(found.q) and found.tried >= 1
+    assert np.linalg.norm(pose_error(task.robot, found.q, T)) < 1e-3  # the same hand pose
+    assert "post" in found.reason and "replaces it" in found.reason
+    assert free_goal(task.robot, task.scene, 0.0, task.q_init, found.q, task.goal.pose).tried == 0  # kept
+    cleared, said = clear_goal(task)
+    assert checker.valid(cleared.goal.q_end) and said == found.reason
+    # a pose inside the post has no clear IK: the reason says so
+    inside = np.eye(4)
+    inside[:3, 3] = task.scene.objects[0].pose[:3, 3]
+    none = free_goal(task.robot, task.scene, 0.0, task.q_init, task.goal.q_end, inside)
+    assert none.q is None and "none of" in none.reason

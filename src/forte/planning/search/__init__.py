@@ -4,6 +4,7 @@
   C++ call per state), is a straight C-space segment free;
 - :mod:`~forte.planning.search.sampling`: :func:`find_path`, OMPL's RRT-Connect, shortcut;
 - :mod:`~forte.planning.search.timing`: :func:`retime`, the time-optimal law along a path (toppra);
+- :mod:`~forte.planning.search.goal_ik`: a pose goal's IK configuration clear of the scene;
 - :mod:`~forte.planning.search.route`: :func:`~forte.planning.search.route.routed`, a goal task's route.
 
 OMPL and toppra are dependencies of forte, imported when a search or a retiming runs (``forte plan``

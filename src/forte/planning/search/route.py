@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from forte.planning.search.goal_ik import free_goal
 from forte.planning.search.sampling import find_path
 from forte.planning.search.timing import retime
 from forte.planning.search.validity import StateChecker, segment_free
@@ -80,6 +81,18 @@ def segment_path(task: Task, q0: FloatArray, q1: FloatArray) -> tuple[FloatArray
             return found.q, facts
     facts["time_s"] = time.perf_counter() - begin
     return np.vstack([q0, q1]), facts
+
+
+def clear_goal(task: Task) -> tuple[Task, str]:
+    """A pose goal whose IK configuration is in collision gets one clear of the scene
+    (:func:`~forte.planning.search.goal_ik.free_goal`); what was done, in words (``""``: nothing)."""
+    if task.goal.pose is None or not needs_search(task):
+        return task, ""
+    free = free_goal(task.robot, task.scene, task.clearance, np.asarray(task.q_init, dtype=float),
+                     np.asarray(task.goal.q_end, dtype=float), task.goal.pose, task.solver.hold_seed)
+    if free.q is not None and free.tried:
+        task = replace(task, goal=replace(task.goal, q_end=free.q))
+    return task, free.reason
 
 
 def route_path(task: Task) -> tuple[FloatArray | None, dict[str, Any]]:
@@ -152,9 +165,12 @@ def routed(task: Task, stretch: float = 1.0) -> tuple[Task, dict[str, Any]]:
     if task.goal.vias:
         paths, facts = via_paths(task)
         return (task, facts) if paths is None else _via_route(task, stretch, paths, facts)
+    task, goal_ik = clear_goal(task)
     path, facts = route_path(task)
+    if goal_ik:
+        facts["goal_ik"] = goal_ik
     if path is None:
-        return task, facts
+        return task, facts | ({"reason": f"{facts['reason']} ({goal_ik})"} if goal_ik else {})
     begin = time.perf_counter()
     dense = retime(task.robot, path, samples=DENSE_SAMPLES, limits=task.limits)
     facts |= {"toppra_duration_s": dense.duration, "limiting": dense.limiting, "waypoints": len(path),
