@@ -148,7 +148,7 @@ def plan_and_simulate(task: Any, folder: Path, simulate: bool) -> dict[str, Any]
         "toppra_s": search.get("toppra_duration_s", np.nan), "limiting": search.get("limiting", ""),
         "path_length_rad": float(np.abs(np.diff(plan.q[:, 3:], axis=0)).sum()),
         "iterations": info.get("iterations", -1),
-        "route_plan": bool(info.get("fallback", {}).get("kept", False) or info.get("route_first", False)),
+        "route_plan": bool(info.get("fallback", {}).get("kept", False) or info.get("route_first", {}).get("kept")),
         "min_clearance_m": np.nan if plan.verdict.clearance is None else plan.verdict.clearance.get("min_m",
                                                                                                    np.nan),
     }

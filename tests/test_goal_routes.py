@@ -105,7 +105,7 @@ def test_route_first_returns_a_route_the_verdict_passes_without_the_nlp():
 
     task = forte.load_task(WALL)
     plan = forte.plan(replace(task, solver=replace(task.solver, route_first=True)))
-    assert plan.feasible and plan.solver["route_first"] and "iterations" not in plan.solver
+    assert plan.feasible and plan.solver["route_first"]["kept"] and "iterations" not in plan.solver
     assert plan.status.startswith("route: the searched route") and "solver.route_first" in plan.status
     assert np.array_equal(plan.q, plan.task.goal.route)
     assert plan.solver["search"]["searched"] and plan.solver["search"]["toppra_duration_s"] <= plan.t[-1]

@@ -123,20 +123,23 @@ def resolve_payload(task: Task, estimator_options: dict[str, Any] | None = None)
 
 
 def route_plan(task: Task, force: TaskForce, route: dict[str, Any]
-               ) -> tuple[FloatArray, bool, str, dict[str, Any], Verdict, TaskForce] | None:
+               ) -> tuple[tuple[FloatArray, bool, str, dict[str, Any], Verdict, TaskForce] | None, dict[str, Any]]:
     """``solver.route_first``: a goal task's route (searched, timed by toppra) judged as the plan
-    before any NLP; the plan and its facts when the verdict calls it feasible, else ``None`` (the
-    NLP then runs as without the option)."""
+    before any NLP. Returns the plan and its facts when the verdict calls it feasible (else
+    ``None``: the NLP runs as without the option), and the record of the try."""
     if task.goal is None or task.goal.route is None or len(task.goal.route) != task.n:
-        return None
+        return None, {}
+    begin = time.perf_counter()
     verdict, judged_force = judged(task, task.goal.route, force)
+    record = {"verdict": verdict.label, "failed": list(verdict.failed), "kept": verdict.feasible,
+              "verdict_s": time.perf_counter() - begin}
     if not verdict.feasible:
-        return None
-    info = {"status": "route", "success": True, "route_first": True,
+        return None, record
+    info = {"status": "route", "success": True, "route_first": record,
             "search": route | {"duration_s": float(task.t[-1] - task.t[0])}}
     status = ("route: the searched route, timed by toppra, judged feasible as it is (solver.route_first: "
               "no NLP; its force capability checked, not optimized)")
-    return task.goal.route, True, status, info, verdict, judged_force
+    return (task.goal.route, True, status, info, verdict, judged_force), record
 
 
 def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,
@@ -167,11 +170,13 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
     force = task.force()
     info: dict[str, Any] = {}
     blocked = (route.get("reason") or blocked_path(task)) if spec.optimized else None
+    first, tried_route = route_plan(task, force, route) if route and blocked is None and task.solver.route_first \
+        else (None, {})
     if blocked is not None:  # no motion can clear the scene: nothing to optimize
         q, solved, status = start_guess(task) if guess is None else guess, False, blocked
         info = {"status": status, "success": False, "path_blocked": True, **({"search": route} if route else {})}
         verdict, force = judged(task, q, force)
-    elif route and task.solver.route_first and (first := route_plan(task, force, route)) is not None:
+    elif first is not None:
         q, solved, status, info, verdict, force = first
     elif spec.optimized:
         # J1 on the wrench when the payload needs a moment; the task's own terms (e.g. tipover) added
@@ -186,6 +191,8 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
             q, solved, status, info, verdict, force = route_as_plan(task, sol, info, verdict, force)
         else:
             q, solved, status = sol.q, sol.success, sol.status
+        if tried_route:
+            info["route_first"] = tried_route
     else:
         q, solved, status = spec.produce(task), True, spec.status
         verdict, force = judged(task, q, force)

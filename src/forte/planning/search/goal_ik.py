@@ -10,7 +10,8 @@ base: the IK from the start put ``panda_link5`` 4-8 cm into a table or the base)
 :func:`free_goal` keeps the reader's configuration when it is valid (joint limits, the scene at
 the task's clearance, no self-collision: :class:`~forte.planning.search.validity.StateChecker`),
 else solves the same pose from :data:`GOAL_IK_STARTS` seeded starts (the arm drawn within its
-limits; a mobile base drawn within :data:`BASE_SPREAD` of the reader's base) and keeps, of the
+limits; a mobile base held at the start's place for every other start, the arm alone solving,
+else drawn within :data:`BASE_SPREAD` of the reader's) and keeps, of the
 valid solutions that reach the pose within the IK's own tolerances, the one nearest the start
 (largest joint step). The NLP poses the goal pose, not the configuration, so any of them is the
 same task.
@@ -55,16 +56,18 @@ def free_goal(robot: MobileManipulator, scene: Scene, clearance: float, q_start:
         return FreeGoal(np.asarray(q_goal, dtype=float), 0, "")
     why = checker.why(q_goal)
     options = IKOptions()
+    arm_only = IKOptions(base_weight=1e9)  # the base all but held where it stands
     rng = np.random.default_rng(seed)
     found: list[FloatArray] = []
     tried = 0
-    for _ in range(GOAL_IK_STARTS):
+    for i in range(GOAL_IK_STARTS):
         start = np.asarray(q_goal, dtype=float).copy()
         start[N_BASE:] = rng.uniform(robot.lower, robot.upper)
-        if robot.base != "fixed":
-            start[:N_BASE] += rng.uniform(-1.0, 1.0, N_BASE) * np.asarray(BASE_SPREAD)
+        if robot.base != "fixed":  # every other start from where the base stands at the start
+            start[:N_BASE] = (np.asarray(q_goal[:N_BASE], dtype=float) + rng.uniform(-1.0, 1.0, N_BASE)
+                              * np.asarray(BASE_SPREAD)) if i % 2 else np.asarray(q_start[:N_BASE], dtype=float)
         tried += 1
-        q, err = solve_pose(robot, pose, start, options)
+        q, err = solve_pose(robot, pose, start, options if i % 2 or robot.base == "fixed" else arm_only)
         reached = np.linalg.norm(err[:3]) <= options.position_tolerance and \
             np.linalg.norm(err[3:]) <= options.orientation_tolerance
         if reached and checker.valid(q):
