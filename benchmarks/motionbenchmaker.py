@@ -220,9 +220,9 @@ def summary(rows: list[dict[str, Any]], command: str) -> str:
               f"- Durations: forte's over toppra's time-optimal one along the same route, median "
               f"{np.nanmedian(ratio) if ratio else float('nan'):.2f} (no payload: toppra's x 1.5, longer where "
               "the verdict asked for slower rounds).",
-              f"- Plans that are the route itself (the optimized plan was not feasible; the route, timed by "
-              f"toppra, judged feasible as it is): {sum(str(r.get('route_plan')) == 'True' for r in feasible)} "
-              f"of the {len(feasible)} feasible plans."]
+              f"- Plans that are the route itself (the searched route, timed by toppra, judged feasible as it is: "
+              f"before any NLP with `--route-first`, else after the optimized plan was not feasible): "
+              f"{sum(str(r.get('route_plan')) == 'True' for r in feasible)} of the {len(feasible)} feasible plans."]
     reasons: dict[str, int] = {}
     for r, good in zip(rows, ok, strict=True):
         if not good:
