@@ -165,3 +165,23 @@ def test_a_pose_goal_whose_ik_configuration_collides_gets_a_clear_one():
     inside[:3, 3] = task.scene.objects[0].pose[:3, 3]
     none = free_goal(task.robot, task.scene, 0.0, task.q_init, task.goal.q_end, inside)
     assert none.q is None and "none of" in none.reason
+
+
+def test_a_mobile_goal_task_starts_the_nlp_from_its_route():
+    """The route was searched clear on the exact model: the ring search of prescribed paths
+    (``clear_start``) must not move its base."""
+    from forte.planning.search.route import routed
+    from forte.planning.solve import start_guess
+
+    task = task_from_dict({
+        "robot": PANDA | {"base": "holonomic", "mount": {"xyz": [0.2575, 0.0, 0.52]}},
+        "initial_configuration": [0, 0, 0, -1.0, 0.3, 0.0, -1.8, 0.0, 2.1, 0.785],
+        "path": {"kind": "goal", "configuration": [0.3, 0.2, 0.4, 1.0, 0.3, 0.0, -1.8, 0.0, 2.1, 0.785]},
+        "scene": [{"name": "crate", "box": {"size": [0.3, 0.3, 0.3]}, "pose": [0.75, 0.0, 0.75, 0, 0, 0]}]})
+    task, facts = routed(task)
+    assert task.goal.route is not None and facts["searched"] and "reason" not in facts
+    from forte.planning.scene.scene_guess import clear_start
+
+    moved = clear_start(task, task.goal.route)  # on the covers it would move the base (by 1.27 m)
+    assert moved is None or np.abs(moved - task.goal.route).max() > 0.1
+    assert np.array_equal(start_guess(task), task.goal.route)

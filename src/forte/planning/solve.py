@@ -67,10 +67,12 @@ def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:
     """The optimizer's initial guess: the nominal trajectory for taught configurations (the
     authors' joint-space interpolation), a goal task's :func:`goal_guess`, else IK along the path /
     onto the pose; with a scene, base poses that keep the robot clear of it where
-    :func:`~forte.planning.scene.scene_guess.clear_start` finds them."""
-    if task.goal is not None:
-        guess = goal_guess(task)
-    elif task.knots is not None:
+    :func:`~forte.planning.scene.scene_guess.clear_start` finds them (not for a goal task: its
+    route was searched clear of the scene on the exact model, and the ring search, made for a
+    prescribed path, would move its base off it)."""
+    if task.goal is not None:  # its route (or straight line) keeps the clearance on the exact model already
+        return goal_guess(task)
+    if task.knots is not None:
         guess = task.nominal() if nominal is None else nominal
     else:
         guess = initial_guess(task)
