@@ -110,10 +110,10 @@ def on_the_base(doc: dict[str, Any], request: Path, scene: Path, out: Path) -> A
     mount[:3, 3] = AUTHORS_MOUNT
     doc["robot"] |= {"base": "holonomic", "mount": {"xyz": list(AUTHORS_MOUNT)}}
     doc["scene"] = scene_entries(Path(doc.pop("scene_file")), mount)
+    goal = np.asarray(doc["path"]["configuration"], dtype=float)  # its pose only: may lie beyond the URDF's range
+    doc["path"] = {"kind": "goal", "configuration": doc["initial_configuration"]}
     write_task(out, doc, (request, scene))
-    goal = np.asarray(load_task(out).goal.q_end, dtype=float)
-    robot = load_task(out).robot
-    pose = robot.ee_pose(goal)
+    pose = load_task(out).robot.ee_pose(goal)
     doc["path"] = {"kind": "goal", "pose": {"position": [float(x) for x in pose[:3, 3]],
                                             "orientation": {"matrix": pose[:3, :3].tolist()}}}
     write_task(out, doc, (request, scene))
