@@ -185,3 +185,119 @@ def test_a_mobile_goal_task_starts_the_nlp_from_its_route():
     moved = clear_start(task, task.goal.route)  # on the covers it would move the base (by 1.27 m)
     assert moved is None or np.abs(moved - task.goal.route).max() > 0.1
     assert np.array_equal(start_guess(task), task.goal.route)
+
+
+def _corner_task(samples: int) -> tuple[object, np.ndarray]:
+    """A Panda swinging joint 1, then joint 2 (an L in configuration space); a post sits where the
+    straight motion between the ends passes, not near the L. The route's law: the L timed by toppra."""
+    from dataclasses import replace
+
+    from forte.planning.search.route import on_samples
+    from forte.planning.search.timing import retime
+
+    start = np.array([0.0, 0.0, 0.0, 0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398])
+    corner, goal = start.copy(), start.copy()
+    corner[3] += 1.4
+    goal[[3, 4]] += [1.4, 0.9]
+    plain = task_from_dict({"robot": PANDA, "initial_configuration": start.tolist(),
+                            "path": {"kind": "goal", "configuration": goal.tolist()}})
+    polyline = np.vstack([start, corner, goal])
+    post = plain.robot.ee_pose(0.5 * (start + goal))[:3, 3]
+    task = task_from_dict({"robot": PANDA, "initial_configuration": start.tolist(), "clearance": 0.0, "floor": "none",
+                           "path": {"kind": "goal", "configuration": goal.tolist(), "samples": samples},
+                           "scene": [{"name": "post", "box": {"size": [0.06, 0.06, 0.06]},
+                                      "pose": [*post.tolist(), 0, 0, 0]}]})
+    law = retime(task.robot, polyline, samples=400, limits=task.limits)
+    t = np.linspace(0.0, 1.5 * law.duration, samples)
+    return on_samples(replace(task, goal=replace(task.goal, law=(law.t, law.q))), t), polyline
+
+
+def _parabola(polyline: np.ndarray) -> np.ndarray:
+    """The not-a-knot cubic spline through three states in their arc length (one parabola per
+    joint), at 200 points: what toppra fitted through the search's states alone."""
+    from forte.planning.search.timing import path_parameter
+
+    _, s = path_parameter(polyline)
+    coef = np.polyfit(s, polyline, 2)
+    return np.array([np.polyval(coef[:, j], np.linspace(0, s[-1], 200)) for j in range(polyline.shape[1])]).T
+
+
+def test_the_timed_law_follows_the_searched_segments_around_a_corner():
+    """toppra's spline through the corner's three states alone is one parabola per joint, 0.15 rad
+    and more off the L; through states every KNOT_STEP along the segments it keeps to the L."""
+    from forte.planning.search.timing import KNOT_STEP, on_segments
+
+    task, polyline = _corner_task(10)
+    law_t, law_q = task.goal.law
+    lin = np.vstack([np.linspace(a, b, 200) for a, b in zip(polyline[:-1], polyline[1:], strict=True)])
+    off = np.array([np.min(np.linalg.norm(lin - q, axis=1)) for q in law_q])
+    assert off.max() < 0.02  # rad, from the nearest state of the L
+    parabola = _parabola(polyline)
+    assert max(np.min(np.linalg.norm(lin - q, axis=1)) for q in parabola) > 0.15
+    assert np.linalg.norm(parabola[[0, -1]] - polyline[[0, -1]]) < 1e-9  # the same ends
+    straight = np.linspace(polyline[0], polyline[-1], 50)
+    assert clearances(task.robot, task.scene, straight).distance.min() < 0  # the post is in the way
+    assert clearances(task.robot, task.scene, law_q).distance.min() > 0.02  # the law goes round it
+    dense = on_segments(polyline)
+    assert np.max(np.linalg.norm(np.diff(dense, axis=0), axis=1)) <= KNOT_STEP + 1e-12
+    assert len(dense) == 1 + int(np.ceil(1.4 / KNOT_STEP)) + int(np.ceil(0.9 / KNOT_STEP))
+
+
+def test_a_route_fails_as_a_plan_on_few_waypoints_and_passes_on_more():
+    """The executed spline through 10 samples of the route misses what the law keeps between
+    them (accelerations past a limit); on 20 samples of the same law, the same time span, it
+    passes, and the route is the plan on the task's new waypoints."""
+    from forte.planning.nlp.solvers.result import SolverResult
+    from forte.planning.rounds import judged_route, route_as_plan
+
+    task, _ = _corner_task(10)
+    force = task.following(task.goal.route).force()
+    coarse = judged(task, task.goal.route, force)[0]
+    assert coarse.failed == ("acceleration",) and not any(v.waypoints for v in coarse.violations)
+    on_more, verdict, _, tries = judged_route(task, force)
+    assert [t["waypoints"] for t in tries] == [10, 20] and verdict.feasible
+    assert on_more.n == 20 and on_more.t[-1] == task.t[-1]
+    assert verdict.clearance["min_m"] > 0.02  # the post: cleared by the L's own margin
+    failed = SolverResult(q=task.goal.route, success=False, status="Maximum_Iterations_Exceeded", iterations=3,
+                          objective=0.0, constraint_violation=1.0, build_time=0.0, solve_time=0.0, codegen="cached")
+    kept_task, q, solved, status, info, kept, _ = route_as_plan(task, failed, {}, coarse, force)
+    assert solved and kept.feasible and kept_task.n == 20 and np.array_equal(q, kept_task.goal.route)
+    assert info["fallback"]["waypoints"] == 20 and "on 20 waypoints" in status
+
+
+def _rows_at(robot: object, q: np.ndarray, slots: object) -> np.ndarray:
+    """The NLP's clearance rows (the CasADi kernels, uncompiled) of ``slots`` at the motion ``q``."""
+    from forte.planning.nlp.collision_kernels import build_collision_kernels
+
+    rows = []
+    for fs in slots.frames:
+        rows_of = build_collision_kernels(robot, fs.frame, fs.slots, fs.other)["clear_rows"]
+        for k in range(1, len(q)):
+            z = np.r_[q[max(k - 2, 0)], q[k - 1], q[k]]
+            rows.append(np.asarray(rows_of(z, fs.values[k])).ravel()[fs.keep[k]])
+    return np.concatenate(rows)
+
+
+def test_a_route_close_to_a_body_meets_the_nlps_rows_it_starts_from():
+    """A body within 1 cm of the route (exact meshes) where the route moves several cm per waypoint: with
+    the clearance alone its rows (cover distance >= m + |step| / 2 at both waypoints) are broken at
+    the route, so IPOPT would start outside them; with the margins from the route's own distances
+    and steps (``clear``) every row holds there, by the slack."""
+    from forte.planning.nlp.collision_slots import START_OVERLAP_SLACK, assign_slots
+
+    task, _ = _corner_task(10)
+    route, robot = task.goal.route, task.robot
+    near = clearances(robot, task.scene, route)
+    k = int(np.argmax(np.abs(np.diff(route[:, 3:], axis=0)).sum(axis=1))) + 1  # the fastest interval's end
+    exact = clearances(robot, task.scene, route[k:k + 1])
+    away = exact.witness_body[0] - exact.witness_robot[0]
+    centre = exact.witness_robot[0] + away / np.linalg.norm(away) * (0.006 + 0.01)
+    from forte.model.scene import Box, Scene, SceneObject, pose_matrix
+
+    scene = Scene((SceneObject("block", Box((0.02, 0.02, 0.02)), pose_matrix([*centre, 0, 0, 0])),), None)
+    d = clearances(robot, scene, route).distance
+    assert 0 < d.min() < 0.01 and near.distance.min() > 0.02  # the block within 1 cm, clear of it
+    plain = assign_slots(robot, route, scene, 0.0, True)
+    assert _rows_at(robot, route, plain).min() < -0.01  # broken by centimetres
+    relaxed = assign_slots(robot, route, scene, 0.0, True, clear=route)
+    assert _rows_at(robot, route, relaxed).min() >= START_OVERLAP_SLACK - 1e-6

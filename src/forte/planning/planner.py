@@ -188,7 +188,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         sol, info, verdict, force = refine(task, solved_as, force, sol, info, verdict)
         if route:
             task, sol, info, verdict, force = slower(unrouted, solved_as, task, sol, info, verdict, force, route)
-            q, solved, status, info, verdict, force = route_as_plan(task, sol, info, verdict, force)
+            task, q, solved, status, info, verdict, force = route_as_plan(task, sol, info, verdict, force)
         else:
             q, solved, status = sol.q, sol.success, sol.status
         if tried_route:

@@ -21,13 +21,13 @@ from forte.model.robot import N_BASE
 from forte.model.trajectory import backward_differences
 from forte.planning.methods.catalog import Method
 from forte.planning.nlp.optimizer import SolverResult
-from forte.planning.search.route import routed
+from forte.planning.search.route import on_samples, routed
 from forte.planning.solve import optimize
 from forte.planning.tasks.keep_level import tightened
 from forte.planning.tasks.tasks import Task
 from forte.planning.terms.wrench_terms import uses_capability
 from forte.planning.verdict.verdict import Verdict, capacity_shortfall, judge_plan, limit_ratios
-from forte.validation import FloatArray
+from forte.validation import MAX_WAYPOINTS, FloatArray
 
 #: What a refinement round adds to the shortfall it covers (N).
 REFINE_SLACK_N = 0.5
@@ -211,24 +211,66 @@ def passing(task: Task) -> dict[str, Any]:
     return facts
 
 
-def route_as_plan(task: Task, sol: SolverResult, info: dict[str, Any], verdict: Verdict,
-                   force: TaskForce) -> tuple[FloatArray, bool, str, dict[str, Any], Verdict, TaskForce]:
+#: What the executed spline between a route's waypoints can break that its time law keeps (a cut
+#: corner, an overshoot): a route failing only on these is judged again on more waypoints.
+BETWEEN_WAYPOINTS = frozenset({"clearance", "joint_position", "self_collision", "velocity", "acceleration",
+                               "torque", "capacity"})
+#: The law's own states: a route failing one of these at a waypoint fails it on any samples.
+AT_STATES = frozenset({"clearance", "joint_position", "self_collision"})
+#: The route judged as the plan on these multiples of the task's waypoints, the first feasible kept.
+DENSER = (1, 2, 4, 8)
+
+
+def denser_helps(verdict: Verdict) -> bool:
+    """Whether more waypoints can fix a route's ``verdict``: it fails only on :data:`BETWEEN_WAYPOINTS`,
+    and on none of :data:`AT_STATES` at a waypoint."""
+    return set(verdict.failed) <= BETWEEN_WAYPOINTS and not any(
+        v.requirement in AT_STATES and v.waypoints for v in verdict.violations)
+
+
+def judged_route(task: Task, force: TaskForce) -> tuple[Task, Verdict, TaskForce, list[dict[str, Any]]]:
+    """The route judged as the plan on ``k N`` waypoints for ``k`` in :data:`DENSER` (sampled from its
+    time law, :func:`~forte.planning.search.route.on_samples`; the same time span), until feasible or
+    more cannot help (:func:`denser_helps`). The executed spline through ``N`` samples of a route
+    with many corners (a cage: 20-40 rad of joint motion on 30 waypoints) cuts them by centimetres
+    and overshoots the joint ranges; through more samples it keeps to the law. Returns the last
+    task tried, its verdict and force, and one record per try."""
+    tries: list[dict[str, Any]] = []
+    trial = task
+    for k in DENSER:
+        n = k * task.n
+        if k > 1:
+            if task.goal.law is None or n > MAX_WAYPOINTS:
+                break
+            trial = on_samples(task, np.linspace(task.t[0], task.t[-1], n))
+        verdict, judged_force = judged(trial, trial.goal.route, force)
+        tries.append({"waypoints": n, "verdict": verdict.label, "failed": list(verdict.failed)})
+        if verdict.feasible or not denser_helps(verdict):
+            break
+    return trial, verdict, judged_force, tries
+
+
+def route_as_plan(task: Task, sol: SolverResult, info: dict[str, Any], verdict: Verdict, force: TaskForce
+                   ) -> tuple[Task, FloatArray, bool, str, dict[str, Any], Verdict, TaskForce]:
     """A goal task whose optimized plan is not feasible (the NLP did not converge, or its plan fails
     the verdict): its route (the search's collision-free path timed by toppra,
-    :mod:`forte.planning.search.route`) judged as it is, and kept when the verdict calls it
+    :mod:`forte.planning.search.route`) judged as it is (:func:`judged_route`: on more waypoints
+    where the spline between them is what fails), and kept when the verdict calls it
     feasible (its clearance with the executor's margin included,
     :data:`~forte.planning.verdict.requirements.EXECUTION_MARGIN`). The route keeps the exact
     clearance between its states and the limits on toppra's time law, but its force capability is
-    not optimized: ``info["fallback"]`` says so, and the status names what the NLP did."""
-    keep = sol.q, sol.success, sol.status, info, verdict, force
+    not optimized: ``info["fallback"]`` says so, and the status names what the NLP did. Returns the
+    task the plan is on (the route's, on its waypoints) first."""
+    keep = task, sol.q, sol.success, sol.status, info, verdict, force
     route = task.goal.route if task.goal is not None else None
     if verdict.feasible or route is None or len(route) != task.n:
         return keep
-    route_verdict, route_force = judged(task, route, force)
+    route_task, route_verdict, route_force, tries = judged_route(task, force)
     record = {"verdict": route_verdict.label, "failed": list(route_verdict.failed), "kept": route_verdict.feasible,
+              "waypoints": route_task.n, "tries": tries,
               "optimized": {"status": sol.status, "verdict": verdict.label, "failed": list(verdict.failed)}}
     if not route_verdict.feasible:
-        return (*keep[:3], info | {"fallback": record}, verdict, force)
+        return (*keep[:4], info | {"fallback": record}, verdict, force)
     status = (f"route: the optimized plan was {verdict.label} ({sol.status}); the searched route, timed by toppra, "
-              "is judged feasible as it is (its force capability not optimized)")
-    return route, True, status, info | {"fallback": record}, route_verdict, route_force
+              f"is judged feasible as it is on {route_task.n} waypoints (its force capability not optimized)")
+    return route_task, route_task.goal.route, True, status, info | {"fallback": record}, route_verdict, route_force

@@ -180,7 +180,19 @@ def routed(task: Task, stretch: float = 1.0) -> tuple[Task, dict[str, Any]]:
     else:
         duration = max(MIN_GOAL_DURATION_S, DURATION_MARGIN * stretch * dense.duration)
         t = np.linspace(0.0, duration, task.n)
-    route = arriving(t, dense.t, dense.q)
+    goal = replace(task.goal, law=(dense.t, dense.q))
+    return on_samples(replace(task, goal=goal), t), facts
+
+
+def on_samples(task: Task, t: FloatArray) -> Task:
+    """``task`` on the sample times ``t`` with its route sampled from its time law
+    (``task.goal.law``, :func:`arriving`: arrives at ``t_{N-3}``, at rest over the last two samples)
+    and the targets along it. A route judged as the plan goes on more samples than the NLP's: the
+    executed spline through them then keeps closer to the searched path (fewer cut corners, less
+    overshoot); a task without a law is returned as it is."""
+    if task.goal is None or task.goal.law is None:
+        return task
+    route = arriving(t, *task.goal.law)
     route[0] = task.q_init
     goal = replace(task.goal, route=route)
-    return replace(task, t=t, goal=goal, targets=goal_targets(task.robot, goal, route, t)), facts
+    return replace(task, t=np.asarray(t, dtype=float), goal=goal, targets=goal_targets(task.robot, goal, route, t))

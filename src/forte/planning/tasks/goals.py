@@ -73,6 +73,10 @@ class Goal:
         route: the motion (N x nq, at the task's times) the planner found to the goal
             (:mod:`forte.planning.search.route`), the NLP's guess and nominal; ``None``: the
             straight line.
+        law: the route's time law it was sampled from (dense times from 0 and the states at them,
+            :func:`forte.planning.search.route.routed`), so the route can be sampled again on more
+            waypoints (:func:`forte.planning.search.route.on_samples`); ``None``: none (the
+            straight line, or a route through vias).
         vias: the poses passed on the way, in order (:mod:`forte.planning.tasks.goal_poses`).
         grasp: the via (index) where the payload attaches (pick and place); ``None``: carried throughout.
     """
@@ -83,6 +87,7 @@ class Goal:
     angle_tol: float = GOAL_ANGLE_TOL
     duration_given: bool = False
     route: FloatArray | None = None
+    law: tuple[FloatArray, FloatArray] | None = None
     vias: tuple[Via, ...] = ()
     grasp: int | None = None
 
