@@ -15,8 +15,10 @@ For a goal task (:mod:`forte.planning.tasks.goals`) the end effector's path is f
    the last two samples, as the NLP's end at rest asks.
 
 The route is the NLP's initial guess and its nominal trajectory (the ``nominal`` term pulls toward
-it, not toward a straight line through an obstacle). :func:`routed` returns the task with its route
-and times, and the facts the plan records (``solver.search``).
+it, not toward a straight line through an obstacle). The goal keeps the time law the route was
+sampled from (``Goal.law``), so the route judged as the plan can be sampled again on more
+waypoints (:func:`on_samples`, :func:`forte.planning.rounds.judged_route`). :func:`routed` returns
+the task with its route and times, and the facts the plan records (``solver.search``).
 """
 
 from __future__ import annotations
