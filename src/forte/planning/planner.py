@@ -19,7 +19,7 @@ from forte.force.taskforce import TaskForce
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.planning.methods.catalog import METHODS, Method, get_method, method_names
-from forte.planning.rounds import apart, judged, own_force, passing, refine, route_as_plan, slower
+from forte.planning.rounds import apart, judged, judged_route, own_force, passing, refine, route_as_plan, slower
 from forte.planning.scene.scene_solve import blocked_path
 from forte.planning.search.route import routed
 from forte.planning.solve import optimize, start_guess
@@ -122,24 +122,29 @@ def resolve_payload(task: Task, estimator_options: dict[str, Any] | None = None)
     return task.with_payload(task.payload.with_estimate(estimate))
 
 
-def route_plan(task: Task, force: TaskForce, route: dict[str, Any]
-               ) -> tuple[tuple[FloatArray, bool, str, dict[str, Any], Verdict, TaskForce] | None, dict[str, Any]]:
+#: A plan with its facts: the task it is on, q, solved, status, solver facts, verdict, judged force.
+Planned = tuple[Task, FloatArray, bool, str, dict[str, Any], Verdict, TaskForce]
+
+
+def route_plan(task: Task, force: TaskForce, route: dict[str, Any]) -> tuple[Planned | None, dict[str, Any]]:
     """``solver.route_first``: a goal task's route (searched, timed by toppra) judged as the plan
-    before any NLP. Returns the plan and its facts when the verdict calls it feasible (else
-    ``None``: the NLP runs as without the option), and the record of the try."""
+    before any NLP (:func:`~forte.planning.rounds.judged_route`: on more waypoints where the spline
+    between them is what fails). Returns the task the plan is on, the plan and its facts when the
+    verdict calls it feasible (else ``None``: the NLP runs as without the option), and the record
+    of the try."""
     if task.goal is None or task.goal.route is None or len(task.goal.route) != task.n:
         return None, {}
     begin = time.perf_counter()
-    verdict, judged_force = judged(task, task.goal.route, force)
+    route_task, verdict, judged_force, tries = judged_route(task, force)
     record = {"verdict": verdict.label, "failed": list(verdict.failed), "kept": verdict.feasible,
-              "verdict_s": time.perf_counter() - begin}
+              "waypoints": route_task.n, "tries": tries, "verdict_s": time.perf_counter() - begin}
     if not verdict.feasible:
         return None, record
     info = {"status": "route", "success": True, "route_first": record,
-            "search": route | {"duration_s": float(task.t[-1] - task.t[0])}}
-    status = ("route: the searched route, timed by toppra, judged feasible as it is (solver.route_first: "
-              "no NLP; its force capability checked, not optimized)")
-    return (task.goal.route, True, status, info, verdict, judged_force), record
+            "search": route | {"duration_s": float(route_task.t[-1] - route_task.t[0])}}
+    status = (f"route: the searched route, timed by toppra, judged feasible as it is on {route_task.n} waypoints "
+              "(solver.route_first: no NLP; its force capability checked, not optimized)")
+    return (route_task, route_task.goal.route, True, status, info, verdict, judged_force), record
 
 
 def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,
@@ -177,7 +182,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         info = {"status": status, "success": False, "path_blocked": True, **({"search": route} if route else {})}
         verdict, force = judged(task, q, force)
     elif first is not None:
-        q, solved, status, info, verdict, force = first
+        task, q, solved, status, info, verdict, force = first
     elif spec.optimized:
         # J1 on the wrench when the payload needs a moment; the task's own terms (e.g. tipover) added
         solved_as = with_task_terms(for_requirement(spec, force), task.terms)
