@@ -122,11 +122,14 @@ def on_the_base(doc: dict[str, Any], request: Path, scene: Path, out: Path) -> A
 
 def search_only(task: Any) -> dict[str, Any]:
     from forte.planning.search import find_path
+    from forte.planning.search.route import SEARCH_CHECKS, SEARCH_TIME_LIMIT
 
     goal = task.goal.configuration if getattr(task, "goal", None) is not None else None
-    result = find_path(task.robot, task.scene, task.q_init, goal, task.clearance, seed=0)
-    return {"success": result.found, "verdict": "found" if result.found else "not found", "reason": result.reason,
-            "search_s": result.time_s, "searched": True}
+    result = find_path(task.robot, task.scene, task.q_init, goal, task.clearance, seed=task.solver.hold_seed,
+                       time_limit=SEARCH_TIME_LIMIT, checks=SEARCH_CHECKS)  # as forte.plan's search
+    return {"success": result.found, "verdict": "found" if result.found else "not found",
+            "reason": result.reason or f"{result.checks} checks, kept clearance {result.clearance:.4f} m",
+            "search_s": result.time_s, "shortcut_s": result.shortcut_s, "searched": True}
 
 
 def plan_and_simulate(task: Any, folder: Path, simulate: bool) -> dict[str, Any]:

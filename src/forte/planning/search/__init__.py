@@ -2,7 +2,7 @@
 
 - :mod:`~forte.planning.search.validity`: is a configuration free (forte's collision model, one
   C++ call per state), is a straight C-space segment free;
-- :mod:`~forte.planning.search.sampling`: :func:`find_path`, OMPL's RRT-Connect, shortcut;
+- :mod:`~forte.planning.search.sampling`: :func:`find_path`, OMPL's RRT-Connect, shortcut, checked densely;
 - :mod:`~forte.planning.search.timing`: :func:`retime`, the time-optimal law along a path (toppra);
 - :mod:`~forte.planning.search.goal_ik`: a pose goal's IK configuration clear of the scene;
 - :mod:`~forte.planning.search.route`: :func:`~forte.planning.search.route.routed`, a goal task's route.
