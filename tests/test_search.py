@@ -96,6 +96,10 @@ def test_kept_clearance_is_the_verdicts_margin_plus_the_slip_unless_an_end_is_cl
     goal_distance = clearances(panda, closer, GOAL).distance[0]
     assert goal_distance == pytest.approx(0.0025, abs=2e-4)
     assert kept(panda, closer, 0.0, START, GOAL) == pytest.approx(goal_distance - 1e-4)
+    result = find_path(panda, closer, START, GOAL, 0.0, seed=0)  # the goal in near contact stays plannable
+    assert result.found and result.clearance == pytest.approx(goal_distance - 1e-4)
+    dense_checker = StateChecker(panda, closer, result.clearance)
+    assert all(segment_free(dense_checker, a, b, DENSE_STEP) for a, b in zip(result.q[:-1], result.q[1:], strict=True))
 
 
 def test_a_path_the_coarse_check_lets_through_the_wall_is_repaired(panda, wall, monkeypatch):
