@@ -8,7 +8,9 @@ the hand at the same pose clear of every body (MotionBenchMaker's goals on the a
 base: the IK from the start put ``panda_link5`` 4-8 cm into a table or the base).
 
 :func:`free_goal` keeps the reader's configuration when it is valid (joint limits, the scene at
-the task's clearance, no self-collision: :class:`~forte.planning.search.validity.StateChecker`),
+the clearance a route keeps, 2 mm plus the slip at least, no self-collision:
+:class:`~forte.planning.search.validity.StateChecker`; or at the task's own clearance when no
+other start finds one),
 else solves the same pose from :data:`GOAL_IK_STARTS` seeded starts (the arm drawn within its
 limits; a mobile base held at the start's place for every other start, the arm alone solving,
 else drawn within :data:`BASE_SPREAD` of the reader's) and keeps, of the
@@ -25,8 +27,10 @@ import numpy as np
 
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
+from forte.planning.search.sampling import SLIP
 from forte.planning.search.validity import StateChecker
 from forte.planning.tasks.ik import IKOptions, solve_pose
+from forte.planning.verdict.requirements import EXECUTION_MARGIN
 from forte.validation import FloatArray
 
 #: IK starts tried when the reader's goal configuration is not free.
@@ -49,12 +53,14 @@ class FreeGoal(NamedTuple):
 
 def free_goal(robot: MobileManipulator, scene: Scene, clearance: float, q_start: FloatArray, q_goal: FloatArray,
               pose: FloatArray, seed: int = 0) -> FreeGoal:
-    """A configuration reaching ``pose`` (4 x 4) that is valid in ``scene`` at ``clearance`` (module
-    docstring); ``q_goal`` is kept when it is."""
-    checker = StateChecker(robot, scene, clearance)
+    """A configuration reaching ``pose`` (4 x 4) that is valid in ``scene`` at the clearance a route
+    keeps (:func:`~forte.planning.search.sampling.kept`: ``clearance``, 2 mm at least, plus the
+    slip), else at ``clearance`` (module docstring); ``q_goal`` is kept when it is."""
+    checker = StateChecker(robot, scene, max(float(clearance), EXECUTION_MARGIN) + SLIP)
+    asked = StateChecker(robot, scene, clearance)
     if checker.valid(q_goal):
         return FreeGoal(np.asarray(q_goal, dtype=float), 0, "")
-    why = checker.why(q_goal)
+    why = checker.why(q_goal) or asked.why(q_goal) or "within the executor's margin"
     options = IKOptions()
     arm_only = IKOptions(base_weight=1e9)  # the base all but held where it stands
     rng = np.random.default_rng(seed)
@@ -74,6 +80,8 @@ def free_goal(robot: MobileManipulator, scene: Scene, clearance: float, q_start:
             found.append(q)
             if len(found) >= ENOUGH:
                 break
+    if not found and asked.valid(q_goal):  # clear at the asked clearance, only closer than the margin
+        return FreeGoal(np.asarray(q_goal, dtype=float), tried, "")
     if not found:
         return FreeGoal(None, tried, f"the goal pose's IK configuration is in collision ({why}) and none of "
                                      f"{tried} IK starts reaches the pose clear of the scene")

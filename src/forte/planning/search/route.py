@@ -3,7 +3,9 @@
 For a goal task (:mod:`forte.planning.tasks.goals`) the end effector's path is free. Its route is:
 
 1. the straight line in configuration space from the start to the goal when it keeps the task's
-   clearance from the scene (every state at :data:`SEGMENT_RESOLUTION`, forte's exact model:
+   clearance the search keeps (:func:`~forte.planning.search.sampling.kept`: the verdict's, 2 mm
+   at least, plus the slip between checked states) at every state
+   :data:`~forte.planning.search.sampling.DENSE_STEP` apart (forte's exact model:
    :func:`~forte.planning.search.validity.segment_free`), else the path of a sampling-based
    search (:func:`~forte.planning.search.sampling.find_path`: RRT-Connect, shortcut);
 2. timed by the time-optimal law along it under the velocity and acceleration limits
@@ -30,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from forte.planning.search.goal_ik import free_goal
-from forte.planning.search.sampling import find_path
+from forte.planning.search.sampling import DENSE_STEP, find_path, kept
 from forte.planning.search.timing import retime
 from forte.planning.search.validity import StateChecker, segment_free
 from forte.planning.tasks.goals import MIN_GOAL_DURATION_S, goal_targets
@@ -39,8 +41,6 @@ from forte.validation import FloatArray
 
 #: The planned duration over toppra's time-optimal one when the task gives none.
 DURATION_MARGIN = 1.5
-#: C-space step (rad or m) of the straight segment's check.
-SEGMENT_RESOLUTION = 0.02
 #: State checks the search may spend (about 5 s on this project's 2-core machine when idle): a
 #: budget of checks, not of seconds, so that a busy machine finds the same routes, only later.
 SEARCH_CHECKS = 150_000
@@ -70,13 +70,13 @@ def segment_path(task: Task, q0: FloatArray, q1: FloatArray) -> tuple[FloatArray
     else the search's; and what finding it took."""
     begin = time.perf_counter()
     facts: dict[str, Any] = {"searched": False}
-    if needs_search(task):
-        checker = StateChecker(task.robot, task.scene, task.clearance)
-        if not segment_free(checker, q0, q1, SEGMENT_RESOLUTION):
+    if needs_search(task):  # the straight line keeps what a searched path keeps, checked as densely
+        checker = StateChecker(task.robot, task.scene, kept(task.robot, task.scene, task.clearance, q0, q1))
+        if not segment_free(checker, q0, q1, DENSE_STEP):
             found = find_path(task.robot, task.scene, q0, q1, task.clearance, time_limit=SEARCH_TIME_LIMIT,
                               seed=task.solver.hold_seed, checks=SEARCH_CHECKS)
             facts |= {"searched": True, "states": found.states, "checks": found.checks,
-                      "shortcut_s": found.shortcut_s}
+                      "shortcut_s": found.shortcut_s, "kept_clearance_m": found.clearance, "repairs": found.repairs}
             if not found.found:
                 return None, facts | {"time_s": time.perf_counter() - begin, "reason": f"search: {found.reason}"}
             facts["time_s"] = time.perf_counter() - begin
