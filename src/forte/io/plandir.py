@@ -27,7 +27,11 @@ names, format version, columns), :mod:`forte.io.plan_writer` and :mod:`forte.io.
 
 from __future__ import annotations
 
-from forte.io.outputs import GENERATOR, atomic_write, output_lock, replace_directory
+# kept importable here, as before the split (tests import output_lock from this module)
+from forte.io.outputs import GENERATOR as GENERATOR
+from forte.io.outputs import atomic_write as atomic_write
+from forte.io.outputs import output_lock as output_lock
+from forte.io.outputs import replace_directory as replace_directory
 from forte.io.plan_format import (
     COMPARISON_FILE,
     FORMAT_VERSION,
@@ -52,8 +56,7 @@ from forte.io.plan_writer import (
     write_plan_dir,
 )
 
-__all__ = ["COMPARISON_FILE", "FORMAT_VERSION", "GENERATOR", "GOOD_STATUSES", "LAST_ITERATE_FILE",
-           "LEGACY_METRIC_COLUMNS", "METRICS_FILE", "METRIC_COLUMNS", "MOMENT_COLUMNS", "PLAN_FILE",
-           "STABILITY_COLUMNS", "TRAJECTORY_FILE", "atomic_write", "fill_plan_dir", "holds_success", "output_lock",
-           "plan_document", "plan_summary", "read_controller", "read_metrics", "read_plan_dir", "replace_directory",
-           "write_csv", "write_plan", "write_plan_dir"]
+__all__ = ["COMPARISON_FILE", "FORMAT_VERSION", "GOOD_STATUSES", "LAST_ITERATE_FILE", "LEGACY_METRIC_COLUMNS",
+           "METRICS_FILE", "METRIC_COLUMNS", "MOMENT_COLUMNS", "PLAN_FILE", "STABILITY_COLUMNS", "TRAJECTORY_FILE",
+           "fill_plan_dir", "holds_success", "plan_document", "plan_summary", "read_controller", "read_metrics",
+           "read_plan_dir", "write_csv", "write_plan", "write_plan_dir"]
