@@ -1,9 +1,12 @@
 """The words of :mod:`forte.planning.tasks.task_fields`: a field's type (its words on the reference page,
-its JSON Schema fragment, its allowed range in words) and the field itself."""
+its JSON Schema fragment, its allowed range in words), the field itself, and the types, units and
+variants that several of its sections share."""
 
 from __future__ import annotations
 
 from typing import Any, NamedTuple
+
+from forte.validation import MAX_DURATION_S, MAX_MASS_KG
 
 
 class Prose(str):
@@ -131,3 +134,14 @@ def joint_values(above: float | None = None, low: float | None = None) -> Type:
     by_name = Type("mapping", {"type": "object", "additionalProperties": number(low, None, above).schema},
                    "joint name: value")
     return either(vector(low=low, above=above), by_name)
+
+
+# -- shared by the sections of task_fields (path_fields, world_fields, task_fields) --------------
+MASS = number(above=0, high=MAX_MASS_KG)
+DURATION = number(above=0, high=MAX_DURATION_S)
+VEC3 = vector(3)
+ZERO3 = [0.0, 0.0, 0.0]
+PER_ARM = "one per arm joint"
+PER_DOF = "x, y, yaw, then one per arm joint"
+#: The windowed-sine variant (of ``path`` and of ``force``).
+SINE = ("kind", "windowed-sine")
