@@ -99,7 +99,9 @@ class SearchResult(NamedTuple):
 
 
 def ompl_modules() -> tuple[Any, Any, Any]:
-    """OMPL's ``base``, ``geometric`` and ``util`` with its log silenced, or one clear line."""
+    """OMPL's ``base``, ``geometric`` and ``util`` with its log at errors only, or one clear line.
+    (Its simplifier warns that a coarsely checked path "may slightly touch on an invalid region":
+    the dense re-check below decides, and the warning would only reach the user's terminal.)"""
     try:
         from ompl import base as ob
         from ompl import geometric as og
@@ -107,7 +109,7 @@ def ompl_modules() -> tuple[Any, Any, Any]:
     except ImportError as exc:
         raise InvalidInputError("the path search needs the 'ompl' package (a dependency of forte): pip install ompl"
                                 ) from exc
-    ou.setLogLevel(ou.LogLevel.LOG_WARN)
+    ou.setLogLevel(ou.LogLevel.LOG_ERROR)
     return ob, og, ou
 
 
@@ -255,7 +257,7 @@ def _search(robot: MobileManipulator, checker: StateChecker, q_start: FloatArray
     ob, og, ou = ompl_modules()
     ou.setLogLevel(ou.LogLevel.LOG_NONE)  # re-seeding after an earlier search logs an error, yet
     ou.RNG.setSeed(int(seed) + 1)  # every generator made after it (planner, sampler) is seeded; 0 = none
-    ou.setLogLevel(ou.LogLevel.LOG_WARN)
+    ou.setLogLevel(ou.LogLevel.LOG_ERROR)
     joints = moving_joints(robot)
     lo, hi = space_bounds(robot, q_start, q_goal)
     space = ob.RealVectorStateSpace(len(joints))
