@@ -267,6 +267,16 @@ def weight_set(name: str) -> WeightSet:
     return WEIGHT_SETS[name]
 
 
+#: CPU seconds (process time) that one plan's NLP solves may take in all: the first solve, its
+#: self-collision and clearance re-solves and the refinement rounds (IPOPT's ``max_cpu_time``,
+#: each solve given what is left; :func:`forte.planning.solve.solve_budget`). Every feasible plan of
+#: the feasibility matrix and of MotionBenchMaker's 350 problems solved in under 45 s of wall time
+#: on two shared cores; 500 iterations of a 41-sample self-collision re-solve of the raw TIAGo ran
+#: for over 8 minutes without converging. A solve stopped by it is reported as IPOPT's
+#: ``Maximum_CpuTime_Exceeded``, naming this bound.
+PLAN_SOLVE_CPU_S = 120.0
+
+
 @dataclass(frozen=True)
 class SolverOptions:
     """IPOPT and build options.
