@@ -146,16 +146,17 @@ def test_the_raw_tiagos_start_cannot_carry_1_5_kg_and_a_posture_with_the_same_ha
 
 def test_a_capacity_failure_at_the_start_is_said_as_the_start_postures(tmp_path):
     from forte.planning.tasks.ik import initial_guess
+    from forte.planning.verdict.start_load import said_at_start
     from forte.planning.verdict.verdict import judge_plan
 
     task = _task(tmp_path, "tiago-urdf", 1.5)
-    verdict = judge_plan(task, initial_guess(task), task.force())
+    verdict = said_at_start(task, judge_plan(task, initial_guess(task), task.force()))
     (capacity,) = [v for v in verdict.violations if v.requirement == "capacity"]
     assert 0 in capacity.waypoints
     assert "; the start posture (waypoint 0, t = 0 s: the plan cannot move it) cannot carry 1.5 kg" in capacity.detail
     assert verdict.payload_bound["start"]["asked_kg"] == 1.5 and len(verdict.payload_bound["start"]["better"]) == 11
     light = _task(tmp_path, "tiago-urdf", 0.5)
-    verdict = judge_plan(light, initial_guess(light), light.force())
+    verdict = said_at_start(light, judge_plan(light, initial_guess(light), light.force()))
     assert all("start posture" not in v.detail for v in verdict.violations)
 
 

@@ -12,7 +12,9 @@ with the same end-effector pose that carries the asked mass: the damped walk of
 :func:`~forte.planning.tasks.posture.better_posture` onto the start's pose (no null-space step)
 from the start, the home, the joints' centres and :data:`RESTARTS` seeded draws (the base may move
 as the arm does); of those within :data:`POSE_TOL` of the pose, free of self-collision and carrying the mass, the
-one nearest the start in joint space.
+one nearest the start in joint space. :func:`said_at_start` (called by
+:func:`forte.planning.planner.plan` on every plan's verdict) adds the sentence to a capacity
+failure that includes waypoint 0.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from forte.planning.tasks.ik import pose_error
 from forte.planning.tasks.posture import _walk
 from forte.planning.verdict.motion_samples import sample_motion
 from forte.planning.verdict.requirements import Capacity
+from forte.planning.verdict.verdict import MIN_MASS, Verdict, context, largest_mass
 from forte.validation import FloatArray
 
 #: Seeded arm postures tried for a start that carries the load, besides the start, home and centres.
@@ -61,8 +64,6 @@ class StartLoad(NamedTuple):
 def carries(task: Any, q: FloatArray, mass: float) -> bool:
     """Whether posture ``q``, at rest, meets the capacity requirement with ``mass`` kg at the task's
     first time."""
-    from forte.planning.verdict.verdict import MIN_MASS, context  # verdict.py imports this module
-
     samples = sample_motion(task.robot, task.t[:1], q[None], per_interval=0)
     ctx = context(task.robot, samples, task.force(mass=max(mass, MIN_MASS)), task.settings.alpha, None,
                   task.limits, {}, False)
@@ -102,7 +103,19 @@ def start_load(task: Any) -> StartLoad | None:
     q0 = np.asarray(task.q_init, dtype=float)
     if carries(task, q0, mass):
         return None
-    from forte.planning.verdict.verdict import largest_mass
-
     return StartLoad(float(mass), largest_mass(lambda m: carries(task, q0, m), float(mass)),
                      carrying_posture(task, mass))
+
+
+def said_at_start(task: Any, verdict: Verdict) -> Verdict:
+    """``verdict`` with its capacity failure at waypoint 0 said as the start posture's when the
+    start, at rest, cannot carry the payload (:func:`start_load`; ``payload_bound["start"]``
+    records it)."""
+    at_start = [i for i, v in enumerate(verdict.violations) if v.requirement == "capacity" and 0 in v.waypoints]
+    load = start_load(task) if at_start else None
+    if load is None:
+        return verdict
+    violations, k = list(verdict.violations), at_start[0]
+    violations[k] = violations[k]._replace(detail=f"{violations[k].detail}; {load.line()}")
+    bound = (verdict.payload_bound or {}) | {"start": load.to_json()}
+    return verdict._replace(violations=tuple(violations), payload_bound=bound)

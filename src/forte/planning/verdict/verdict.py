@@ -47,7 +47,6 @@ from forte.planning.verdict.requirements import (
     kept_clearance,
     scene_distances,
 )
-from forte.planning.verdict.start_load import start_load
 from forte.settings import KinematicLimits
 from forte.validation import FloatArray
 
@@ -300,18 +299,5 @@ def judge_plan(task: Any, q: Any, force: TaskForce, solver: dict[str, Any] | Non
     if bound is None:  # what the motion still fails with no payload at all
         unloaded = ctx._replace(force=force_at(force_of(0.0), ctx.samples.t))
         record["unloaded_failed"] = [r.name for r in REQUIREMENTS if r.mass_dependent and r.check(unloaded)]
-    return _start_posture_load(task, verdict._replace(payload_bound=record))
+    return verdict._replace(payload_bound=record)
 
-
-def _start_posture_load(task: Any, verdict: Verdict) -> Verdict:
-    """``verdict`` with its capacity failure at waypoint 0 said as the start posture's when the
-    start, at rest, cannot carry the payload (:func:`~forte.planning.verdict.start_load.start_load`;
-    ``payload_bound["start"]`` records it)."""
-    at_start = [i for i, v in enumerate(verdict.violations) if v.requirement == "capacity" and 0 in v.waypoints]
-    load = start_load(task) if at_start else None
-    if load is None:
-        return verdict
-    violations, k = list(verdict.violations), at_start[0]
-    violations[k] = violations[k]._replace(detail=f"{violations[k].detail}; {load.line()}")
-    bound = (verdict.payload_bound or {}) | {"start": load.to_json()}
-    return verdict._replace(violations=tuple(violations), payload_bound=bound)
