@@ -15,9 +15,13 @@ Resolutions: the path's ``samples`` (21 and 41).
 
 Each plan is ``forte.plan(task)`` (method forte); a feasible one is written and run with
 ``simulate_plan(dir, hold=0.3)``. A task forte refuses before planning (an unreachable pose: exit 2
-from the CLI) is a row with verdict ``error``. Prints one row per cell to stderr, then the table
-per robot: planned, feasible, infeasible by first failed requirement, simulated, MuJoCo agreement
-and the fraction feasible where the preset version of the same task is feasible. Writes
+from the CLI) is a row with verdict ``error``. Each row says whether its start posture can carry
+its load at all (``start_carries_load``: :func:`forte.planning.verdict.start_load.start_load`, the
+start at rest on the capacity requirement; a start that cannot fails every plan from it). Prints
+one row per cell to stderr, then the table per robot: planned, feasible, infeasible by first
+failed requirement, failing at the start, start posture cannot carry the load, simulated, MuJoCo
+agreement and the fraction feasible where the preset version of the same task is feasible, both
+over all such rows and over those whose start posture can carry the load. Writes
 ``rows.csv``, ``rows.json`` and ``table.md`` to ``--out`` (a fresh directory, or one this script
 made earlier: it holds ``.feasibility_matrix``), and ``rows.jsonl`` row by row as the cells finish.
 ``--tables DIR ...`` prints the table of earlier runs together (e.g. the matrix run in halves).
