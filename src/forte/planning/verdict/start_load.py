@@ -101,10 +101,18 @@ def start_load(task: Any) -> StartLoad | None:
     if task.mode != "trajectory" or mass is None:
         return None
     q0 = np.asarray(task.q_init, dtype=float)
-    if carries(task, q0, mass):
-        return None
-    return StartLoad(float(mass), largest_mass(lambda m: carries(task, q0, m), float(mass)),
-                     carrying_posture(task, mass))
+    force = task.force()
+    key = (task.robot.fingerprint, tuple(q0), float(mass), tuple(force.f[0]), float(force.r[0]), float(task.t[0]))
+    if key not in _RECENT:  # the matrix asks before planning, the planner after
+        if len(_RECENT) > 16:
+            _RECENT.clear()
+        _RECENT[key] = None if carries(task, q0, mass) else StartLoad(
+            float(mass), largest_mass(lambda m: carries(task, q0, m), float(mass)), carrying_posture(task, mass))
+    return _RECENT[key]
+
+
+#: Answers of :func:`start_load` for recent starts (robot, start, mass, the force at the start).
+_RECENT: dict[tuple, StartLoad | None] = {}
 
 
 def said_at_start(task: Any, verdict: Verdict) -> Verdict:
