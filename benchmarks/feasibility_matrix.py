@@ -15,9 +15,13 @@ Resolutions: the path's ``samples`` (21 and 41).
 
 Each plan is ``forte.plan(task)`` (method forte); a feasible one is written and run with
 ``simulate_plan(dir, hold=0.3)``. A task forte refuses before planning (an unreachable pose: exit 2
-from the CLI) is a row with verdict ``error``. Prints one row per cell to stderr, then the table
-per robot: planned, feasible, infeasible by first failed requirement, simulated, MuJoCo agreement
-and the fraction feasible where the preset version of the same task is feasible. Writes
+from the CLI) is a row with verdict ``error``. Each row says whether its start posture can carry
+its load at all (``start_carries_load``: :func:`forte.planning.verdict.start_load.start_load`, the
+start at rest on the capacity requirement; a start that cannot fails every plan from it). Prints
+one row per cell to stderr, then the table per robot: planned, feasible, infeasible by first
+failed requirement, failing at the start, start posture cannot carry the load, simulated, MuJoCo
+agreement and the fraction feasible where the preset version of the same task is feasible, both
+over all such rows and over those whose start posture can carry the load. Writes
 ``rows.csv``, ``rows.json`` and ``table.md`` to ``--out`` (a fresh directory, or one this script
 made earlier: it holds ``.feasibility_matrix``), and ``rows.jsonl`` row by row as the cells finish.
 ``--tables DIR ...`` prints the table of earlier runs together (e.g. the matrix run in halves).
@@ -151,16 +155,20 @@ def run_cell(cell: Cell) -> dict[str, Any]:
     from forte.execution.run import simulate_plan
     from forte.io.plandir import write_plan
     from forte.planning.tasks.tasks import task_from_dict
+    from forte.planning.verdict.start_load import start_load
 
     row: dict[str, Any] = {"robot": cell.robot, "raw_urdf": ROBOTS[cell.robot].raw, "preset": ROBOTS[cell.robot].preset,
                            "reach": cell.reach.kind, "distance_m": cell.reach.distance,
                            "duration_s": cell.reach.duration, "payload_kg": cell.payload, "samples": cell.samples,
-                           "verdict": "error", "failed": "", "first_failed": "", "at_start": "", "reason": "",
+                           "verdict": "error", "failed": "", "first_failed": "", "at_start": "",
+                           "start_carries_load": True, "reason": "",
                            "sim": "not run", "sim_reason": "", "plan_s": 0.0, "sim_s": 0.0}
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         try:
-            plan = forte.plan(task_from_dict(task_dict(cell), Path(tmp) / "task.yaml"))
+            task = task_from_dict(task_dict(cell), Path(tmp) / "task.yaml")
+            row["start_carries_load"] = start_load(task) is None  # else no plan from this start carries it
+            plan = forte.plan(task)
         except ForteError as exc:  # refused before planning (what the CLI answers with exit 2)
             row |= {"first_failed": "error", "reason": str(exc).splitlines()[0][:300],
                     "plan_s": round(time.perf_counter() - start, 2)}
@@ -184,40 +192,56 @@ def _preset_feasible(rows: list[dict[str, Any]]) -> dict[tuple, bool]:
             for r in rows if not r["raw_urdf"]}
 
 
-def versus_preset(rows: list[dict[str, Any]]) -> tuple[int, int]:
-    """Raw-URDF rows whose preset version is feasible: (feasible ones, all such)."""
+def carries(row: dict[str, Any]) -> bool:
+    """Whether the row's start posture carries its load (rows of runs before that column: a
+    capacity failure at the start says it does not)."""
+    return bool(row.get("start_carries_load", "capacity" not in row["at_start"].split(";")))
+
+
+def versus_preset(rows: list[dict[str, Any]], carrying: bool = False) -> tuple[int, int]:
+    """Raw-URDF rows whose preset version is feasible: (feasible ones, all such); ``carrying``: only
+    the rows whose start posture can carry the load (:func:`carries`)."""
     preset = _preset_feasible(rows)
-    paired = [r for r in rows if r["raw_urdf"]
+    paired = [r for r in rows if r["raw_urdf"] and (carries(r) or not carrying)
               and preset.get((r["preset"], r["reach"], r["distance_m"], r["payload_kg"], r["samples"]))]
     return sum(r["verdict"] == "feasible" for r in paired), len(paired)
 
 
+def _share(k: int, n: int) -> str:
+    return f"{k} of {n} ({100 * k / n:.0f} %)" if n else "none paired"
+
+
+HEADER = ("| robot | source | planned | feasible | not feasible: first failed requirement | of them, failing at the "
+          "start posture | start posture cannot carry the load | simulated | feasible & MuJoCo success | "
+          "feasible & MuJoCo failure | feasible where the preset's is: all rows / rows whose start carries the load |")
+
+
 def table(rows: list[dict[str, Any]]) -> str:
-    """The summary table per robot (Markdown), and the totals."""
-    lines = ["| robot | source | planned | feasible | not feasible: first failed requirement | of them, failing "
-             "at the start posture | simulated | feasible & MuJoCo success | feasible & MuJoCo failure | "
-             "feasible where the preset's is |", "|---|---|---|---|---|---|---|---|---|---|"]
+    """The summary table per robot (Markdown), and the totals. The target fraction is given both
+    ways: over every raw row whose preset version is feasible, and over those whose start posture
+    can carry the load (a start that cannot is no plan's doing: it has its own column)."""
+    lines = [HEADER, "|---|---|---|---|---|---|---|---|---|---|---|"]
     for name in dict.fromkeys(r["robot"] for r in rows):
         mine = [r for r in rows if r["robot"] == name]
         first = Counter(r["first_failed"] for r in mine if r["verdict"] != "feasible")
         ok = sum(r["verdict"] == "feasible" and r["sim"] == "success" for r in mine)
         bad = sum(r["verdict"] == "feasible" and r["sim"] == "failure" for r in mine)
         if mine[0]["raw_urdf"]:
-            k, n = versus_preset(mine + [r for r in rows if r["robot"] == mine[0]["preset"]])
-            paired = f"{k} of {n}" if n else "-"
+            both = mine + [r for r in rows if r["robot"] == mine[0]["preset"]]
+            (k, n), (kc, nc) = versus_preset(both), versus_preset(both, carrying=True)
+            paired = f"{k} of {n} / {kc} of {nc}" if n else "-"
         else:
             paired = "(preset)"
         lines.append(f"| {name} | {'URDF, own start' if mine[0]['raw_urdf'] else 'preset'} | {len(mine)} | "
                      f"{sum(r['verdict'] == 'feasible' for r in mine)} | "
                      f"{', '.join(f'{k} {v}' for k, v in first.most_common()) or '-'} | "
-                     f"{sum(bool(r['at_start']) for r in mine)} | {sum(r['sim'] != 'not run' for r in mine)} | "
-                     f"{ok} | {bad} | {paired} |")
-    k, n = versus_preset(rows)
+                     f"{sum(bool(r['at_start']) for r in mine)} | {sum(not carries(r) for r in mine)} | "
+                     f"{sum(r['sim'] != 'not run' for r in mine)} | {ok} | {bad} | {paired} |")
     feasible = sum(r["verdict"] == "feasible" for r in rows)
     failing = sum(r["verdict"] == "feasible" and r["sim"] == "failure" for r in rows)
-    share = f"{k} of {n} ({100 * k / n:.0f} %)" if n else "none paired"
     lines += ["", f"{feasible} of {len(rows)} plans feasible; {failing} feasible plans fail in MuJoCo; "
-              f"raw URDFs feasible where the preset's version is: {share}"]
+              f"raw URDFs feasible where the preset's version is: {_share(*versus_preset(rows))} of all such rows, "
+              f"{_share(*versus_preset(rows, carrying=True))} of those whose start posture can carry the load"]
     return "\n".join(lines)
 
 

@@ -82,8 +82,9 @@ def test_one_cell_is_planned_judged_simulated_and_written(tmp_path, capsys):
     assert row["verdict"] == "feasible", row["reason"]
     assert row["sim"] == "success" and float(row["sim_s"]) > 0 and float(row["plan_s"]) > 0
     assert row["failed"] == row["first_failed"] == row["at_start"] == row["reason"] == ""
+    assert row["start_carries_load"] == "True"  # 0.5 kg from the authors' home
     printed = capsys.readouterr().out
-    assert "| authors | preset | 1 | 1 | - | 0 | 1 | 1 | 0 | (preset) |" in printed
+    assert "| authors | preset | 1 | 1 | - | 0 | 0 | 1 | 1 | 0 | (preset) |" in printed
     assert "1 of 1 plans feasible; 0 feasible plans fail in MuJoCo" in printed
     assert fm.main(["--tables", str(out)]) == 0 and "| authors | preset | 1 | 1 |" in capsys.readouterr().out
 
@@ -100,9 +101,10 @@ def test_a_raw_row_counts_where_its_presets_version_is_feasible(tmp_path):
     assert fm.versus_preset([preset | {"verdict": "infeasible"}, raw]) == (0, 0)  # not counted
     assert fm.versus_preset([preset | {"samples": 21}, raw]) == (0, 0)  # another task
     table = fm.table([preset, raw])
-    assert "| panda-urdf | URDF, own start | 1 | 0 | capacity 1 | 1 | 0 | 0 | 0 | 0 of 1 |" in table
+    assert "| panda-urdf | URDF, own start | 1 | 0 | capacity 1 | 1 | 1 | 0 | 0 | 0 | 0 of 1 / 0 of 0 |" in table
     assert "1 of 2 plans feasible; 0 feasible plans fail in MuJoCo; raw URDFs feasible where the preset's " \
-        "version is: 0 of 1 (0 %)" in table
+        "version is: 0 of 1 (0 %) of all such rows, none paired of those whose start posture can carry the " \
+        "load" in table
 
 
 def test_an_output_directory_it_did_not_make_is_refused(tmp_path):
@@ -110,3 +112,68 @@ def test_an_output_directory_it_did_not_make_is_refused(tmp_path):
     with pytest.raises(SystemExit, match="was not made by this script"):
         fm.out_dir(tmp_path)
     assert fm.out_dir(tmp_path / "new") == fm.out_dir(tmp_path / "new")  # its own: used again
+
+
+def _task(tmp_path: Path, robot: str, payload: float, kind: str = "forward"):
+    return task_from_dict(fm.task_dict(fm.Cell(robot, fm.Reach(kind, 0.1, 3.0), payload, 21)), tmp_path / "t.yaml")
+
+
+def test_the_raw_tiagos_start_cannot_carry_1_5_kg_and_a_posture_with_the_same_hand_pose_can(tmp_path):
+    from forte.planning.verdict.start_load import POSE_TOL, carries, start_load
+    from forte.planning.verdict.verdict import judge
+
+    task = _task(tmp_path, "tiago-urdf", 1.5)
+    load = start_load(task)
+    assert load is not None and load.asked_kg == 1.5
+    q0 = np.asarray(task.q_init)
+
+    def capacity_ok(q, mass):  # the verdict's own judge of one posture at rest, as an independent path
+        verdict = judge(task.robot, [0.0], np.asarray(q)[None], task.force(mass=mass), task.settings.alpha,
+                        per_interval=0)
+        return "capacity" not in verdict.failed
+
+    assert not capacity_ok(q0, 1.5) and capacity_ok(q0, load.carries_kg)  # the bisection's bound holds ...
+    assert not capacity_ok(q0, load.carries_kg + 0.02)  # ... and is the largest to 0.01 kg
+    assert load.better is not None and capacity_ok(load.better, 1.5)
+    pose, start_pose = task.robot.ee_pose(load.better), task.robot.ee_pose(q0)
+    assert np.linalg.norm(pose[:3, 3] - start_pose[:3, 3]) < POSE_TOL
+    assert np.allclose(pose[:3, :3], start_pose[:3, :3], atol=1e-4)
+    assert "cannot carry 1.5 kg with its uncertainty ball (it carries at most" in load.line()
+    assert carries(task, q0, 0.5) and start_load(_task(tmp_path, "tiago-urdf", 0.5)) is None
+    assert start_load(_task(tmp_path, "tiago", 1.5)) is None  # the preset's start can
+    assert start_load(_task(tmp_path, "tiago-urdf", 0.0)) is None  # no payload, nothing to carry
+
+
+def test_a_capacity_failure_at_the_start_is_said_as_the_start_postures(tmp_path):
+    from forte.planning.tasks.ik import initial_guess
+    from forte.planning.verdict.start_load import said_at_start
+    from forte.planning.verdict.verdict import judge_plan
+
+    task = _task(tmp_path, "tiago-urdf", 1.5)
+    verdict = said_at_start(task, judge_plan(task, initial_guess(task), task.force()))
+    (capacity,) = [v for v in verdict.violations if v.requirement == "capacity"]
+    assert 0 in capacity.waypoints
+    assert "; the start posture (waypoint 0, t = 0 s: the plan cannot move it) cannot carry 1.5 kg" in capacity.detail
+    assert verdict.payload_bound["start"]["asked_kg"] == 1.5 and len(verdict.payload_bound["start"]["better"]) == 11
+    light = _task(tmp_path, "tiago-urdf", 0.5)
+    verdict = said_at_start(light, judge_plan(light, initial_guess(light), light.force()))
+    assert all("start posture" not in v.detail for v in verdict.violations)
+
+
+def test_rows_whose_start_cannot_carry_the_load_have_their_own_column_and_fraction():
+    preset = {"robot": "tiago", "raw_urdf": False, "preset": "tiago", "reach": "forward", "distance_m": 0.1,
+              "duration_s": 3.0, "payload_kg": 1.5, "samples": 21, "verdict": "feasible", "failed": "",
+              "first_failed": "", "at_start": "", "start_carries_load": True, "reason": "", "sim": "success",
+              "sim_reason": "", "plan_s": 1.0, "sim_s": 1.0}
+    heavy = preset | {"robot": "tiago-urdf", "raw_urdf": True, "verdict": "infeasible", "failed": "capacity",
+                      "first_failed": "capacity", "at_start": "capacity", "start_carries_load": False, "sim": "not run"}
+    light = preset | {"robot": "tiago-urdf", "raw_urdf": True, "payload_kg": 0.5}
+    rows = [preset, preset | {"payload_kg": 0.5}, heavy, light]
+    assert fm.versus_preset(rows) == (1, 2) and fm.versus_preset(rows, carrying=True) == (1, 1)
+    table = fm.table(rows)
+    assert "| tiago-urdf | URDF, own start | 2 | 1 | capacity 1 | 1 | 1 | 1 | 1 | 0 | 1 of 2 / 1 of 1 |" in table
+    assert "raw URDFs feasible where the preset's version is: 1 of 2 (50 %) of all such rows, 1 of 1 (100 %) of " \
+        "those whose start posture can carry the load" in table
+    # rows of a run before the column: a capacity failure at the start stands for it
+    old = [{k: v for k, v in r.items() if k != "start_carries_load"} for r in rows]
+    assert fm.versus_preset(old, carrying=True) == (1, 1)

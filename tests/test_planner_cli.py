@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -119,7 +120,7 @@ def _tiago_reach(tmp_path: Path, end: list[float]) -> Path:
 
 
 def test_millimetres_of_ik_residual_are_a_start_not_an_unreachable_pose(tmp_path, capsys):
-    from forte.planning.tasks.ik import REACH_POSITION_M, initial_guess, pose_error, solve_pose
+    from forte.planning.tasks.ik import REACH_POSITION_M, initial_guess, pose_error, position_reach, solve_pose
 
     task = load_task(_tiago_reach(tmp_path, [0.2, 0.0, -0.2]))
     guess = initial_guess(task)  # the tracking IK alone stalls 5.9 mm short at waypoint 21 (exit 2 before)
@@ -127,12 +128,35 @@ def test_millimetres_of_ik_residual_are_a_start_not_an_unreachable_pose(tmp_path
     assert 1e-4 < np.linalg.norm(stalled[:3]) < REACH_POSITION_M
     residual = max(np.linalg.norm(pose_error(task.robot, q, T)[:3]) for q, T in zip(guess, task.targets, strict=True))
     assert residual < REACH_POSITION_M
-    # farther down no IK start comes within 5 cm (100 random whole-body starts: 7.7 cm at best)
-    far = _tiago_reach(tmp_path, [0.0, 0.0, -0.3])
-    assert main(["plan", str(far), "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    # farther down no IK start comes within 5 cm of the pose (100 random whole-body starts: 7.7 cm at
+    # best), yet the point itself is in reach (the hand turned): the NLP tries from the best guess
+    far = load_task(_tiago_reach(tmp_path, [0.0, 0.0, -0.3]))
+    guess = initial_guess(far)
+    errors = [pose_error(far.robot, q, T) for q, T in zip(guess, far.targets, strict=True)]
+    assert max(np.linalg.norm(e[:3]) for e in errors) > REACH_POSITION_M
+    assert position_reach(far.robot, far.targets[-1], guess[-1]) < 1e-4
+
+
+def test_only_a_point_the_whole_body_cannot_reach_is_refused_with_its_distance(tmp_path, capsys):
+    from forte.planning.tasks.ik import REACH_POSITION_M, position_reach
+
+    up = load_task(_tiago_reach(tmp_path, [0.0, 0.0, 1.5]))  # 1.5 m above a hand at 0.62 m
+    assert main(["plan", str(_tiago_reach(tmp_path, [0.0, 0.0, 1.5])), "--out", str(tmp_path / "o"), "--quiet"]) == 2
     err = capsys.readouterr().err
-    assert "end-effector pose unreachable, position error 0.05" in err and "the best of 9 IK starts" in err
     assert err.count("\n") == 1 and "Traceback" not in err
+    found = re.search(r"waypoint (\d+) \(t = [0-9.]+ s, between path\.waypoints\[0\] and path\.waypoints\[1\]\): "
+                      r"end-effector pose unreachable, position error ([0-9.e-]+) m: no posture of the whole body "
+                      r"brings the end effector nearer", err)
+    assert found, err
+    k, distance = int(found.group(1)), float(found.group(2))
+    assert distance > REACH_POSITION_M
+    # the distance is to the nearest point the hand reaches: a point that much closer, along the
+    # way up from the hand's best posture, is within reach (an independent check of the number)
+    best_height = up.targets[k, 2, 3] - distance
+    closer = up.targets[k].copy()
+    closer[2, 3] = best_height - 0.01
+    assert position_reach(up.robot, closer, up.q_init) < 1e-4
+    assert 0 < k < up.n
 
 
 def test_compare_hold_runs_every_method(tmp_path):

@@ -323,3 +323,50 @@ def test_a_hold_keeps_clear_of_a_lamp_over_the_arm(tmp_path):
     plan = forte.plan(task)
     assert plan.feasible, plan.verdict
     assert clearances(task.robot, task.scene, plan.q).distance.min() >= task.clearance
+
+
+def test_an_upright_box_on_the_base_is_covered_by_vertical_capsules_that_hold_it():
+    """TIAGo's torso column (a 0.23 x 0.23 x 0.55 m box fixed to the base): 4 vertical capsules of
+    its cells' half diagonal, holding every point of the box, far tighter than one sphere chain."""
+    import coal
+    import pinocchio as pin
+
+    from forte.model.body_spheres import BASE_FRAME, upright_box_capsules
+    from forte.model.self_collision import arm_geometry
+    from forte.planning.tasks.tasks import task_from_dict
+
+    robot = task_from_dict({
+        "robot": {"urdf": "erd:tiago_description/robots/tiago.urdf", "ee_frame": "arm_tool_link",
+                  "base": "differential",
+                  "arm_joints": ["torso_lift_joint", *(f"arm_{i}_joint" for i in range(1, 8))]},
+        "path": {"kind": "waypoints", "relative": True, "waypoints": [{"t": 0.0, "position": [0, 0, 0]},
+                                                                      {"t": 1.0, "position": [0.1, 0, 0]}]},
+        "payload": {"mass": 0.5}}, Path("tiago.yaml")).robot
+    (column,) = [o for o in arm_geometry(robot).geom.geometryObjects if o.name == "torso_fixed_column_link_0"]
+    mount = pin.SE3(robot.mount[:3, :3].copy(), robot.mount[:3, 3].copy())
+    placement = mount * column.placement
+    capsules = [p for p in robot_primitives(robot) if p.piece == "torso_fixed_column_link"]
+    again = upright_box_capsules(column.geometry, placement, "torso_fixed_column_link")
+    np.testing.assert_allclose([p.centre for p in capsules], [p.centre for p in again])
+    half = np.asarray(column.geometry.halfSide)
+    assert len(capsules) == 4 and all(p.frame == BASE_FRAME and p.half_height == half[2] for p in capsules)
+    assert capsules[0].radius == pytest.approx(np.hypot(half[0] / 2, half[1] / 2))
+    # points of the box (corners, faces, inside), in the base frame, each inside some capsule
+    rng = np.random.default_rng(0)
+    local = rng.uniform(-1, 1, (4000, 3)) * half
+    local[:8] = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
+    axis = rng.integers(0, 3, 992)  # points on the faces: one coordinate at its bound
+    local[np.arange(8, 1000), axis] = np.sign(local[np.arange(8, 1000), axis]) * half[axis]
+    points = local @ placement.rotation.T + placement.translation
+    centres = np.array([p.centre for p in capsules])
+    d = points[:, None, :] - centres[None]
+    dz = d[..., 2] - np.clip(d[..., 2], -half[2], half[2])
+    inside = np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2 + dz**2) <= capsules[0].radius + 1e-9
+    assert inside.any(axis=1).all()
+    # the old cover, one sphere chain around the box, reaches farther from its faces
+    corners = local[:8] @ placement.rotation.T + placement.translation
+    _, old_radius = spheres_of_capsule(*capsule_of(corners))
+    assert capsules[0].radius < 0.5 * old_radius
+    assert upright_box_capsules(coal.Sphere(0.1), placement, "x") is None
+    tilted = pin.SE3(pin.rpy.rpyToMatrix(0.3, 0.0, 0.0), np.zeros(3))
+    assert upright_box_capsules(column.geometry, tilted, "x") is None

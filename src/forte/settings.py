@@ -267,6 +267,21 @@ def weight_set(name: str) -> WeightSet:
     return WEIGHT_SETS[name]
 
 
+#: CPU seconds (process time) that one plan's NLP solves may take in all: the first solve, its
+#: self-collision and clearance re-solves and the refinement rounds (IPOPT's ``max_cpu_time``,
+#: each solve given what is left; :func:`forte.planning.solve.solve_budget`). Every feasible plan of
+#: the feasibility matrix and of MotionBenchMaker's 350 problems solved in under 45 s of wall time
+#: on two shared cores; 500 iterations of a 41-sample self-collision re-solve of the raw TIAGo ran
+#: for over 8 minutes without converging (its dual infeasibility growing to 1e15 while MUMPS
+#: reallocated memory for each factorization). A solve stopped by it is reported as IPOPT's
+#: ``Maximum_CpuTime_Exceeded``, naming this bound.
+PLAN_SOLVE_CPU_S = 120.0
+#: Wall-clock seconds one plan's NLP solves may take in all (IPOPT's ``max_wall_time``, as
+#: :data:`PLAN_SOLVE_CPU_S`): the bound a person waits at most on a busy machine, where the CPU
+#: budget can stretch over several times its length. ``Maximum_WallTime_Exceeded`` names it.
+PLAN_SOLVE_WALL_S = 300.0
+
+
 @dataclass(frozen=True)
 class SolverOptions:
     """IPOPT and build options.

@@ -19,6 +19,7 @@ from forte.force.taskforce import TaskForce
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.planning.methods.catalog import METHODS, Method, get_method, method_names
+from forte.planning.nlp.budget import solve_budget
 from forte.planning.rounds import apart, judged, judged_route, own_force, passing, refine, route_as_plan, slower
 from forte.planning.scene.scene_solve import blocked_path
 from forte.planning.search.route import routed
@@ -27,6 +28,7 @@ from forte.planning.tasks.tasks import Task
 from forte.planning.tasks.terms_section import with_task_terms
 from forte.planning.terms.wrench_terms import for_requirement
 from forte.planning.verdict.evaluation import evaluate
+from forte.planning.verdict.start_load import said_at_start
 from forte.planning.verdict.verdict import SOLVER_FAILED, Verdict
 from forte.validation import FloatArray
 
@@ -186,21 +188,23 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
     elif spec.optimized:
         # J1 on the wrench when the payload needs a moment; the task's own terms (e.g. tipover) added
         solved_as = with_task_terms(for_requirement(spec, force), task.terms)
-        sol, info = optimize(task, solved_as, force, guess)
-        verdict, force = judged(task, sol.q, force, info)
-        sol, info, verdict, force = own_force(task, solved_as, force, sol, info, verdict)
-        sol, info, verdict, force = apart(task, solved_as, force, guess, sol, info, verdict)
-        sol, info, verdict, force = refine(task, solved_as, force, sol, info, verdict)
-        if route:
-            task, sol, info, verdict, force = slower(unrouted, solved_as, task, sol, info, verdict, force, route)
-            task, q, solved, status, info, verdict, force = route_as_plan(task, sol, info, verdict, force)
-        else:
-            q, solved, status = sol.q, sol.success, sol.status
+        with solve_budget():  # every solve of the plan, its rounds included (settings.PLAN_SOLVE_CPU_S)
+            sol, info = optimize(task, solved_as, force, guess)
+            verdict, force = judged(task, sol.q, force, info)
+            sol, info, verdict, force = own_force(task, solved_as, force, sol, info, verdict)
+            sol, info, verdict, force = apart(task, solved_as, force, guess, sol, info, verdict)
+            sol, info, verdict, force = refine(task, solved_as, force, sol, info, verdict)
+            if route:
+                task, sol, info, verdict, force = slower(unrouted, solved_as, task, sol, info, verdict, force, route)
+                task, q, solved, status, info, verdict, force = route_as_plan(task, sol, info, verdict, force)
+            else:
+                q, solved, status = sol.q, sol.success, sol.status
         if tried_route:
             info["route_first"] = tried_route
     else:
         q, solved, status = spec.produce(task), True, spec.status
         verdict, force = judged(task, q, force)
+    verdict = said_at_start(task, verdict)  # a start that cannot carry the load is no plan's doing
     info["wall_time_s"] = time.perf_counter() - start
     if task.goal is not None:  # the plan's own end-effector motion (its force is the judged one)
         task = task.following(q)

@@ -13,6 +13,7 @@ import numpy as np
 from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE
 from forte.planning.methods.catalog import Method
+from forte.planning.nlp.budget import solve_budget
 from forte.planning.nlp.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
 from forte.planning.scene.diagnosis import failed_rows
 from forte.planning.scene.scene_guess import clear_start
@@ -113,6 +114,12 @@ def optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | N
     """Solve the method's NLP (coarse-to-fine unless a guess is given); returns the result and facts
     (the cost terms evaluated with the ``reported`` force, default ``force``); ``self_rows``: with
     rows for the robot's own pairs near the solve (:func:`_apart`)."""
+    with solve_budget():  # a plan's rounds share the plan's budget; a lone call has its own
+        return _optimize(task, method, force, guess, reported, self_rows)
+
+
+def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None,
+              reported: TaskForce | None, self_rows: bool) -> tuple[SolverResult, dict]:
     nominal = task.nominal()
     q_guess = start_guess(task, nominal) if guess is None else guess
     options, info = task.solver, {}

@@ -10,6 +10,7 @@ import casadi as ca
 import numpy as np
 
 from forte.planning.nlp.assembly import block_diagonal_pattern
+from forte.planning.nlp.budget import ipopt_budget
 
 
 def constraint_jacobian(opt: Any, x: ca.MX, X: ca.MX, pd: ca.MX, Rd: ca.MX, g_kin: ca.MX) -> ca.MX:
@@ -90,5 +91,6 @@ def ipopt_options(opt: Any) -> dict[str, Any]:
         # QAMD ordering: ~25 % faster factorizations than MUMPS' default on this KKT (benchmarks/)
         "ipopt.mumps_pivot_order": 6,
     }
+    opts |= ipopt_budget()  # the plan's solves share a time budget (nlp/budget.py)
     opts.update({k if "." in k else f"ipopt.{k}": v for k, v in o.extra.items()})
     return opts

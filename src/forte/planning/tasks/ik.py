@@ -9,12 +9,16 @@ Step (weighted, damped): ``dq = W^-1 J^T (J W^-1 J^T + lambda^2 I)^-1 e`` with t
 pose error ``e = [p_d - p; log(R_d R^T)]``, then a clamp to the arm joint limits.
 
 The guess never decides reachability on its own: a waypoint the tracking IK leaves above
-``position_tolerance`` is solved again from several postures (:func:`thorough_pose`), and only
-a best residual above :data:`REACH_POSITION_M` or :data:`REACH_ORIENTATION_RAD` is an
-unreachable pose (exit 2). Below them the best posture is the NLP's start: the damped step stalls
-millimetres short where a joint sits at its clamp or the base cannot move sideways (a
-differential drive), which the NLP, moving every waypoint together, closes; its verdict judges
-the tracking.
+``position_tolerance`` is solved again from several postures (:func:`thorough_pose`). Below
+:data:`REACH_POSITION_M` and :data:`REACH_ORIENTATION_RAD` the best posture is the NLP's start:
+the damped step stalls millimetres short where a joint sits at its clamp or the base cannot move
+sideways (a differential drive), which the NLP, moving every waypoint together, closes. Above
+them the same starts are tried for the position alone (:func:`position_reach`, the orientation
+left free): when the whole body brings the end effector's origin within
+:data:`REACH_POSITION_M` of the point, the pose is the NLP's to try from the best full-pose
+guess, and its verdict judges the tracking (naming the waypoint, the time and the distance).
+Only a point no start brings the end effector near is an unreachable pose (exit 2), said with
+the distance the nearest posture leaves.
 """
 
 from __future__ import annotations
@@ -81,8 +85,7 @@ def thorough_pose(robot: MobileManipulator, target: FloatArray, q_near: FloatArr
     at its joints' centres, and from :data:`RESTARTS` arm postures drawn in the limits (seed 0),
     each with four times the iterations; returns ``(q, error)`` of the smallest weighted error
     (1 m of position per rad), stopping at the first within the tolerances."""
-    arms = [q_near[N_BASE:], robot.home_arm, (robot.lower + robot.upper) / 2]
-    arms += list(np.random.default_rng(0).uniform(robot.lower, robot.upper, (RESTARTS, robot.n_arm)))
+    arms = _starts(robot, q_near)
     thorough = IKOptions(options.damping, options.base_weight, 4 * options.max_iterations, options.tolerance,
                          options.position_tolerance, options.orientation_tolerance)
     best: tuple[FloatArray, FloatArray] | None = None
@@ -97,6 +100,34 @@ def thorough_pose(robot: MobileManipulator, target: FloatArray, q_near: FloatArr
 
 def _within(err: FloatArray, position: float, orientation: float) -> bool:
     return float(np.linalg.norm(err[:3])) <= position and float(np.linalg.norm(err[3:])) <= orientation
+
+
+def position_reach(robot: MobileManipulator, target: FloatArray, q_near: FloatArray,
+                   options: IKOptions = IKOptions()) -> float:
+    """The smallest distance (m) from ``target``'s position to the end effector's origin that the
+    damped step of :func:`solve_pose` on the position rows alone (``J_p``, 3 x nq; the orientation
+    free) reaches from the starts of :func:`thorough_pose`, with four times the iterations."""
+    base = 0.0 if robot.base == "fixed" else 1.0 / options.base_weight
+    winv = np.concatenate([np.full(N_BASE, base), np.ones(robot.n_arm)])
+    best = np.inf
+    for arm in _starts(robot, q_near):
+        q = np.r_[q_near[:N_BASE], arm]
+        for _ in range(4 * options.max_iterations):
+            err = target[:3, 3] - robot.ee_pose(q)[:3, 3]
+            if np.linalg.norm(err) < options.position_tolerance:
+                return float(np.linalg.norm(err))
+            J = robot.whole_body_jacobian(q)[:3]
+            JW = J * winv
+            q = q + JW.T @ np.linalg.solve(JW @ J.T + options.damping**2 * np.eye(3), err)
+            q[N_BASE:] = np.clip(q[N_BASE:], robot.lower + 1e-6, robot.upper - 1e-6)
+        best = min(best, float(np.linalg.norm(target[:3, 3] - robot.ee_pose(q)[:3, 3])))
+    return best
+
+
+def _starts(robot: MobileManipulator, q_near: FloatArray) -> list[FloatArray]:
+    """The arm postures :func:`thorough_pose` starts from."""
+    arms = [q_near[N_BASE:], robot.home_arm, (robot.lower + robot.upper) / 2]
+    return arms + list(np.random.default_rng(0).uniform(robot.lower, robot.upper, (RESTARTS, robot.n_arm)))
 
 
 def reachable_pose(robot: MobileManipulator, target: FloatArray, q_near: FloatArray,
@@ -119,11 +150,13 @@ def follow_path(
     """Whole-body configurations (N x nq) tracking the poses ``targets`` (N x 4 x 4).
 
     The first configuration is ``q_init`` itself (the paper fixes ``q_1 = q_init``); its pose
-    must match ``targets[0]`` within the tolerances. A later waypoint may stay up to
-    :data:`REACH_POSITION_M` / :data:`REACH_ORIENTATION_RAD` off (see the module's docstring).
+    must match ``targets[0]`` within the tolerances. A later waypoint may stay off by more than
+    :data:`REACH_POSITION_M` / :data:`REACH_ORIENTATION_RAD` where its point is in the whole
+    body's reach (:func:`position_reach`; see the module's docstring): the NLP tries it.
 
     Raises:
-        InfeasibleTaskError: naming the first waypoint no IK start reaches and the distance.
+        InfeasibleTaskError: naming the first waypoint whose point no IK start brings the end
+            effector within :data:`REACH_POSITION_M` of, and that distance.
     """
     q_init = robot.check_configuration(q_init, "q_init")
     out = np.empty((len(targets), robot.nq))
@@ -131,22 +164,30 @@ def follow_path(
     for k, target in enumerate(targets):
         if k > 0:
             q, err, ok = reachable_pose(robot, target, q, options)
+            reach = None if ok else position_reach(robot, target, q, options)
+            ok = ok or reach <= REACH_POSITION_M  # the point is in reach: the NLP tries the pose
         else:
-            err = pose_error(robot, q, target)
+            err, reach = pose_error(robot, q, target), None
             ok = _within(err, options.position_tolerance, options.orientation_tolerance)
         if not ok:
-            label = name(k) if name is not None else f"waypoint {k}"
-            where = f"the initial configuration does not reach {label}" if k == 0 else label
-            pos, ang = float(np.linalg.norm(err[:3])), float(np.linalg.norm(err[3:]))
-            raise InfeasibleTaskError(
-                f"{where}: end-effector pose unreachable, position error {pos!r} m, "
-                f"orientation error {ang!r} rad (target position {target[:3, 3].tolist()!r})"
-                + ("" if k == 0 else f"; the best of {RESTARTS + 3} IK starts, above {REACH_POSITION_M} m "
-                   f"or {REACH_ORIENTATION_RAD} rad")
-                + (" with the base fixed (robot.base: the arm alone must reach it)" if robot.base == "fixed" else "")
-            )
+            raise InfeasibleTaskError(_unreachable(robot, target, err, reach, name(k) if name else f"waypoint {k}", k))
         out[k] = q
     return out
+
+
+def _unreachable(robot: MobileManipulator, target: FloatArray, err: FloatArray, reach: float | None,
+                 label: str, k: int) -> str:
+    """The line for waypoint ``k`` out of reach: ``reach`` is :func:`position_reach`'s distance."""
+    pos, ang = float(np.linalg.norm(err[:3])), float(np.linalg.norm(err[3:]))
+    where = f"the initial configuration does not reach {label}" if k == 0 else label
+    if k == 0:
+        what = f"position error {pos!r} m, orientation error {ang!r} rad"
+    else:
+        what = (f"position error {reach!r} m: no posture of the whole body brings the end effector nearer "
+                f"(the best of {RESTARTS + 3} IK starts on the position alone, above {REACH_POSITION_M} m; "
+                f"with the orientation too: {pos:.4g} m, {ang:.4g} rad)")
+    return (f"{where}: end-effector pose unreachable, {what} (target position {target[:3, 3].tolist()!r})"
+            + (" with the base fixed (robot.base: the arm alone must reach it)" if robot.base == "fixed" else ""))
 
 
 def initial_guess(task: Any) -> FloatArray:

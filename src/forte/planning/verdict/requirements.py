@@ -52,6 +52,7 @@ from forte.planning.verdict.base_requirements import (
 from forte.planning.verdict.keep_level import TiltLimit
 from forte.planning.verdict.motion_samples import MotionSamples
 from forte.planning.verdict.requirement_base import Context, Measure, Requirement, Violation, exceeded
+from forte.settings import PLAN_SOLVE_CPU_S, PLAN_SOLVE_WALL_S
 from forte.validation import FloatArray
 
 #: End-effector position error (m) and orientation error (rad) a plan may have against its task's path.
@@ -342,6 +343,10 @@ class Solver(Requirement):
         if status in CONVERGED and violation <= accepted:
             return None
         why = f"IPOPT stopped with {status}" if status not in CONVERGED else "constraints not met"
+        if status in ("Maximum_CpuTime_Exceeded", "Maximum_WallTime_Exceeded"):
+            bound = (f"{PLAN_SOLVE_CPU_S:g} s of CPU time in all, forte.settings.PLAN_SOLVE_CPU_S" if "Cpu" in status
+                     else f"{PLAN_SOLVE_WALL_S:g} s of wall time in all, forte.settings.PLAN_SOLVE_WALL_S")
+            why += f" (a plan's solves have {bound}: a solve that long does not converge; the plan is the last iterate)"
         detail = f"{why}; constraint violation {violation:.3g} (accepted up to {accepted:g})"
         if "failed_rows" in ctx.solver:  # what the last iterate could not meet (forte.planning.scene.diagnosis)
             detail += "; " + ctx.solver["failed_rows"]["sentence"]

@@ -300,3 +300,4 @@ def judge_plan(task: Any, q: Any, force: TaskForce, solver: dict[str, Any] | Non
         unloaded = ctx._replace(force=force_at(force_of(0.0), ctx.samples.t))
         record["unloaded_failed"] = [r.name for r in REQUIREMENTS if r.mass_dependent and r.check(unloaded)]
     return verdict._replace(payload_bound=record)
+
