@@ -118,6 +118,20 @@ def test_a_path_the_coarse_check_lets_through_the_wall_is_repaired(panda, wall, 
     assert np.array_equal(again.q, result.q) and again.checks == result.checks  # a seed repeats its path
 
 
+def test_a_path_the_repairs_cannot_mend_leaves_the_rest_of_the_budget_to_a_dense_search(panda, wall, monkeypatch):
+    """No repair allowed: the coarse path through the wall is dropped, and the search goes on at the
+    dense step with what is left of its budget instead of giving up."""
+    import forte.planning.search.sampling as sampling
+
+    monkeypatch.setattr(sampling, "CHECK_STEP", 0.8)
+    monkeypatch.setattr(sampling, "REPAIRS", 0)
+    result = find_path(panda, wall, START, GOAL, 0.0, seed=0, checks=50_000, time_limit=60.0)
+    assert result.found and result.repairs == 0
+    dense_checker = StateChecker(panda, wall, result.clearance)
+    assert all(segment_free(dense_checker, a, b, DENSE_STEP) for a, b in zip(result.q[:-1], result.q[1:], strict=True))
+    assert clearances(panda, wall, dense(result.q, 100)).distance.min() >= EXECUTION_MARGIN
+
+
 def test_same_seed_same_path(panda, wall):
     first = find_path(panda, wall, START, GOAL, 0.0, seed=3)
     second = find_path(panda, wall, START, GOAL, 0.0, seed=3)
