@@ -84,19 +84,6 @@ def needs_rows(task: Task, q: FloatArray) -> bool:
     return bool(task.scene) or floor_near(task, q, task.clearance + ACTIVATION)
 
 
-def next_pairs(task: Task, q: FloatArray, slots: Any, missing: set[tuple[int, int, int]], fix: bool
-               ) -> set[tuple[int, int, int]]:
-    """The ``(k, primitive, body)`` triples the next round's rows must cover after a solution ``q``
-    that brought the ``missing`` pairs within their margin: those, every pair that had rows
-    (``slots``), and every pair the broad phase finds near ``q`` itself (within the clearance
-    plus :data:`~forte.planning.nlp.collision_slots.ACTIVATION`, the robot's own pairs within
-    theirs). A goal task's next round starts again from its route, and its solution comes back
-    near the last one: with the pairs near ``q`` it rarely finds new ones (MotionBenchMaker, six
-    problems with rounds: 21 solves, 717 iterations in all, without them; 18, 620 with them)."""
-    near = assign_slots(task.robot, q, task.scene, task.clearance, fix).triples()
-    return set(missing) | slots.triples() | near
-
-
 #: Solves from the last solution when it brought a pair close that had no clearance rows.
 SCENE_ROUNDS = 3
 
@@ -126,7 +113,7 @@ def solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatA
                        "iterations": sol.iterations, "missing_pairs": len(missing)})
         if not missing or not sol.success:
             break
-        extra |= next_pairs(task, sol.q, slots, missing, fix)
+        extra |= missing | slots.triples()
         # from the solution (it kept the rows it had), or a goal task's route: clear of the scene on
         # the exact geometry, where a solution that ran into pairs without rows is not
         start = q_guess if task.goal is not None and task.goal.route is not None else sol.q
