@@ -42,7 +42,7 @@ def test_ipopt_gets_what_is_left_and_a_users_own_limit_wins():
     from forte.settings import SolverOptions
 
     class Opt:  # what ipopt_options reads of a TrajectoryOptimizer
-        options, keep_multipliers = SolverOptions(), False
+        options, keep_multipliers, goal = SolverOptions(), False, None
 
     assert "ipopt.max_cpu_time" not in ipopt_options(Opt()) and "ipopt.max_wall_time" not in ipopt_options(Opt())
     with solve_budget(30.0, 60.0):
