@@ -223,3 +223,38 @@ def test_refinement_rounds_keep_the_self_collision_rows_of_a_plan_kept_apart(mon
         calls.clear()
         rounds.refine(task, get_method("forte"), force, sol, {"self_rows": {"kept": kept}}, verdict)
         assert calls == [kept]
+
+
+def test_a_self_collision_re_solve_that_did_not_converge_replaces_only_an_unconverged_plan(monkeypatch):
+    """``apart`` keeps a collision-free re-solve when it converged, or when the plan it would
+    replace did not converge either; an unconverged re-solve never replaces a converged plan."""
+    from forte.planning import rounds
+    from forte.planning.methods.catalog import get_method
+
+    task = forte.load_task(LIFT, mass=0.35, waypoints=9)
+    force = task.force()
+
+    def result(success: bool, offset: float):
+        return rounds.SolverResult(q=task.nominal() + offset, success=success,
+                                   status="Solve_Succeeded" if success else "Maximum_CpuTime_Exceeded",
+                                   iterations=3, objective=0.0, constraint_violation=0.0, build_time=0.0,
+                                   solve_time=0.0, codegen="python")
+
+    def verdict(failed):
+        return type("V", (), {"failed": failed, "violations": (), "feasible": not failed,
+                              "label": "infeasible" if failed else "feasible"})()
+
+    colliding = verdict(("self_collision",))
+    cases = {(True, True): True, (True, False): False, (False, True): True, (False, False): True}
+    for (original_converged, trial_converged), keep in cases.items():
+        sol, trial = result(original_converged, 0.0), result(trial_converged, 0.01)
+        monkeypatch.setattr(rounds, "optimize", lambda *a, trial=trial, **k: (trial, {"clearance_rows": 1}))
+        monkeypatch.setattr(rounds, "judged", lambda task, q, force, info: (verdict(("velocity",)), force))
+        kept, info, kept_verdict, _ = rounds.apart(task, get_method("forte"), force, None, sol, {}, colliding)
+        assert info["self_rows"]["kept"] is keep, (original_converged, trial_converged)
+        assert (kept is trial) is keep and (kept_verdict is colliding) is not keep
+        assert info["self_rows"]["status"] == trial.status
+    # a re-solve that still collides is never kept
+    monkeypatch.setattr(rounds, "judged", lambda task, q, force, info: (colliding, force))
+    kept, info, _, _ = rounds.apart(task, get_method("forte"), force, None, result(False, 0.0), {}, colliding)
+    assert not info["self_rows"]["kept"] and kept is not trial

@@ -259,13 +259,15 @@ def test_a_wall_through_the_path_is_found_before_any_solve(tmp_path):
 def test_self_collision_kernel_equals_its_numpy_twin_and_the_pairs_skip_structural_overlaps():
     from forte.planning.nlp.collision_kernels import SELF_SIZE
     from forte.planning.nlp.collision_slots import _self_slot
-    from forte.planning.nlp.self_pairs import HOME_GAP, self_distances, self_pairs
+    from forte.planning.nlp.self_pairs import HOME_GAP, contact_postures, self_distances, self_pairs
 
     robot = default_robot()
     primitives = robot_primitives(robot)
     pairs = self_pairs(robot)
-    home = primitive_centres(robot, robot.home(), primitives)
-    assert pairs and self_distances(home, primitives, pairs).min() >= HOME_GAP
+    gaps = np.stack([self_distances(primitive_centres(robot, q, primitives), primitives, pairs)
+                     for q in contact_postures(robot)])
+    assert pairs and np.all(gaps.max(axis=0) >= HOME_GAP)  # each kept pair is apart at some posture
+    assert len(contact_postures(robot)) > 1 and np.allclose(contact_postures(robot)[0], robot.home())
     assert all(primitives[a].frame > primitives[b].frame for a, b in pairs)
     hand_vs_base = [(a, b) for a, b in pairs if primitives[a].piece == "panda_hand" and primitives[b].piece == "base"]
     assert hand_vs_base  # the hand is kept off the base
@@ -284,6 +286,41 @@ def test_self_collision_kernel_equals_its_numpy_twin_and_the_pairs_skip_structur
         rel = np.array([np.linalg.norm((c1[a] - c1[b]) - (c0[a] - c0[b])) for a, b in chosen])
         assert rows[0::2] == pytest.approx(d1 - rel / 2, abs=1e-8)
         assert rows[1::2] == pytest.approx(d0 - rel / 2, abs=1e-8)
+
+
+def test_a_raw_tiagos_pair_overlapping_at_all_zeros_but_apart_at_the_start_gets_rows(tmp_path):
+    """The raw TIAGo (no ``home_arm``: home is all zeros) from the feasibility matrix's start: the
+    ``arm_1_link`` / ``torso_fixed_column_link`` pairs whose covers overlap at all zeros but not at
+    the start get rows with the plain margin; those overlapping at the start keep their start
+    distance (less the slack); the pairs no posture separates are the only ones left out."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import feasibility_matrix as fm
+
+    from forte.planning.nlp.collision_kernels import SELF_FIELDS, SELF_SIZE
+    from forte.planning.nlp.collision_slots import START_OVERLAP_SLACK
+    from forte.planning.nlp.self_pairs import HOME_GAP, SELF_ACTIVATION, SELF_MARGIN, self_distances, self_pairs
+    from forte.planning.tasks.tasks import task_from_dict
+
+    task = task_from_dict(fm.task_dict(fm.Cell("tiago-urdf", fm.Reach("forward", 0.5, 3.0), 0.0, 21)),
+                          tmp_path / "t.yaml")
+    robot, q0 = task.robot, np.asarray(task.q_init)
+    assert np.allclose(robot.home_arm, 0.0)
+    primitives = robot_primitives(robot)
+    column = ("arm_1_link", "torso_fixed_column_link")
+    pairs = tuple(sorted((a, b) for a in range(len(primitives)) for b in range(len(primitives))
+                         if (primitives[a].piece, primitives[b].piece) == column))
+    assert len(pairs) == 12
+    at_zero = self_distances(primitive_centres(robot, robot.home(), primitives), primitives, pairs)
+    at_start = self_distances(primitive_centres(robot, q0, primitives), primitives, pairs)
+    moved = [pair for pair, z, s in zip(pairs, at_zero, at_start, strict=True) if z < HOME_GAP <= s]
+    assert moved and set(pairs) <= set(self_pairs(robot))
+    slots = assign_slots(robot, np.tile(q0, (3, 1)), task.scene, task.clearance, True)
+    margin = {(p, -1 - m): float(f.values[k, j * SELF_SIZE + SELF_FIELDS["margin"][0]])
+              for f in slots.frames for (k, j), (p, m) in f.pairs.items() if m < 0}
+    for pair, s in zip(pairs, at_start, strict=True):
+        if s < SELF_ACTIVATION:  # near at the start: rows, keeping the start distance where they overlap
+            assert margin[pair] == pytest.approx(min(SELF_MARGIN, s - START_OVERLAP_SLACK))
+    assert all(pair in margin and margin[pair] == SELF_MARGIN for pair in moved)
 
 
 def test_the_payload_sphere_is_part_of_the_robot_for_the_planner_and_the_check(tmp_path):

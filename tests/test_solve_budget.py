@@ -72,3 +72,50 @@ def test_a_plan_whose_budget_is_spent_stops_and_says_why(tmp_path, monkeypatch):
         plan = forte.plan(task)
     assert plan.status == "Maximum_WallTime_Exceeded"
     assert "(a plan's solves have 300 s of wall time in all, forte.settings.PLAN_SOLVE_WALL_S" in plan.verdict.reason()
+
+
+def test_a_solve_whose_multipliers_run_away_is_stopped_with_its_reason():
+    """``min x`` s.t. ``x^4 <= 0``: no constraint qualification at the only feasible point, so the
+    multiplier ``1 / (4 |x|^3)`` grows without bound as IPOPT closes in; unwatched, IPOPT ends with
+    a multiplier over 1e11. Watched (forte's iteration callback), it stops once one passes
+    :data:`~forte.settings.MULTIPLIER_LIMIT`, and says so."""
+    import casadi as ca
+    import numpy as np
+
+    from forte.planning.nlp.ipopt_progress import IpoptProgress
+    from forte.settings import MULTIPLIER_LIMIT
+
+    x = ca.MX.sym("x")
+    nlp = {"x": x, "f": x, "g": x**4}
+    options = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-20,
+               "ipopt.constr_viol_tol": 1e-20, "ipopt.nlp_scaling_method": "none"}
+    free = ca.nlpsol("free", "ipopt", nlp, options)
+    assert abs(float(free(x0=1.0, lbg=-np.inf, ubg=0.0)["lam_g"])) > 10 * MULTIPLIER_LIMIT
+    watch = IpoptProgress(1, 1, 0)
+    watched = ca.nlpsol("watched", "ipopt", nlp, options | {"iteration_callback": watch})
+    watch.start(np.array([-np.inf]), np.array([0.0]))
+    result = watched(x0=1.0, lbg=-np.inf, ubg=0.0)
+    assert watched.stats()["return_status"] == "User_Requested_Stop"
+    assert MULTIPLIER_LIMIT < abs(float(result["lam_g"])) < 10 * MULTIPLIER_LIMIT
+    assert watch.stopped.startswith(f"forte stopped IPOPT at iteration {watch.iteration}: a multiplier reached")
+    assert watched.stats()["iter_count"] < free.stats()["iter_count"]
+    watch.start(np.array([-np.inf]), np.array([0.0]))  # each solve starts unstopped
+    assert watch.stopped is None and watch.iteration == 0
+
+
+def test_a_plan_stopped_for_runaway_multipliers_says_so(tmp_path, monkeypatch):
+    """The watch is on every plan's solves (no progress reporter needed): with the limit below the
+    multipliers of an ordinary reach, the first iterate with one stops the solve, reported as
+    :data:`~forte.settings.DIVERGED` with the limit named."""
+    from forte.planning.nlp import ipopt_progress
+    from forte.settings import DIVERGED
+
+    task = task_from_dict(fm.task_dict(fm.Cell("authors", fm.Reach("forward", 0.3, 5.0), 0.5, 21)),
+                          tmp_path / "t.yaml")
+    monkeypatch.setattr(ipopt_progress, "MULTIPLIER_LIMIT", 1e-6)
+    plan = forte.plan(task)
+    assert plan.status == DIVERGED and plan.verdict.label == "solver-failed"
+    assert "forte stopped IPOPT: a multiplier exceeded 1e+10 (forte.settings.MULTIPLIER_LIMIT" in plan.verdict.reason()
+    assert plan.solver["iterations"] < 5
+    monkeypatch.setattr(ipopt_progress, "MULTIPLIER_LIMIT", 1e10)
+    assert forte.plan(task).verdict.feasible

@@ -132,16 +132,20 @@ def apart(task: Task, spec: Method, force: TaskForce, guess: FloatArray | None, 
     (exact meshes) is solved again, from the same guess, with rows for the robot's pairs near it
     (:func:`~forte.planning.scene.scene_solve.solve_in_scene`; a pair whose covers already overlap at
     the start keeps its start distance, :func:`~forte.planning.nlp.collision_slots.self_margins`).
-    The new plan is kept when it no longer collides; ``info["self_rows"]`` records the try. Returns
-    the force the kept plan was judged with too (:func:`judged`).
+    The new plan is kept when it no longer collides and converged, or when the plan it replaces did
+    not converge either (then it fails nothing more: one failed solve for another, minus the
+    collision). A re-solve that did not converge is otherwise dropped, collision-free or not: its
+    iterate is wherever IPOPT stopped (solver-failed), and the converged plan's verdict names
+    what is wrong with it more usefully. ``info["self_rows"]`` records the try. Returns the force
+    the kept plan was judged with too (:func:`judged`).
     """
     if "clearance_rows" in info or "self_collision" not in verdict.failed:
         return sol, info, verdict, force
     trial, trial_info = optimize(task, spec, force, guess, self_rows=True)
     trial_verdict, trial_force = judged(task, trial.q, force, trial_info)
-    kept = "self_collision" not in trial_verdict.failed
+    kept = "self_collision" not in trial_verdict.failed and (trial.success or not sol.success)
     record = {"verdict": trial_verdict.label, "failed": list(trial_verdict.failed), "kept": kept,
-              "iterations": trial.iterations, "solve_time_s": trial.solve_time}
+              "status": trial.status, "iterations": trial.iterations, "solve_time_s": trial.solve_time}
     if kept:
         return trial, trial_info | {"self_rows": record}, trial_verdict, trial_force
     return sol, info | {"self_rows": record}, verdict, force

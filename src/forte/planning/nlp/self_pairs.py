@@ -9,10 +9,19 @@ Panda gets it from its URDF's meshes alone. Which pairs count:
 - never two pieces on the same frame or on a joint and its parent joint (adjacent links move
   about one joint axis, their distance barely changes, and URDF meshes of adjacent links
   usually overlap);
-- minus every pair whose covers overlap at the robot's home configuration: there the cover is
-  coarser than the gap between the meshes (a cover is up to ~12 % thicker than a capsule around
-  the mesh), and a row would forbid a posture the robot takes. The verdict checks those pairs on
-  the real meshes all the same (its ``self_collision`` requirement).
+- minus every pair whose covers are always in contact: closer than :data:`HOME_GAP` at the
+  home configuration and at each of :data:`CONTACT_SAMPLES` postures drawn within the joint
+  limits (a fixed seed). Such a pair's cover is coarser than the gap between its meshes wherever
+  the arm goes (a cover is up to ~12 % thicker than a capsule around the mesh), and a row would
+  forbid every posture. The verdict checks those pairs on the real meshes all the same (its
+  ``self_collision`` requirement).
+
+A pair whose covers overlap only at some postures keeps its rows: at a fixed start where they
+overlap it keeps its start distance
+(:func:`~forte.planning.nlp.collision_slots.self_margins`), elsewhere :data:`SELF_MARGIN`.
+Filtering at ``robot.home()`` instead dropped pairs that are apart at the user's start: a raw
+URDF's home is the all-zeros posture, where 5 of the raw TIAGo's 12 ``arm_1_link`` /
+``torso_fixed_column_link`` pairs overlap, and the arm then ran through the column.
 
 A pair keeps :data:`SELF_MARGIN` between its covers: the covers contain the meshes, so covers
 apart means meshes apart.
@@ -31,8 +40,12 @@ from forte.validation import FloatArray
 SELF_ACTIVATION = 0.05
 #: The distance (m) kept between two covers of the robot's own pieces.
 SELF_MARGIN = 0.0
-#: Pairs whose covers are closer than this (m) at home are left to the verdict.
+#: Pairs whose covers are closer than this (m) at home and at every sampled posture are left to
+#: the verdict (always in contact).
 HOME_GAP = 0.01
+#: How many postures within the joint limits (beside home) a pair must overlap at to count as
+#: always in contact.
+CONTACT_SAMPLES = 32
 
 _CACHE: dict[str, tuple[tuple[int, int], ...]] = {}
 
@@ -80,6 +93,16 @@ def _pairs(robot: Any) -> tuple[tuple[int, int], ...]:
                 candidates.append((i, j))
     if not candidates:
         return ()
-    home = primitive_centres(robot, robot.home(), primitives)
-    gaps = self_distances(home, primitives, tuple(candidates))
-    return tuple(pair for pair, gap in zip(candidates, gaps, strict=True) if gap >= HOME_GAP)
+    gaps = np.stack([self_distances(primitive_centres(robot, q, primitives), primitives, tuple(candidates))
+                     for q in contact_postures(robot)])
+    return tuple(pair for pair, apart in zip(candidates, np.any(gaps >= HOME_GAP, axis=0), strict=True) if apart)
+
+
+def contact_postures(robot: Any) -> FloatArray:
+    """Home and :data:`CONTACT_SAMPLES` postures (base at the origin, arm joints uniform within
+    their limits, ``[-pi, pi]`` where a limit is infinite; seed 0) at which a pair must overlap
+    to count as always in contact."""
+    lower, upper = (np.where(np.isfinite(x), x, s * np.pi) for x, s in ((robot.lower, -1), (robot.upper, 1)))
+    arm = np.random.default_rng(0).uniform(lower, upper, (CONTACT_SAMPLES, robot.n_arm))
+    home = robot.home()
+    return np.vstack([home, np.hstack([np.zeros((CONTACT_SAMPLES, home.size - robot.n_arm)), arm])])
