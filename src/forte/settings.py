@@ -280,13 +280,6 @@ PLAN_SOLVE_CPU_S = 120.0
 #: :data:`PLAN_SOLVE_CPU_S`): the bound a person waits at most on a busy machine, where the CPU
 #: budget can stretch over several times its length. ``Maximum_WallTime_Exceeded`` names it.
 PLAN_SOLVE_WALL_S = 300.0
-#: A solve stops (IPOPT's ``User_Requested_Stop``, reported as :data:`DIVERGED`) once an iterate's
-#: largest multiplier (``lam_g`` or ``lam_x``, unscaled) exceeds this
-#: (:mod:`forte.planning.nlp.ipopt_progress`): its dual infeasibility runs away, and IPOPT checks
-#: the time bounds above only between iterations, which such a solve makes long.
-MULTIPLIER_LIMIT = 1e10
-#: The status of a solve stopped for :data:`MULTIPLIER_LIMIT`.
-DIVERGED = "Diverging_Multipliers"
 
 
 @dataclass(frozen=True)

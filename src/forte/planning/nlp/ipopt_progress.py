@@ -1,17 +1,10 @@
-"""IPOPT's iterations watched, and shown on the progress line, through CasADi's ``iteration_callback``.
+"""IPOPT's iterations on the progress line, through CasADi's ``iteration_callback`` option.
 
-Every solve stops once its multipliers run away (:data:`MULTIPLIER_LIMIT`): a solve whose dual
-infeasibility grows without bound does not converge, and IPOPT's own time limits are checked only
-between iterations, while such a solve's iterations grow long (MUMPS reallocating for each
-factorization of an ever worse conditioned KKT matrix). The raw TIAGo's ``down 0.1 m`` cell of
-``benchmarks/feasibility_matrix.py``: its self-collision re-solve's dual infeasibility grew from
-1e3 to 2e15 over 213 iterations with the barrier parameter stuck at 0.2, then one iteration ran
-for minutes (over 15 in all). The callback costs a maximum over the multipliers per iteration.
-
-While a progress reporter is active (:mod:`forte.progress`) it also reports each iteration:
-``iteration k: objective f, constraint violation v``, where ``v = max(lbg - g, g - ubg, 0)`` over
-the NLP's constraints (pose residuals and kinematic rows), and the exact capability margin
-``min_k d_k`` of the current iterate (about 1 ms at N = 41).
+The callback is installed only while a progress reporter is active (:mod:`forte.progress`), so
+the library API pays nothing by default. Per iteration it reads the objective and the constraint
+values CasADi passes and reports ``iteration k: objective f, constraint violation v``, where
+``v = max(lbg - g, g - ubg, 0)`` over the NLP's constraints (pose residuals and kinematic rows),
+and the exact capability margin ``min_k d_k`` of the current iterate (about 1 ms at N = 41).
 """
 
 from __future__ import annotations
@@ -23,19 +16,15 @@ import casadi as ca
 import numpy as np
 
 from forte import progress
-from forte.settings import MULTIPLIER_LIMIT
 
 
 class IpoptProgress(ca.Callback):
-    """A CasADi callback that stops a solve whose multipliers run away (:data:`MULTIPLIER_LIMIT`)
-    and reports each IPOPT iteration to the active reporter (when one is)."""
+    """A CasADi callback that reports each IPOPT iteration to the active reporter."""
 
     def __init__(self, nx: int, ng: int, npar: int) -> None:
         ca.Callback.__init__(self)
         self.nx, self.ng, self.npar = nx, ng, npar
         self.iteration = 0
-        self.stopped: str | None = None  # why the watch stopped the last solve
-        self.reporting = False
         self.bounds: tuple[np.ndarray, np.ndarray] | None = None  # (lbg, ubg), set by each solve
         self.margin: Callable[[np.ndarray], float] | None = None  # x -> min_k d_k, set by each solve
         self.construct("forte_ipopt_progress", {})
@@ -58,28 +47,13 @@ class IpoptProgress(ca.Callback):
                 "lam_p": self.npar}.get(n, 0)
         return ca.Sparsity.dense(size, 1)
 
-    def start(self, lbg: np.ndarray, ubg: np.ndarray, margin: Callable[[np.ndarray], float] | None = None,
-              reporting: bool = False) -> None:
-        """Before a solve: the constraint bounds, the margin function, whether to report, and the
-        iteration count."""
-        self.bounds, self.margin, self.iteration, self.stopped = (lbg, ubg), margin, 0, None
-        self.reporting = reporting
+    def start(self, lbg: np.ndarray, ubg: np.ndarray, margin: Callable[[np.ndarray], float] | None = None) -> None:
+        """Before a solve: the constraint bounds, the margin function and the iteration count."""
+        self.bounds, self.margin, self.iteration = (lbg, ubg), margin, 0
 
     def eval(self, arg: list[Any]) -> list[int]:
         names = [ca.nlpsol_out(i) for i in range(ca.nlpsol_n_out())]
         values = dict(zip(names, arg, strict=True))
-        largest = max(float(np.max(np.abs(np.asarray(values[k])), initial=0.0)) for k in ("lam_g", "lam_x"))
-        if not np.isfinite(largest) or largest > MULTIPLIER_LIMIT:
-            self.stopped = (f"forte stopped IPOPT at iteration {self.iteration}: a multiplier reached {largest:.3g} "
-                            f"(> {MULTIPLIER_LIMIT:g}; the dual infeasibility runs away, the solve would not converge)")
-            return [1]
-        if self.reporting:
-            self.report(values)
-        self.iteration += 1
-        return [0]
-
-    def report(self, values: dict[str, Any]) -> None:
-        """One iteration on the progress line."""
         f = float(values["f"])
         text = f"IPOPT iteration {self.iteration}: objective {f:.6g}"
         if self.bounds is not None and self.ng:
@@ -90,6 +64,8 @@ class IpoptProgress(ca.Callback):
         if self.margin is not None:
             text += f", min d {self.margin(np.asarray(values['x']).ravel()):.2f} N"
         progress.update(text)
+        self.iteration += 1
+        return [0]
 
 
 def margin_of(robot: Any, n: int, t: np.ndarray, f: Any, r: Any, alpha: float) -> Callable[[np.ndarray], float]:

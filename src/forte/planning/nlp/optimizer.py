@@ -65,7 +65,6 @@ from forte.planning.nlp.solvers.stage_problem import StageNLP, supported
 from forte.planning.tasks.keep_level import KeepLevel
 from forte.settings import (
     DEFAULT_WEIGHT_SET,
-    DIVERGED,
     WEIGHT_SETS,
     CostWeights,
     KinematicLimits,
@@ -289,8 +288,9 @@ class TrajectoryOptimizer:
         opts["grad_f"] = ca.Function("nlp_grad_f", [x, P], [cost, grad])
         opts["jac_g"] = ca.Function("nlp_jac_g", [x, P], [g, jac])
         opts["hess_lag"] = ca.Function("nlp_hess_l", [x, P, lam_f, lam_g], [hess])
-        # every solve is watched for runaway multipliers; reported on the progress line when one is active
-        opts["iteration_callback"] = self._progress = IpoptProgress(x.numel(), g.numel(), P.numel())
+        self._progress = None
+        if progress.active() is not None:  # IPOPT's iterations on the progress line (off in the library)
+            opts["iteration_callback"] = self._progress = IpoptProgress(x.numel(), g.numel(), P.numel())
         self._nlp = {"x": x, "p": P, "f": cost, "g": g}
         self._nlp_options = opts
         self.solver = self._nlpsol(opts)
@@ -386,9 +386,9 @@ class TrajectoryOptimizer:
         solver, extra = self.solver, {}
         if warm is not None:
             solver, extra = self.warm_solver(), {"lam_x0": warm[0], "lam_g0": warm[1]}
-        reporting = progress.active() is not None
-        self._progress.start(lbg, ubg, margin_of(self.robot, self.n, np.asarray(t, dtype=float), f, r,
-                                                 self.settings.alpha) if reporting else None, reporting)
+        if self._progress is not None:
+            self._progress.start(lbg, ubg, margin_of(self.robot, self.n, np.asarray(t, dtype=float), f, r,
+                                                     self.settings.alpha))
         try:
             with progress.step(f"solving with IPOPT ({self.method}, N = {n})"):
                 result = solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **extra)
@@ -404,8 +404,7 @@ class TrajectoryOptimizer:
         tol = accepted_violation(self.options)
         return SolverResult(
             q=x[: n * nq].reshape(n, nq), success=bool(stats.get("success", False)) and violation <= tol,
-            status=DIVERGED if self._progress.stopped else str(stats.get("return_status", "unknown")),
-            iterations=int(stats.get("iter_count", -1)),
+            status=str(stats.get("return_status", "unknown")), iterations=int(stats.get("iter_count", -1)),
             objective=float(result["f"]), constraint_violation=violation, build_time=self.build_time,
             solve_time=solve_time, codegen=self.codegen,
             lam_x=np.array(result["lam_x"]).ravel() if self.keep_multipliers or warm else None,

@@ -52,7 +52,7 @@ from forte.planning.verdict.base_requirements import (
 from forte.planning.verdict.keep_level import TiltLimit
 from forte.planning.verdict.motion_samples import MotionSamples
 from forte.planning.verdict.requirement_base import Context, Measure, Requirement, Violation, exceeded
-from forte.settings import DIVERGED, MULTIPLIER_LIMIT, PLAN_SOLVE_CPU_S, PLAN_SOLVE_WALL_S
+from forte.settings import PLAN_SOLVE_CPU_S, PLAN_SOLVE_WALL_S
 from forte.validation import FloatArray
 
 #: End-effector position error (m) and orientation error (rad) a plan may have against its task's path.
@@ -347,9 +347,6 @@ class Solver(Requirement):
             bound = (f"{PLAN_SOLVE_CPU_S:g} s of CPU time in all, forte.settings.PLAN_SOLVE_CPU_S" if "Cpu" in status
                      else f"{PLAN_SOLVE_WALL_S:g} s of wall time in all, forte.settings.PLAN_SOLVE_WALL_S")
             why += f" (a plan's solves have {bound}: a solve that long does not converge; the plan is the last iterate)"
-        if status == DIVERGED:
-            why = (f"forte stopped IPOPT: a multiplier exceeded {MULTIPLIER_LIMIT:g} (forte.settings.MULTIPLIER_LIMIT; "
-                   "the dual infeasibility ran away and the solve would not converge); the plan is the last iterate")
         detail = f"{why}; constraint violation {violation:.3g} (accepted up to {accepted:g})"
         if "failed_rows" in ctx.solver:  # what the last iterate could not meet (forte.planning.scene.diagnosis)
             detail += "; " + ctx.solver["failed_rows"]["sentence"]
