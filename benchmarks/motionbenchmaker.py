@@ -109,7 +109,8 @@ def on_the_base(doc: dict[str, Any], request: Path, scene: Path, out: Path) -> A
     mount = np.eye(4)
     mount[:3, 3] = AUTHORS_MOUNT
     doc["robot"] |= {"base": "holonomic", "mount": {"xyz": list(AUTHORS_MOUNT)}}
-    doc["scene"] = scene_entries(Path(doc.pop("scene_file")), mount)
+    doc.pop("scene_file")  # written relative to the task file: read the request's own scene instead
+    doc["scene"] = scene_entries(scene, mount)
     goal = np.asarray(doc["path"]["configuration"], dtype=float)  # its pose only: may lie beyond the URDF's range
     doc["path"] = {"kind": "goal", "configuration": doc["initial_configuration"]}
     write_task(out, doc, (request, scene))
