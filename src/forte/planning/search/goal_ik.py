@@ -27,10 +27,9 @@ import numpy as np
 
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
-from forte.planning.search.sampling import SLIP
+from forte.planning.search.sampling import wanted
 from forte.planning.search.validity import StateChecker
 from forte.planning.tasks.ik import IKOptions, solve_pose
-from forte.planning.verdict.requirements import EXECUTION_MARGIN
 from forte.validation import FloatArray
 
 #: IK starts tried when the reader's goal configuration is not free.
@@ -56,7 +55,7 @@ def free_goal(robot: MobileManipulator, scene: Scene, clearance: float, q_start:
     """A configuration reaching ``pose`` (4 x 4) that is valid in ``scene`` at the clearance a route
     keeps (:func:`~forte.planning.search.sampling.kept`: ``clearance``, 2 mm at least, plus the
     slip), else at ``clearance`` (module docstring); ``q_goal`` is kept when it is."""
-    checker = StateChecker(robot, scene, max(float(clearance), EXECUTION_MARGIN) + SLIP)
+    checker = StateChecker(robot, scene, wanted(clearance))
     asked = StateChecker(robot, scene, clearance)
     if checker.valid(q_goal):
         return FreeGoal(np.asarray(q_goal, dtype=float), 0, "")

@@ -131,6 +131,12 @@ def space_bounds(robot: MobileManipulator, q_start: FloatArray, q_goal: FloatArr
     return np.r_[ends.min(axis=0) - reach, lo], np.r_[ends.max(axis=0) + reach, hi]
 
 
+def wanted(clearance: float) -> float:
+    """The clearance (m) a route keeps where its ends allow: the asked one, at least
+    :data:`~forte.planning.verdict.requirements.EXECUTION_MARGIN`, plus :data:`SLIP`."""
+    return max(float(clearance), EXECUTION_MARGIN) + SLIP
+
+
 def kept(robot: MobileManipulator, scene: Scene, clearance: float, q_start: FloatArray, q_goal: FloatArray) -> float:
     """The clearance (m) the search keeps: the verdict's
     (:func:`~forte.planning.verdict.requirements.kept_clearance`: the asked one, at least
@@ -138,8 +144,7 @@ def kept(robot: MobileManipulator, scene: Scene, clearance: float, q_start: Floa
     plus :data:`SLIP`, lowered to the start's and goal's exact clearance (less
     :data:`ENDS_TOLERANCE`) where they keep less, never below the asked one."""
     ends = ClearanceChecker(robot, scene).evaluate(np.array([q_start, q_goal])).distance
-    return max(float(clearance), min(max(float(clearance), EXECUTION_MARGIN) + SLIP,
-                                     float(ends.min()) - ENDS_TOLERANCE))
+    return max(float(clearance), min(wanted(clearance), float(ends.min()) - ENDS_TOLERANCE))
 
 
 class _Budget:
