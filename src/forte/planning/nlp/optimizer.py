@@ -40,7 +40,7 @@ from scipy import sparse
 
 from forte import progress
 from forte.exceptions import InvalidInputError, SolverError
-from forte.model.robot import MobileManipulator
+from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.trajectory import StartMotion
 from forte.planning.methods.catalog import Method, get_method, method_names
 from forte.planning.nlp import layout
@@ -62,6 +62,7 @@ from forte.planning.nlp.keep_level_rows import keep_bounds, keep_rows, keep_step
 from forte.planning.nlp.kernels import load_kernels, notice
 from forte.planning.nlp.solvers.result import SolverResult, accepted_violation
 from forte.planning.nlp.solvers.stage_problem import StageNLP, supported
+from forte.planning.nlp.spline_rows import knot_acceleration_operator, spline_bounds, spline_rows
 from forte.planning.tasks.keep_level import KeepLevel
 from forte.settings import (
     DEFAULT_WEIGHT_SET,
@@ -107,6 +108,9 @@ class TrajectoryOptimizer:
             (:mod:`forte.planning.tasks.goal_poses`).
         keep_level: a tool axis kept near a world axis (``path.keep_level``): one row per waypoint
             the solver orients (:mod:`forte.planning.nlp.keep_level_rows`); ``None``: none.
+        on_spline: bound the arm's accelerations on the executed spline too, at its knots
+            (:mod:`forte.planning.nlp.spline_rows`); ``None``: for goal tasks (a given path keeps
+            the paper's rows alone, its refinement rounds do the rest).
     """
 
     def __init__(
@@ -115,6 +119,7 @@ class TrajectoryOptimizer:
         options: SolverOptions = SolverOptions(), limits: KinematicLimits = KinematicLimits(),
         keep_multipliers: bool = False, slots: Slots | None = None, settings: TermSettings | None = None,
         goal: str | None = None, keep_level: KeepLevel | None = None, via_steps: tuple[int, ...] = (),
+        on_spline: bool | None = None,
     ) -> None:
         resolved = get_method(method) if isinstance(method, Method) or method in method_names() else None
         if resolved is None or not resolved.optimized:
@@ -138,6 +143,9 @@ class TrajectoryOptimizer:
         self.via_steps = tuple(sorted({int(k) for k in via_steps}))
         self._warm_solver: Any = None
         self._vel, self._acc = limits.resolve(robot)
+        #: the arm's accelerations bounded on the executed spline too (spline_rows); default: goal tasks'
+        self.on_spline = (goal is not None if on_spline is None else on_spline) and limits.enabled \
+            and fix_initial and n >= 3
         terms = resolved.cost_terms(settings)
         self._stage = tuple(t for t in terms if t.kind == "stage")
         self._quadratic = tuple(t for t in terms if t.kind == "quadratic")
@@ -165,6 +173,8 @@ class TrajectoryOptimizer:
             sizes |= {name: size * n for name, size in term.parameters}
         for ck in self._clear:
             sizes[ck.name] = ck.size * n
+        if self.on_spline:
+            sizes["spline"] = n * n
         spans, offset = {}, 0
         for name, size in sizes.items():
             spans[name] = (offset, size)
@@ -214,6 +224,11 @@ class TrajectoryOptimizer:
         kinematic = layout.rest_entries(kinematic, self._vel_rows.size * (self.n - 1), self._acc_rows.size, ends)
         kinematic = shifted_acceleration_bounds(kinematic, start, self._vel_rows.size * (self.n - 1), self._acc_rows)
         lbg, ubg = layout.constraint_bounds(self._pose_steps.size, kinematic, lifted)
+        if self._spline_rows:
+            cols = self._spline_rows
+            low, high = spline_bounds(self._acc[cols], knot_acceleration_operator(np.asarray(t, dtype=float)).c,
+                                      None if start is None else np.asarray(start.velocity)[cols])
+            lbg, ubg = np.concatenate([lbg, low]), np.concatenate([ubg, high])
         clear = self._clear_index.size  # clearance rows: >= 0; then the base's lateral rows: = 0
         lateral = np.zeros(self._lateral)
         keep_low, keep_high = keep_bounds(self.keep_level, self._keep_steps.size)  # last: h >= cos(max_tilt)
@@ -251,6 +266,7 @@ class TrajectoryOptimizer:
         if self._lift.shape[0]:  # z = A x
             lift = sparse.hstack([self._lift, -sparse.identity(self._lift.shape[0])])
             g_kin = ca.vertcat(g_kin, ca.mtimes(dm(lift), x))
+        g_kin = ca.vertcat(g_kin, self._on_spline_rows(X, par))  # after the lifting rows
         g = ca.vertcat(ca.vec(kern.pose.map(n)(X, pd, Rd)[:, self._pose_steps.tolist()]), g_kin)
         kept = [np.flatnonzero(f.keep.ravel()) for f in self.slots.frames] if self.slots else []
         self._clear_index = np.concatenate(kept) if kept else np.array([], int)
@@ -298,6 +314,12 @@ class TrajectoryOptimizer:
         stage_values = ca.sum2(kern.terms.map(n)(*stage_args[:-1])) if self._stage else ca.MX(0, 1)
         quadratic = [0.5 * ca.dot(xq, ca.mtimes(dm(M), xq)) for M in self._quadratic_matrices()]
         self._terms = ca.Function("terms", [x, P], [ca.vertcat(stage_values, *quadratic)])
+
+    def _on_spline_rows(self, X: ca.MX, par: Any) -> ca.MX:
+        """The executed spline's knot accelerations of the arm's limited joints (none unless
+        ``on_spline``; :mod:`forte.planning.nlp.spline_rows`)."""
+        self._spline_rows = [int(i) for i in self._acc_rows if i >= N_BASE] if self.on_spline else []
+        return spline_rows(X, par("spline", self.n), self._spline_rows) if self._spline_rows else ca.MX(0, 1)
 
     @property
     def rests_at_end(self) -> bool:
@@ -353,6 +375,8 @@ class TrajectoryOptimizer:
                        else term.parameter_values(name, f, r) for name, _ in term.parameters}
         for f, ck in zip(self.slots.frames if self.slots else (), self._clear, strict=True):
             values[ck.name] = f.values.ravel()
+        if self.on_spline:
+            values["spline"] = knot_acceleration_operator(t).S.ravel(order="F")
         return np.concatenate([values[name] for name in self._layout])
 
     def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,
