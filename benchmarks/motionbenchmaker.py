@@ -133,7 +133,7 @@ def search_only(task: Any) -> dict[str, Any]:
             "search_s": result.time_s, "shortcut_s": result.shortcut_s, "searched": True}
 
 
-def plan_and_simulate(task: Any, folder: Path, simulate: bool) -> dict[str, Any]:
+def plan_and_simulate(task: Any, folder: Path, simulate: bool, gains: dict[str, Any] | None = None) -> dict[str, Any]:
     import forte
     from forte.execution.run import simulate_plan
     from forte.io.plandir import write_plan
@@ -170,7 +170,7 @@ def plan_and_simulate(task: Any, folder: Path, simulate: bool) -> dict[str, Any]
         directory = folder / "plan"
         write_plan(plan, directory)
         begin = time.perf_counter()
-        result = simulate_plan(directory)
+        result = simulate_plan(directory, gains=gains)  # a controller: mapping (--base-coupling), else the defaults
         row["sim_s"] = time.perf_counter() - begin
         row["sim"], row["sim_detail"] = ("ok" if result.success else "fail"), ("" if result.success else result.detail)
         row["sim_ee_error_m"] = result.summary.get("max_ee_error_m", np.nan)  # how closely MuJoCo tracked the hand
@@ -178,13 +178,13 @@ def plan_and_simulate(task: Any, folder: Path, simulate: bool) -> dict[str, Any]
     return row
 
 
-def run_one(args: tuple[str, Path, Path, float | None, str, bool, bool, str]) -> dict[str, Any]:
-    scenario, request, scene, payload, stage, simulate, route_first, base = args
+def run_one(args: tuple[str, Path, Path, float | None, str, bool, bool, str, dict[str, Any] | None]) -> dict[str, Any]:
+    scenario, request, scene, payload, stage, simulate, route_first, base, gains = args
     row: dict[str, Any] = {"scenario": scenario, "problem": request.stem.replace("request", "")}
     try:
         with tempfile.TemporaryDirectory() as tmp:
             task = load(request, scene, Path(tmp), payload, route_first, base)
-            row |= search_only(task) if stage == "search" else plan_and_simulate(task, Path(tmp), simulate)
+            row |= search_only(task) if stage == "search" else plan_and_simulate(task, Path(tmp), simulate, gains)
     except Exception as exc:  # a benchmark row, not a crash: the reason is the result
         row |= {"success": False, "verdict": "error", "reason": f"{type(exc).__name__}: {exc}"[:300],
                 "sim_detail": traceback.format_exc(limit=2)[-300:]}
@@ -267,6 +267,8 @@ def main() -> None:
                     help="holonomic: the arm on the authors' base, the goal as the hand's pose")
     ap.add_argument("--route-first", action="store_true",
                     help="solver.route_first: a route that passes the verdict is the plan, no NLP")
+    ap.add_argument("--base-coupling", action="store_true",
+                    help="simulate with controller.base_coupling (the arm's feedforward with the base's motion)")
     ap.add_argument("--summarize", type=Path, help="only write summary.md from this results.csv")
     args = ap.parse_args()
     if args.summarize:
@@ -277,7 +279,8 @@ def main() -> None:
         (args.out / "summary.md").write_text(text)
         print(text)
         return
-    todo = [(s, r, sc, args.payload, args.stage, not args.no_sim, args.route_first, args.base)
+    gains = {"base_coupling": True} if args.base_coupling else None
+    todo = [(s, r, sc, args.payload, args.stage, not args.no_sim, args.route_first, args.base, gains)
             for s, r, sc in problems(args.root, args.per_scenario, args.scenarios)
             if not args.only or f"{s}/{r.stem.replace('request', '')}" in args.only]
     args.out.mkdir(parents=True, exist_ok=True)

@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from forte.exceptions import InvalidInputError
+from forte.execution.base_coupling import BaseCoupling
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.trajectory import clamped_spline
 from forte.validation import FloatArray, as_array, as_vector, check_times
@@ -72,6 +73,9 @@ class ControlGains:
         K_b, D_b: Base stiffness (N/m, Nm/rad) and damping on the measured base velocity.
         base_feedforward: Add the planned base velocity ``dq_{b,d}`` (see module docstring).
         force_feedforward: Add ``tau_F = J_v^T f_d``; off, the arm only tracks the joints.
+        base_coupling: Feed forward the arm's dynamics on the moving base (the base's velocity and
+            planned acceleration in the arm's inverse dynamics, :mod:`forte.execution.base_coupling`);
+            off (default): the paper's ``M_a(q_a) ddq_{a,d} + C_a + g``.
     """
 
     K_a: tuple[float, ...] = DEFAULT_K_A
@@ -82,6 +86,7 @@ class ControlGains:
     D_b: tuple[float, float, float] = (26.0, 26.0, 5.3)
     base_feedforward: bool = True
     force_feedforward: bool = True
+    base_coupling: bool = False
 
     def check(self, n_arm: int) -> None:
         """Validate sizes and signs (``InvalidInputError`` naming the gain)."""
@@ -110,18 +115,24 @@ class ArmImpedance:
         self.K = np.asarray(gains.K_a, dtype=float)
         self.D = np.asarray(gains.D_a, dtype=float)
         self.use_force = gains.force_feedforward
+        self.coupling = BaseCoupling(robot) if gains.base_coupling and robot.base != "fixed" else None
         self.tau_max = np.asarray(robot.torque_limits, dtype=float)
 
     def command(
         self,
         q: FloatArray, dq: FloatArray,
         q_d: FloatArray, dq_d: FloatArray, ddq_d: FloatArray,
-        J_v: FloatArray, f_d: FloatArray,
+        J_v: FloatArray, f_d: FloatArray, base: tuple[FloatArray, FloatArray, FloatArray] | None = None,
     ) -> ArmCommand:
         """Torque for arm state ``(q, dq)``, reference ``(q_d, dq_d, ddq_d)``, Jacobian and force (or
-        ``J6`` (6 x n) and the wrench ``(f_d, m_d)``)."""
-        tau = (self.robot.rnea(q, dq, ddq_d) + self.armature * ddq_d
-               + self.K * (q_d - q) + self.D * (dq_d - dq))
+        ``J6`` (6 x n) and the wrench ``(f_d, m_d)``); ``base``: the base's measured pose and
+        velocity and planned acceleration, used with ``base_coupling``."""
+        if self.coupling is not None and base is not None:
+            q_b, dq_b, ddq_bd = base
+            dynamics = self.coupling.torques(np.r_[q_b, q], np.r_[dq_b, dq], np.r_[ddq_bd, ddq_d])
+        else:
+            dynamics = self.robot.rnea(q, dq, ddq_d)
+        tau = dynamics + self.armature * ddq_d + self.K * (q_d - q) + self.D * (dq_d - dq)
         if self.use_force:
             tau = tau + J_v.T @ f_d
         sat = np.abs(tau) > self.tau_max

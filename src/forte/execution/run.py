@@ -98,7 +98,8 @@ class _ControlStep:
         wrench = ref.m is not None  # a moment too: the feedforward is J6^T (f, m)
         J = sim.ee_jacobian(angular=wrench)
         cmd = self.arm.command(q[N_BASE:], dq[N_BASE:], q_d[N_BASE:], ref.dq[k, N_BASE:],
-                               ref.ddq[k, N_BASE:], J, np.r_[f_d, ref.m[k]] if wrench else f_d)
+                               ref.ddq[k, N_BASE:], J, np.r_[f_d, ref.m[k]] if wrench else f_d,
+                               (q[:N_BASE], dq[:N_BASE], ref.ddq[k, :N_BASE]))
         v_cmd = self.base.command(q[:N_BASE], dq[:N_BASE], q_d[:N_BASE], ref.dq[k, :N_BASE])
         if sim.robot.base == "fixed":  # a fixed base is held: its velocity actuators commanded zero
             v_cmd = np.zeros(N_BASE)

@@ -261,7 +261,7 @@ def route_as_plan(task: Task, sol: SolverResult, info: dict[str, Any], verdict: 
     :mod:`forte.planning.search.route`) judged as it is (:func:`judged_route`: on more waypoints
     where the spline between them is what fails), and kept when the verdict calls it
     feasible (its clearance with the executor's margin included,
-    :data:`~forte.planning.verdict.requirements.EXECUTION_MARGIN`). The route keeps the exact
+    :func:`~forte.planning.verdict.margin.execution_margin`). The route keeps the exact
     clearance between its states and the limits on toppra's time law, but its force capability is
     not optimized: ``info["fallback"]`` says so, and the status names what the NLP did. Returns the
     task the plan is on (the route's, on its waypoints) first."""

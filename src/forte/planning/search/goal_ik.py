@@ -8,7 +8,9 @@ the hand at the same pose clear of every body (MotionBenchMaker's goals on the a
 base: the IK from the start put ``panda_link5`` 4-8 cm into a table or the base).
 
 :func:`free_goal` keeps the reader's configuration when it is valid (joint limits, the scene at
-the clearance a route keeps, 2 mm plus the slip at least, no self-collision:
+the clearance a configuration held at rest keeps, the executor's margin at rest plus the slip
+at least (:data:`~forte.planning.verdict.margin.REST_MARGIN`: the goal is where the robot stops, and a
+grasp's fingers end within 1-2 cm of the object), no self-collision:
 :class:`~forte.planning.search.validity.StateChecker`; or at the task's own clearance when no
 other start finds one),
 else solves the same pose from :data:`GOAL_IK_STARTS` seeded starts (the arm drawn within its
@@ -53,9 +55,10 @@ class FreeGoal(NamedTuple):
 def free_goal(robot: MobileManipulator, scene: Scene, clearance: float, q_start: FloatArray, q_goal: FloatArray,
               pose: FloatArray, seed: int = 0) -> FreeGoal:
     """A configuration reaching ``pose`` (4 x 4) that is valid in ``scene`` at the clearance a route
-    keeps (:func:`~forte.planning.search.sampling.kept`: ``clearance``, 2 mm at least, plus the
-    slip), else at ``clearance`` (module docstring); ``q_goal`` is kept when it is."""
-    checker = StateChecker(robot, scene, wanted(clearance))
+    keeps at rest (:func:`~forte.planning.search.sampling.wanted`: ``clearance``, the executor's
+    margin at rest at least, plus the slip), else at ``clearance`` (module docstring); ``q_goal``
+    is kept when it is."""
+    checker = StateChecker(robot, scene, wanted(clearance, None))
     asked = StateChecker(robot, scene, clearance)
     if checker.valid(q_goal):
         return FreeGoal(np.asarray(q_goal, dtype=float), 0, "")

@@ -3,8 +3,8 @@
 For a goal task (:mod:`forte.planning.tasks.goals`) the end effector's path is free. Its route is:
 
 1. the straight line in configuration space from the start to the goal when it keeps the task's
-   clearance the search keeps (:func:`~forte.planning.search.sampling.kept`: the verdict's, 2 mm
-   at least, plus the slip between checked states) at every state
+   clearance the search keeps (:func:`~forte.planning.search.sampling.kept`: the verdict's, the
+   executor's margin of the base kind at least, plus the slip between checked states) at every state
    :data:`~forte.planning.search.sampling.DENSE_STEP` apart (forte's exact model:
    :func:`~forte.planning.search.validity.segment_free`), else the path of a sampling-based
    search (:func:`~forte.planning.search.sampling.find_path`: RRT-Connect, shortcut);

@@ -8,13 +8,13 @@ sideways, and the NLP that takes the path as its initial guess enforces the driv
 
 **Valid states** (:class:`~forte.planning.search.validity.StateChecker`): within the joint limits,
 no self-collision, and every scene distance >= a clearance. The path keeps the *kept clearance*
-(:func:`kept`): what the verdict will ask of the motion
-(:data:`~forte.planning.verdict.requirements.EXECUTION_MARGIN`, 2 mm, or the asked clearance when
-larger) plus :data:`SLIP`, what may be lost between two checked states; lowered to the start's
-or goal's exact clearance where one keeps less (as the verdict lowers its own). A route at
-clearance 0 (a cage's bar passed at 0.1-2 mm) would be refused later. The search first keeps
-:data:`SEARCH_MARGIN` more, for :data:`MARGIN_SHARE` of its budget, so the NLP starts strictly
-inside; then the kept clearance alone (a shelf's slot is often open only there).
+(:func:`kept`): what the verdict will ask of the motion (the executor's margin of the robot's base
+kind, :func:`~forte.planning.verdict.margin.execution_margin`: 2 mm on every base kind at present;
+or the asked clearance when larger) plus :data:`SLIP`, what may be lost between two checked states;
+lowered to the start's or goal's exact clearance where one keeps less (as the verdict lowers its
+own). A route at clearance 0 (a cage's bar passed at 0.1-2 mm) would be refused later. The search
+first keeps :data:`SEARCH_MARGIN` more, for :data:`MARGIN_SHARE` of its budget, so the NLP starts
+strictly inside; then the kept clearance alone (a shelf's slot is often open only there).
 
 **Two check steps.** RRT-Connect (range :data:`RANGE`) checks its motions every
 :data:`CHECK_STEP` (Euclidean C-space distance, MoveIt's default resolution on the Panda); its
@@ -53,7 +53,7 @@ from forte.model.clearance import ClearanceChecker
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
 from forte.planning.search.validity import StateChecker, segment_free
-from forte.planning.verdict.requirements import EXECUTION_MARGIN
+from forte.planning.verdict.margin import REST_MARGIN, execution_margin
 from forte.validation import FloatArray
 
 #: Extra clearance (m) the search keeps beyond the kept one (when the start and goal have it).
@@ -131,20 +131,21 @@ def space_bounds(robot: MobileManipulator, q_start: FloatArray, q_goal: FloatArr
     return np.r_[ends.min(axis=0) - reach, lo], np.r_[ends.max(axis=0) + reach, hi]
 
 
-def wanted(clearance: float) -> float:
-    """The clearance (m) a route keeps where its ends allow: the asked one, at least
-    :data:`~forte.planning.verdict.requirements.EXECUTION_MARGIN`, plus :data:`SLIP`."""
-    return max(float(clearance), EXECUTION_MARGIN) + SLIP
+def wanted(clearance: float, base: str | None) -> float:
+    """The clearance (m) a route keeps where its ends allow: the asked one, at least the executor's
+    margin of the ``base`` kind (:func:`~forte.planning.verdict.margin.execution_margin`; ``None``:
+    a configuration held at rest, :data:`~forte.planning.verdict.margin.REST_MARGIN`), plus :data:`SLIP`."""
+    return max(float(clearance), REST_MARGIN if base is None else execution_margin(base)) + SLIP
 
 
 def kept(robot: MobileManipulator, scene: Scene, clearance: float, q_start: FloatArray, q_goal: FloatArray) -> float:
     """The clearance (m) the search keeps: the verdict's
-    (:func:`~forte.planning.verdict.requirements.kept_clearance`: the asked one, at least
-    :data:`~forte.planning.verdict.requirements.EXECUTION_MARGIN` where the ends keep that much)
+    (:func:`~forte.planning.verdict.margin.kept_clearance`: the asked one, at least the executor's
+    margin of the robot's base kind where the ends keep that much)
     plus :data:`SLIP`, lowered to the start's and goal's exact clearance (less
     :data:`ENDS_TOLERANCE`) where they keep less, never below the asked one."""
     ends = ClearanceChecker(robot, scene).evaluate(np.array([q_start, q_goal])).distance
-    return max(float(clearance), min(wanted(clearance), float(ends.min()) - ENDS_TOLERANCE))
+    return max(float(clearance), min(wanted(clearance, robot.base), float(ends.min()) - ENDS_TOLERANCE))
 
 
 class _Budget:

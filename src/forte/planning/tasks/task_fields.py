@@ -177,6 +177,8 @@ _CONTROLLER = [
           Prose("ControlGains'")),
     Field("controller.base_feedforward", BOOL, "add the planned base velocity as feedforward", default=True),
     Field("controller.force_feedforward", BOOL, "add J^T f_d to the arm torques", default=True),
+    Field("controller.base_coupling", BOOL, "the arm's feedforward with the base's motion (whole-body inverse "
+          "dynamics)", default=False),
 ]
 
 

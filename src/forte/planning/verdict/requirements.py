@@ -50,6 +50,7 @@ from forte.planning.verdict.base_requirements import (
     Tipover,
 )
 from forte.planning.verdict.keep_level import TiltLimit
+from forte.planning.verdict.margin import execution_margin, kept_clearance, margin_note
 from forte.planning.verdict.motion_samples import MotionSamples
 from forte.planning.verdict.requirement_base import Context, Measure, Requirement, Violation, exceeded
 from forte.settings import PLAN_SOLVE_CPU_S, PLAN_SOLVE_WALL_S
@@ -272,25 +273,17 @@ def scene_distances(ctx: Context) -> Clearances | None:
     return ctx.distances if ctx.distances is not None else clearances(ctx.robot, ctx.scene, ctx.samples.q)
 
 
-#: The least distance (m) a motion keeps from the scene whatever clearance the task asks, where its
-#: first and last samples keep that much: the executor tracks the spline to a few millimetres (on
-#: MotionBenchMaker, asked clearance 0, 4 of 302 plans keeping 0.02-0.9 mm touched in MuJoCo).
-EXECUTION_MARGIN = 0.002
-
-
-def kept_clearance(asked: float, distance: FloatArray) -> float:
-    """The distance a motion must keep (:class:`Clearance`): the asked one, raised to
-    :data:`EXECUTION_MARGIN` unless the motion's first or last sample is already closer (a start or
-    a goal in near contact stays plannable; the motion then keeps what its ends keep)."""
-    return max(float(asked), min(EXECUTION_MARGIN, float(distance[0]), float(distance[-1])))
+#: The fixed base's executor margin (m); a robot's own: :func:`~forte.planning.verdict.margin.execution_margin`.
+EXECUTION_MARGIN = execution_margin("fixed")
 
 
 @dataclass(frozen=True)
 class Clearance(Requirement):
-    """Every robot part at least the kept clearance (m, :func:`kept_clearance`: ``ctx.clearance``,
-    at least :data:`EXECUTION_MARGIN`) from every scene body and from the floor (the arm's links and
-    the payload; the parts rigid with the base rest on it), at every sample (signed distance on
-    coal's exact geometry, :mod:`forte.model.clearance`); the violation names the closest pair
+    """Every robot part at least the kept clearance (m,
+    :func:`~forte.planning.verdict.margin.kept_clearance`: ``ctx.clearance``, at least the
+    executor's margin of the robot's base kind) from every scene body and from the floor (the arm's
+    links and the payload; the parts rigid with the base rest on it), at every sample (signed distance
+    on coal's exact geometry, :mod:`forte.model.clearance`); the violation names the closest pair
     (``payload vs floor``) and its time. A world without bodies and floor is not checked."""
 
     name: ClassVar[str] = "clearance"
@@ -299,14 +292,14 @@ class Clearance(Requirement):
         found = scene_distances(ctx)
         if found is None:
             return []
-        return [Measure(-found.distance, -kept_clearance(ctx.clearance, found.distance), "m",
+        return [Measure(-found.distance, -kept_clearance(ctx.clearance, found.distance, ctx.robot.base), "m",
                         "the robot comes closer to the scene than the clearance (-distance > -clearance)")]
 
     def check(self, ctx: Context) -> Violation | None:
         found = scene_distances(ctx)
         if found is None:
             return None
-        kept = kept_clearance(ctx.clearance, found.distance)
+        kept = kept_clearance(ctx.clearance, found.distance, ctx.robot.base)
         s, bad = ctx.samples, found.distance < kept
         if not np.any(bad):
             return None
@@ -315,7 +308,7 @@ class Clearance(Requirement):
         first = float(s.t[np.flatnonzero(bad)[0]])
         where = (f"at {len(at_waypoints)} of {len(s.waypoint)} waypoints" if at_waypoints
                  else "between waypoints only")
-        margin = "" if kept == ctx.clearance else f" (the asked {ctx.clearance:g} m raised to what execution needs)"
+        margin = margin_note(ctx.clearance, kept, ctx.robot.base)
         detail = (f"{found.robot[worst]} vs {found.body[worst]} {found.distance[worst]:.3g} m < "
                   f"{kept:g} m{margin} at t = {s.t[worst]:.3g} s (below the clearance {where}, "
                   f"first at t = {first:.3g} s)")

@@ -29,6 +29,7 @@ from forte.model.clearance import clearances
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.planning.tasks.scene_section import DEFAULT_CLEARANCE
+from forte.planning.verdict.margin import kept_clearance
 from forte.planning.verdict.motion_samples import (
     SAMPLES_PER_INTERVAL,
     MotionSamples,
@@ -44,7 +45,6 @@ from forte.planning.verdict.requirements import (
     JointVelocities,
     Requirement,
     Violation,
-    kept_clearance,
     scene_distances,
 )
 from forte.settings import KinematicLimits
@@ -165,7 +165,7 @@ def clearance_summary(ctx: Context) -> dict[str, Any] | None:
     i, s = found.closest(), ctx.samples
     return {"min_m": float(found.distance[i]), "robot": found.robot[i], "body": found.body[i],
             "t": float(s.t[i]), "waypoint": s.segment_of(i),
-            "required_m": kept_clearance(ctx.clearance, found.distance),
+            "required_m": kept_clearance(ctx.clearance, found.distance, ctx.robot.base),
             "witness_robot": found.witness_robot[i].tolist(), "witness_body": found.witness_body[i].tolist(),
             "samples": len(s.t)}
 
