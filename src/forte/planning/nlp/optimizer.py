@@ -109,8 +109,8 @@ class TrajectoryOptimizer:
         keep_level: a tool axis kept near a world axis (``path.keep_level``): one row per waypoint
             the solver orients (:mod:`forte.planning.nlp.keep_level_rows`); ``None``: none.
         on_spline: bound the arm's accelerations on the executed spline too, at its knots
-            (:mod:`forte.planning.nlp.spline_rows`); ``None``: for goal tasks (a given path keeps
-            the paper's rows alone, its refinement rounds do the rest).
+            (:mod:`forte.planning.nlp.spline_rows`); ``None``: ``limits.on_spline``'s choice
+            (:class:`~forte.settings.KinematicLimits`).
     """
 
     def __init__(
@@ -144,8 +144,8 @@ class TrajectoryOptimizer:
         self._warm_solver: Any = None
         self._vel, self._acc = limits.resolve(robot)
         #: the arm's accelerations bounded on the executed spline too (spline_rows); default: goal tasks'
-        self.on_spline = (goal is not None if on_spline is None else on_spline) and limits.enabled \
-            and fix_initial and n >= 3
+        asked = limits.on_spline if on_spline is None else on_spline
+        self.on_spline = (goal is not None if asked is None else asked) and limits.enabled and fix_initial and n >= 3
         terms = resolved.cost_terms(settings)
         self._stage = tuple(t for t in terms if t.kind == "stage")
         self._quadratic = tuple(t for t in terms if t.kind == "quadratic")
