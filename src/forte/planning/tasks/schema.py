@@ -328,9 +328,9 @@ def dataclass_from(reader: Reader, name: str, cls: type, base: Any) -> Any:
                 default = getattr(base, key)
                 size = None if default is None or key in ROBOT_SIZED_FIELDS else len(default)
                 values[key] = tuple(r.vector(key, size))
-            elif kind == "bool":
-                if not isinstance(value, bool):
-                    raise r.error(key, f"expected true or false, got {value!r}")
+            elif kind in ("bool", "bool | None"):
+                if not isinstance(value, bool) and not (value is None and kind == "bool | None"):
+                    raise r.error(key, f"expected true or false{' or null' if '|' in kind else ''}, got {value!r}")
                 values[key] = value
             elif kind == "int":
                 values[key] = r.integer(key, minimum=0, maximum=10**9)
