@@ -152,6 +152,7 @@ def plan_and_simulate(task: Any, folder: Path, simulate: bool, gains: dict[str, 
         "toppra_s": search.get("toppra_duration_s", np.nan), "limiting": search.get("limiting", ""),
         "path_length_rad": float(np.abs(np.diff(plan.q[:, 3:], axis=0)).sum()),
         "iterations": info.get("iterations", -1),
+        "refine_rounds": len(info.get("refinement", {}).get("rounds", [])),
         "route_plan": bool(info.get("fallback", {}).get("kept", False) or info.get("route_first", {}).get("kept")),
         "min_clearance_m": np.nan if plan.verdict.clearance is None else plan.verdict.clearance.get("min_m",
                                                                                                    np.nan),
@@ -237,7 +238,10 @@ def summary(rows: list[dict[str, Any]], command: str) -> str:
               "the verdict asked for slower rounds).",
               f"- Plans that are the route itself (the searched route, timed by toppra, judged feasible as it is: "
               f"before any NLP with `--route-first`, else after the optimized plan was not feasible): "
-              f"{sum(str(r.get('route_plan')) == 'True' for r in feasible)} of the {len(feasible)} feasible plans."]
+              f"{sum(str(r.get('route_plan')) == 'True' for r in feasible)} of the {len(feasible)} feasible plans.",
+              f"- NLP: median {np.nanmedian([_num(r, 'iterations') for r in feasible] or [np.nan]):.0f} "
+              f"IPOPT iterations in the kept solve; {sum(_num(r, 'refine_rounds') > 0 for r in feasible)} of the "
+              f"feasible plans needed a refinement round (the verdict's spline checks after the NLP's rows)."]
     reasons: dict[str, int] = {}
     for r, good in zip(rows, ok, strict=True):
         if not good:
