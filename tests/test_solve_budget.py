@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import forte
@@ -64,11 +65,29 @@ def test_a_plan_whose_budget_is_spent_stops_and_says_why(tmp_path, monkeypatch):
     assert plan.status == "Maximum_CpuTime_Exceeded"
     reason = plan.verdict.reason()
     assert "IPOPT stopped with Maximum_CpuTime_Exceeded (a plan's solves have 120 s of CPU time in all, " \
-           "forte.settings.PLAN_SOLVE_CPU_S" in reason
+           "solver.time_budget_s" in reason
     unbounded = forte.plan(task)
     assert unbounded.verdict.feasible and unbounded.solver["iterations"] > plan.solver["iterations"]
     assert time.process_time() - start < 120
     with solve_budget(3600.0, 0.0):  # its wall time spent
         plan = forte.plan(task)
     assert plan.status == "Maximum_WallTime_Exceeded"
-    assert "(a plan's solves have 300 s of wall time in all, forte.settings.PLAN_SOLVE_WALL_S" in plan.verdict.reason()
+    assert "(a plan's solves have 300 s of wall time in all, 2.5 x solver.time_budget_s" in plan.verdict.reason()
+
+
+def test_a_goal_task_whose_budget_runs_out_gets_its_route_when_feasible(monkeypatch):
+    """A goal task's solves have ``solver.time_budget_s`` (4 s unless given): spent, the optimized
+    plan is not feasible and the route, judged as it is, becomes the plan; the facts say why."""
+    from forte.planning.tasks.goals import GOAL_SOLVE_BUDGET_S
+    from forte.planning.tasks.tasks import load_task
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "around-the-wall.yaml"
+    task = load_task(path)
+    assert task.solver.time_budget_s == GOAL_SOLVE_BUDGET_S
+    spent = replace(task, solver=replace(task.solver, time_budget_s=1e-3))
+    monkeypatch.setattr(budget, "MIN_SOLVE_CPU_S", 1e-3)  # else each solve gets 1 s at least
+    plan = forte.plan(spent)
+    assert plan.solver["time_budget_s"] == 1e-3
+    optimized = plan.solver["fallback"]["optimized"]
+    assert optimized["status"] in ("Maximum_CpuTime_Exceeded", "Maximum_WallTime_Exceeded")
+    assert plan.feasible and str(plan.status).startswith("route:")

@@ -280,6 +280,8 @@ PLAN_SOLVE_CPU_S = 120.0
 #: :data:`PLAN_SOLVE_CPU_S`): the bound a person waits at most on a busy machine, where the CPU
 #: budget can stretch over several times its length. ``Maximum_WallTime_Exceeded`` names it.
 PLAN_SOLVE_WALL_S = 300.0
+#: The wall-clock bound of a plan's solves over its CPU bound (``SolverOptions.time_budget_s``).
+WALL_PER_CPU = PLAN_SOLVE_WALL_S / PLAN_SOLVE_CPU_S
 
 
 @dataclass(frozen=True)
@@ -315,6 +317,10 @@ class SolverOptions:
             capability checked (the verdict's ``capacity``) but not optimized. ``False`` (default)
             optimizes every goal task (the paper's NLP), and the route is the plan only when the
             optimized one is not feasible.
+        time_budget_s: CPU seconds all of a plan's NLP solves may take (its rounds included; the
+            wall-clock bound is 2.5 times as long); ``None``: :data:`PLAN_SOLVE_CPU_S`. A goal
+            task's default is :data:`~forte.planning.tasks.goals.GOAL_SOLVE_BUDGET_S`: its route
+            is the plan when the optimization runs out (:func:`forte.planning.rounds.route_as_plan`).
     """
 
     max_iter: int = 500
@@ -329,6 +335,7 @@ class SolverOptions:
     refine_rounds: int = 3
     backend: str = "ipopt"
     route_first: bool = False
+    time_budget_s: float | None = None
 
     def __post_init__(self) -> None:
         if self.backend not in SOLVER_BACKENDS:

@@ -19,7 +19,7 @@ from forte.force.taskforce import TaskForce
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.planning.methods.catalog import METHODS, Method, get_method, method_names
-from forte.planning.nlp.budget import solve_budget
+from forte.planning.nlp.budget import budget_of, solve_budget
 from forte.planning.rounds import apart, judged, judged_route, own_force, passing, refine, route_as_plan, slower
 from forte.planning.scene.scene_solve import blocked_path
 from forte.planning.search.route import routed
@@ -188,7 +188,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
     elif spec.optimized:
         # J1 on the wrench when the payload needs a moment; the task's own terms (e.g. tipover) added
         solved_as = with_task_terms(for_requirement(spec, force), task.terms)
-        with solve_budget():  # every solve of the plan, its rounds included (settings.PLAN_SOLVE_CPU_S)
+        with solve_budget(*budget_of(task.solver)):  # every solve of the plan, its rounds included
             sol, info = optimize(task, solved_as, force, guess)
             verdict, force = judged(task, sol.q, force, info)
             sol, info, verdict, force = own_force(task, solved_as, force, sol, info, verdict)

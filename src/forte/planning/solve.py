@@ -13,7 +13,7 @@ import numpy as np
 from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE
 from forte.planning.methods.catalog import Method
-from forte.planning.nlp.budget import solve_budget
+from forte.planning.nlp.budget import budget_of, solve_budget
 from forte.planning.nlp.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
 from forte.planning.scene.diagnosis import failed_rows
 from forte.planning.scene.scene_guess import clear_start
@@ -114,8 +114,9 @@ def optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | N
     """Solve the method's NLP (coarse-to-fine unless a guess is given); returns the result and facts
     (the cost terms evaluated with the ``reported`` force, default ``force``); ``self_rows``: with
     rows for the robot's own pairs near the solve (:func:`_apart`)."""
-    with solve_budget():  # a plan's rounds share the plan's budget; a lone call has its own
-        return _optimize(task, method, force, guess, reported, self_rows)
+    with solve_budget(*budget_of(task.solver)):  # a plan's rounds share the plan's; a lone call has its own
+        sol, info = _optimize(task, method, force, guess, reported, self_rows)
+    return sol, info | {"time_budget_s": budget_of(task.solver)[0]}
 
 
 def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None,

@@ -18,8 +18,9 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
+from typing import Any
 
-from forte.settings import PLAN_SOLVE_CPU_S, PLAN_SOLVE_WALL_S
+from forte.settings import PLAN_SOLVE_CPU_S, PLAN_SOLVE_WALL_S, WALL_PER_CPU
 
 #: The process and monotonic times at which the open budget ends (``None``: none open).
 _END: ContextVar[tuple[float, float] | None] = ContextVar("forte_solve_budget_end", default=None)
@@ -38,6 +39,13 @@ def solve_budget(seconds: float = PLAN_SOLVE_CPU_S, wall: float = PLAN_SOLVE_WAL
     finally:
         if token is not None:
             _END.reset(token)
+
+
+def budget_of(options: Any) -> tuple[float, float]:
+    """The CPU and wall seconds of a plan with solver ``options`` (``time_budget_s``, else
+    :data:`~forte.settings.PLAN_SOLVE_CPU_S`; the wall bound :data:`~forte.settings.WALL_PER_CPU` times it)."""
+    cpu = float(options.time_budget_s or PLAN_SOLVE_CPU_S)
+    return cpu, cpu * WALL_PER_CPU
 
 
 def time_left() -> tuple[float, float] | None:

@@ -50,6 +50,10 @@ DEFAULT_GOAL_SAMPLES = 30
 #: 287), while the solves that failed ran to the limit of 500 (tens of seconds with ~1,600 clearance
 #: rows); the route is judged as the plan when the NLP stops (:mod:`forte.planning.planner`).
 GOAL_MAX_ITER = 200
+#: CPU seconds a goal task's NLP solves may take in all when the task file gives none
+#: (``solver.time_budget_s``). The route is the plan when they run out and it passes the verdict
+#: (as when the NLP fails): the NLP's tail then costs seconds, not tens of seconds.
+GOAL_SOLVE_BUDGET_S = 4.0
 #: A configuration goal is met when the last configuration is this close (rad, m) at every coordinate.
 GOAL_CONFIGURATION_TOL = 1e-6
 #: The rule's duration: at least this long (s), and this many times the quintic's bound.

@@ -35,7 +35,7 @@ from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.model.trajectory import StartMotion, quintic_path, start_through
 from forte.planning.tasks.contact_section import read_contact
-from forte.planning.tasks.goals import GOAL_MAX_ITER, Goal, goal_section, goal_targets
+from forte.planning.tasks.goals import GOAL_MAX_ITER, GOAL_SOLVE_BUDGET_S, Goal, goal_section, goal_targets
 from forte.planning.tasks.keep_level import KeepLevel, keep_level_section
 from forte.planning.tasks.motion_section import force_profile, limits_section, path_targets, start_configuration
 from forte.planning.tasks.paths import (
@@ -350,7 +350,8 @@ def task_from_dict(data: Any, path: Path | None = None, mass: float | None = Non
         raise reader.error("force_model", "sets a payload's force; this task gives its force profile directly")
     weights, settings = read_weights(reader, mode, robot)
     solver = dataclass_from(reader, "solver", SolverOptions,
-                            SolverOptions() if goal is None else SolverOptions(max_iter=GOAL_MAX_ITER))
+                            SolverOptions() if goal is None else SolverOptions(max_iter=GOAL_MAX_ITER,
+                                                                               time_budget_s=GOAL_SOLVE_BUDGET_S))
     if targets_at is not None and limits.end_at_rest:
         t, targets_at = ending_at_rest(targets_at, t)
         targets = targets_at(t)

@@ -53,7 +53,7 @@ from forte.planning.verdict.keep_level import TiltLimit
 from forte.planning.verdict.margin import execution_margin, kept_clearance, margin_note
 from forte.planning.verdict.motion_samples import MotionSamples
 from forte.planning.verdict.requirement_base import Context, Measure, Requirement, Violation, exceeded
-from forte.settings import PLAN_SOLVE_CPU_S, PLAN_SOLVE_WALL_S
+from forte.settings import PLAN_SOLVE_CPU_S, WALL_PER_CPU
 from forte.validation import FloatArray
 
 #: End-effector position error (m) and orientation error (rad) a plan may have against its task's path.
@@ -337,8 +337,9 @@ class Solver(Requirement):
             return None
         why = f"IPOPT stopped with {status}" if status not in CONVERGED else "constraints not met"
         if status in ("Maximum_CpuTime_Exceeded", "Maximum_WallTime_Exceeded"):
-            bound = (f"{PLAN_SOLVE_CPU_S:g} s of CPU time in all, forte.settings.PLAN_SOLVE_CPU_S" if "Cpu" in status
-                     else f"{PLAN_SOLVE_WALL_S:g} s of wall time in all, forte.settings.PLAN_SOLVE_WALL_S")
+            cpu = float(ctx.solver.get("time_budget_s", PLAN_SOLVE_CPU_S))
+            bound = (f"{cpu:g} s of CPU time in all, solver.time_budget_s" if "Cpu" in status
+                     else f"{cpu * WALL_PER_CPU:g} s of wall time in all, {WALL_PER_CPU:g} x solver.time_budget_s")
             why += f" (a plan's solves have {bound}: a solve that long does not converge; the plan is the last iterate)"
         detail = f"{why}; constraint violation {violation:.3g} (accepted up to {accepted:g})"
         if "failed_rows" in ctx.solver:  # what the last iterate could not meet (forte.planning.scene.diagnosis)
