@@ -218,3 +218,19 @@ def test_retimed_path_keeps_the_limits_and_a_slower_robot_takes_longer(panda, wa
     assert stretched.duration == pytest.approx(1.5 * timed.duration)
     assert timed.limiting.split(" of ")[0] in ("velocity", "acceleration")
     assert timed.limiting.split(" of ")[1] in panda.arm_joints
+
+
+def test_a_segment_into_a_joint_limit_is_free_despite_round_off(panda, wall):
+    """``a + (b - a) * 1.0`` rounds past ``b`` for some values (-0.7 to -2.8973: by 4e-16): a goal
+    exactly at a joint's limit failed every dense segment check into it at its last state, and
+    the repairs searched the same segment again (MotionBenchMaker's table_under_pick 0041)."""
+    a, b = np.r_[START[:3], -0.7, START[4:]], np.r_[START[:3], panda.lower[0], START[4:]]
+    assert -0.7 + (panda.lower[0] + 0.7) * 1.0 < panda.lower[0]  # the round-off this is about
+    checker = StateChecker(panda, Scene((), None), 0.0)
+    assert checker.valid(a) and checker.valid(b)
+    assert segment_free(checker, a, b, DENSE_STEP) and segment_free(checker, b, a, DENSE_STEP)
+    from forte.planning.search.validity import on_segment
+
+    states = on_segment(a, b, np.linspace(0.0, 1.0, 7))
+    assert np.array_equal(states[0], a) and np.array_equal(states[-1], b)
+    assert np.allclose(states, a + np.linspace(0.0, 1.0, 7)[:, None] * (b - a), atol=1e-15)

@@ -52,7 +52,7 @@ from forte.exceptions import InvalidInputError
 from forte.model.clearance import ClearanceChecker
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
-from forte.planning.search.validity import StateChecker, segment_free
+from forte.planning.search.validity import StateChecker, on_segment, segment_free
 from forte.planning.verdict.requirements import EXECUTION_MARGIN
 from forte.validation import FloatArray
 
@@ -258,7 +258,7 @@ def _spaced(path: FloatArray) -> FloatArray:
     out = [path[:1]]
     for a, b in zip(path[:-1], path[1:], strict=True):
         n = max(1, int(np.ceil(np.linalg.norm(b - a) / SPACING)))
-        out.append(a + (b - a) * (np.arange(1, n + 1) / n)[:, None])
+        out.append(on_segment(a, b, np.arange(1, n + 1) / n))
     return np.concatenate(out)
 
 
