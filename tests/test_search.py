@@ -234,3 +234,19 @@ def test_a_segment_into_a_joint_limit_is_free_despite_round_off(panda, wall):
     states = on_segment(a, b, np.linspace(0.0, 1.0, 7))
     assert np.array_equal(states[0], a) and np.array_equal(states[-1], b)
     assert np.allclose(states, a + np.linspace(0.0, 1.0, 7)[:, None] * (b - a), atol=1e-15)
+
+
+def test_the_last_share_of_the_budget_goes_to_the_lazy_planner(panda, wall, monkeypatch):
+    """RRT-Connect finds the way around the wall; with no share left to it, the lazy planner
+    (LBKPIECE1) does, and its path passes the same dense check."""
+    import forte.planning.search.sampling as sampling
+
+    assert find_path(panda, wall, START, GOAL, 0.0, seed=0, checks=50_000, time_limit=60.0).planner == "RRTConnect"
+    monkeypatch.setattr(sampling, "MARGIN_SHARE", 0.0)
+    monkeypatch.setattr(sampling, "LAZY_SHARE", 0.0)
+    result = find_path(panda, wall, START, GOAL, 0.0, seed=0, checks=50_000, time_limit=60.0)
+    assert result.found and result.planner == sampling.LAZY == "LBKPIECE1"
+    assert np.array_equal(result.q[0], START) and np.allclose(result.q[-1], GOAL)
+    dense_checker = StateChecker(panda, wall, result.clearance)
+    assert all(segment_free(dense_checker, a, b, DENSE_STEP) for a, b in zip(result.q[:-1], result.q[1:], strict=True))
+    assert clearances(panda, wall, dense(result.q, 100)).distance.min() >= EXECUTION_MARGIN

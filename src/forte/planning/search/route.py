@@ -77,7 +77,8 @@ def segment_path(task: Task, q0: FloatArray, q1: FloatArray) -> tuple[FloatArray
             found = find_path(task.robot, task.scene, q0, q1, task.clearance, time_limit=SEARCH_TIME_LIMIT,
                               seed=task.solver.hold_seed, checks=SEARCH_CHECKS)
             facts |= {"searched": True, "states": found.states, "checks": found.checks,
-                      "shortcut_s": found.shortcut_s, "kept_clearance_m": found.clearance, "repairs": found.repairs}
+                      "shortcut_s": found.shortcut_s, "kept_clearance_m": found.clearance, "repairs": found.repairs,
+                      "planner": found.planner}
             if not found.found:
                 return None, facts | {"time_s": time.perf_counter() - begin, "reason": f"search: {found.reason}"}
             facts["time_s"] = time.perf_counter() - begin
