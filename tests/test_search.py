@@ -250,3 +250,21 @@ def test_the_last_share_of_the_budget_goes_to_the_lazy_planner(panda, wall, monk
     dense_checker = StateChecker(panda, wall, result.clearance)
     assert all(segment_free(dense_checker, a, b, DENSE_STEP) for a, b in zip(result.q[:-1], result.q[1:], strict=True))
     assert clearances(panda, wall, dense(result.q, 100)).distance.min() >= EXECUTION_MARGIN
+
+
+def test_a_repair_that_returns_the_segment_it_was_sent_fails_at_once(panda, wall, monkeypatch):
+    """A segment OMPL's motion check passes and the dense check fails comes back unchanged from
+    its repair: the path fails then, instead of searching the same segment every round."""
+    import forte.planning.search.sampling as sampling
+
+    calls = []
+
+    def same_segment(robot, checker, a, b, budget, share, seed, step, planner="RRTConnect"):
+        calls.append(step)
+        return np.array([a, b]), 1, 0.0
+
+    monkeypatch.setattr(sampling, "_search", same_segment)
+    budget = sampling._Budget(60.0, None)
+    dense_checker = budget.checker(panda, wall, EXECUTION_MARGIN + SLIP, None)
+    path, _, repairs = sampling._repaired(panda, dense_checker, np.array([START, GOAL]), budget, 0)
+    assert path is None and repairs == 1 and calls == [DENSE_STEP]

@@ -252,7 +252,8 @@ def _repaired(robot: MobileManipulator, dense: StateChecker, path: FloatArray, b
     """``path`` without its vertices that fail ``dense``, and with every segment that fails the dense
     check (:func:`segment_free` at :data:`DENSE_STEP`) replaced by a search between its ends at that step, at most
     :data:`REPAIRS` rounds; the path (``None`` when a repair fails), the states sampled and the
-    segments repaired."""
+    segments repaired. A repair that returns the segment it was sent (OMPL checks its motions at
+    other states than :func:`segment_free`) fails the path at once."""
     states, repairs = 0, 0
     path = path[[dense.valid(q) for q in path]]  # a smoothed vertex may fail (OMPL warns); the ends pass
     for round_ in range(REPAIRS + 1):
@@ -265,8 +266,8 @@ def _repaired(robot: MobileManipulator, dense: StateChecker, path: FloatArray, b
         for n, k in enumerate(bad):
             sub, more, _s = _search(robot, dense, path[k], path[k + 1], budget, 1.0, seed, DENSE_STEP)
             states, repairs = states + more, repairs + 1
-            if sub is None:
-                return None, states, repairs
+            if sub is None or len(sub) == 2:  # two states: the search's own check passes the segment
+                return None, states, repairs  # the dense one fails, and would again every round
             end = bad[n + 1] if n + 1 < len(bad) else len(path) - 1
             pieces += [sub[1:], path[k + 2: end + 1]]
         path = np.concatenate(pieces)
