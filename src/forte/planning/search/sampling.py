@@ -33,7 +33,9 @@ no joint apart by more than :data:`DENSE_STEP` (:func:`~forte.planning.search.va
 with the kept clearance. A vertex that fails is dropped and a segment that fails is replaced by a
 search between its ends at the dense step (:data:`REPAIRS` rounds); a path the repairs cannot
 mend leaves what is left of the budget to one more search at the dense step from the start
-(MotionBenchMaker's cage 0022: found in 107 k checks; it stopped at 59 k before). :data:`SLIP`: a robot point
+(cage 0022 was found so in 107 k checks; its repairs failed only because the dense check's last
+state rounded past its goal's joint limit, :func:`~forte.planning.search.validity.on_segment`:
+now 5.9 k). :data:`SLIP`: a robot point
 up to ~1 m from the moving joints moves <= h = 5 mm per dense step; passing a body's edge at
 distance c between two checked states it comes within ``sqrt(c^2 + h^2 / 4) - c`` of them less,
 0.9 mm at c = 3 mm (measured on a bookshelf route: 0.2 mm at this step, 2.0 mm at 0.015 rad).
