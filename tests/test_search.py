@@ -218,3 +218,53 @@ def test_retimed_path_keeps_the_limits_and_a_slower_robot_takes_longer(panda, wa
     assert stretched.duration == pytest.approx(1.5 * timed.duration)
     assert timed.limiting.split(" of ")[0] in ("velocity", "acceleration")
     assert timed.limiting.split(" of ")[1] in panda.arm_joints
+
+
+def test_a_segment_into_a_joint_limit_is_free_despite_round_off(panda, wall):
+    """``a + (b - a) * 1.0`` rounds past ``b`` for some values (-0.7 to -2.8973: by 4e-16): a goal
+    exactly at a joint's limit failed every dense segment check into it at its last state, and
+    the repairs searched the same segment again (MotionBenchMaker's table_under_pick 0041)."""
+    a, b = np.r_[START[:3], -0.7, START[4:]], np.r_[START[:3], panda.lower[0], START[4:]]
+    assert -0.7 + (panda.lower[0] + 0.7) * 1.0 < panda.lower[0]  # the round-off this is about
+    checker = StateChecker(panda, Scene((), None), 0.0)
+    assert checker.valid(a) and checker.valid(b)
+    assert segment_free(checker, a, b, DENSE_STEP) and segment_free(checker, b, a, DENSE_STEP)
+    from forte.planning.search.validity import on_segment
+
+    states = on_segment(a, b, np.linspace(0.0, 1.0, 7))
+    assert np.array_equal(states[0], a) and np.array_equal(states[-1], b)
+    assert np.allclose(states, a + np.linspace(0.0, 1.0, 7)[:, None] * (b - a), atol=1e-15)
+
+
+def test_the_last_share_of_the_budget_goes_to_the_lazy_planner(panda, wall, monkeypatch):
+    """RRT-Connect finds the way around the wall; with no share left to it, the lazy planner
+    (LBKPIECE1) does, and its path passes the same dense check."""
+    import forte.planning.search.sampling as sampling
+
+    assert find_path(panda, wall, START, GOAL, 0.0, seed=0, checks=50_000, time_limit=60.0).planner == "RRTConnect"
+    monkeypatch.setattr(sampling, "MARGIN_SHARE", 0.0)
+    monkeypatch.setattr(sampling, "LAZY_SHARE", 0.0)
+    result = find_path(panda, wall, START, GOAL, 0.0, seed=0, checks=50_000, time_limit=60.0)
+    assert result.found and result.planner == sampling.LAZY == "LBKPIECE1"
+    assert np.array_equal(result.q[0], START) and np.allclose(result.q[-1], GOAL)
+    dense_checker = StateChecker(panda, wall, result.clearance)
+    assert all(segment_free(dense_checker, a, b, DENSE_STEP) for a, b in zip(result.q[:-1], result.q[1:], strict=True))
+    assert clearances(panda, wall, dense(result.q, 100)).distance.min() >= EXECUTION_MARGIN
+
+
+def test_a_repair_that_returns_the_segment_it_was_sent_fails_at_once(panda, wall, monkeypatch):
+    """A segment OMPL's motion check passes and the dense check fails comes back unchanged from
+    its repair: the path fails then, instead of searching the same segment every round."""
+    import forte.planning.search.sampling as sampling
+
+    calls = []
+
+    def same_segment(robot, checker, a, b, budget, share, seed, step, planner="RRTConnect"):
+        calls.append(step)
+        return np.array([a, b]), 1, 0.0
+
+    monkeypatch.setattr(sampling, "_search", same_segment)
+    budget = sampling._Budget(60.0, None)
+    dense_checker = budget.checker(panda, wall, EXECUTION_MARGIN + SLIP, None)
+    path, _, repairs = sampling._repaired(panda, dense_checker, np.array([START, GOAL]), budget, 0)
+    assert path is None and repairs == 1 and calls == [DENSE_STEP]

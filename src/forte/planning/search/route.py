@@ -9,8 +9,9 @@ For a goal task (:mod:`forte.planning.tasks.goals`) the end effector's path is f
    :func:`~forte.planning.search.validity.segment_free`), else the path of a sampling-based
    search (:func:`~forte.planning.search.sampling.find_path`: RRT-Connect, shortcut);
 2. timed by the time-optimal law along it under the velocity and acceleration limits
-   (:func:`~forte.planning.search.timing.retime`, toppra): without ``duration:`` in the task, the
-   plan's duration is toppra's times :data:`DURATION_MARGIN` (at least
+   (:func:`~forte.planning.search.timing.retime`, toppra; with knots at the path's corners where
+   its spline would cut them below the path's clearance, :mod:`~forte.planning.search.corners`):
+   without ``duration:`` in the task, the plan's duration is toppra's times :data:`DURATION_MARGIN` (at least
    :data:`~forte.planning.tasks.goals.MIN_GOAL_DURATION_S`; the payload's torques and the capacity
    margin are not in toppra's problem, the planner lengthens a plan that fails on them); with it,
    the route keeps its shape on the given time span. The route arrives at ``t_{N-3}`` and rests over
@@ -31,9 +32,9 @@ from typing import Any
 
 import numpy as np
 
+from forte.planning.search.corners import hugging_law
 from forte.planning.search.goal_ik import free_goal
 from forte.planning.search.sampling import DENSE_STEP, find_path, kept
-from forte.planning.search.timing import retime
 from forte.planning.search.validity import StateChecker, segment_free
 from forte.planning.tasks.goals import MIN_GOAL_DURATION_S, goal_targets
 from forte.planning.tasks.tasks import Task
@@ -76,7 +77,8 @@ def segment_path(task: Task, q0: FloatArray, q1: FloatArray) -> tuple[FloatArray
             found = find_path(task.robot, task.scene, q0, q1, task.clearance, time_limit=SEARCH_TIME_LIMIT,
                               seed=task.solver.hold_seed, checks=SEARCH_CHECKS)
             facts |= {"searched": True, "states": found.states, "checks": found.checks,
-                      "shortcut_s": found.shortcut_s, "kept_clearance_m": found.clearance, "repairs": found.repairs}
+                      "shortcut_s": found.shortcut_s, "kept_clearance_m": found.clearance, "repairs": found.repairs,
+                      "planner": found.planner}
             if not found.found:
                 return None, facts | {"time_s": time.perf_counter() - begin, "reason": f"search: {found.reason}"}
             facts["time_s"] = time.perf_counter() - begin
@@ -140,7 +142,8 @@ def _via_route(task: Task, stretch: float, paths: list[FloatArray], facts: dict[
     time-optimal duration, ``w_i`` its share of the arrival time under the vias' rule, the share of
     the slowest leg setting it), as a route without vias gets ``DURATION_MARGIN stretch d``."""
     begin = time.perf_counter()
-    legs = [retime(task.robot, p, samples=DENSE_SAMPLES, limits=task.limits) for p in paths]
+    legs = [hugging_law(task.robot, task.scene, p, task.clearance, samples=DENSE_SAMPLES, limits=task.limits)[0]
+            for p in paths]
     shares = np.diff(np.r_[0.0, [v.fraction for v in task.goal.vias], 1.0])
     slowest = int(np.argmax([leg.duration / max(w, 1e-9) for leg, w in zip(legs, shares, strict=True)]))
     facts |= {"toppra_duration_s": float(sum(leg.duration for leg in legs)), "limiting": legs[slowest].limiting,
@@ -174,9 +177,10 @@ def routed(task: Task, stretch: float = 1.0) -> tuple[Task, dict[str, Any]]:
     if path is None:
         return task, facts | ({"reason": f"{facts['reason']} ({goal_ik})"} if goal_ik else {})
     begin = time.perf_counter()
-    dense = retime(task.robot, path, samples=DENSE_SAMPLES, limits=task.limits)
-    facts |= {"toppra_duration_s": dense.duration, "limiting": dense.limiting, "waypoints": len(path),
-              "retime_s": time.perf_counter() - begin}
+    dense, corner_facts = hugging_law(task.robot, task.scene, path, task.clearance, samples=DENSE_SAMPLES,
+                                      limits=task.limits)
+    facts |= corner_facts | {"toppra_duration_s": dense.duration, "limiting": dense.limiting,
+                             "waypoints": len(path), "retime_s": time.perf_counter() - begin}
     if task.goal.duration_given:
         t = task.t
     else:

@@ -16,6 +16,16 @@ own). A route at clearance 0 (a cage's bar passed at 0.1-2 mm) would be refused 
 first keeps :data:`SEARCH_MARGIN` more, for :data:`MARGIN_SHARE` of its budget, so the NLP starts
 strictly inside; then the kept clearance alone (a shelf's slot is often open only there).
 
+**The lazy tail.** RRT-Connect checks every motion it tries; in a long narrow passage most tries
+collide, and their checks are the budget. What :data:`LAZY_SHARE` of the budget leaves is spent
+by :data:`LAZY`, OMPL's lazy bidirectional KPIECE, at the kept clearance: it grows its trees
+unchecked and checks the motions of a candidate path only, dropping those that fail. On
+MotionBenchMaker's bookshelf_tall 0002 (the hand reaches under a shelf between two cans, 3-25 mm
+from them over the last 3 rad of the path) RRT-Connect needed 76-204 k checks over seeds 0-3 (not
+found at seed 0 in 150 k); LBKPIECE1 alone 3.9-7.3 k at seeds 0-5. It is the tail, not the
+planner: on 33 other problems (0001-0005 of each scenario) it needed 2-4 times RRT-Connect's
+checks in the cages (cage 0003: 64 k against 13 k) and made their paths 10-40 % longer.
+
 **Two check steps.** RRT-Connect (range :data:`RANGE`) checks its motions every
 :data:`CHECK_STEP` (Euclidean C-space distance, MoveIt's default resolution on the Panda); its
 path, shortcut by OMPL's ``simplifySolution``, is then checked densely: every segment at states
@@ -23,7 +33,9 @@ no joint apart by more than :data:`DENSE_STEP` (:func:`~forte.planning.search.va
 with the kept clearance. A vertex that fails is dropped and a segment that fails is replaced by a
 search between its ends at the dense step (:data:`REPAIRS` rounds); a path the repairs cannot
 mend leaves what is left of the budget to one more search at the dense step from the start
-(MotionBenchMaker's cage 0022: found in 107 k checks; it stopped at 59 k before). :data:`SLIP`: a robot point
+(cage 0022 was found so in 107 k checks; its repairs failed only because the dense check's last
+state rounded past its goal's joint limit, :func:`~forte.planning.search.validity.on_segment`:
+now 5.9 k). :data:`SLIP`: a robot point
 up to ~1 m from the moving joints moves <= h = 5 mm per dense step; passing a body's edge at
 distance c between two checked states it comes within ``sqrt(c^2 + h^2 / 4) - c`` of them less,
 0.9 mm at c = 3 mm (measured on a bookshelf route: 0.2 mm at this step, 2.0 mm at 0.015 rad).
@@ -52,7 +64,7 @@ from forte.exceptions import InvalidInputError
 from forte.model.clearance import ClearanceChecker
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import Scene
-from forte.planning.search.validity import StateChecker, segment_free
+from forte.planning.search.validity import StateChecker, on_segment, segment_free
 from forte.planning.verdict.margin import REST_MARGIN, execution_margin
 from forte.validation import FloatArray
 
@@ -80,6 +92,11 @@ ENDS_TOLERANCE = 1e-4
 REPAIRS = 3
 #: The planners find_path knows.
 PLANNERS = ("rrtconnect",)
+#: The share of the budget after which the last level's RRT-Connect hands the rest to the lazy
+#: planner (:data:`LAZY`).
+LAZY_SHARE = 0.7
+#: OMPL's lazy bidirectional KPIECE: it checks a motion only when it lies on a candidate path.
+LAZY = "LBKPIECE1"
 
 
 class SearchResult(NamedTuple):
@@ -87,7 +104,8 @@ class SearchResult(NamedTuple):
     (``""`` when found); ``states``: states the planner sampled; ``checks``: validity checks;
     ``time_s``: wall time of the whole search, of which ``shortcut_s`` went to shortcutting the
     found path; ``clearance``: the scene distance (m) the path keeps at every state
-    :data:`DENSE_STEP` apart (:func:`kept`); ``repairs``: segments the dense check sent back."""
+    :data:`DENSE_STEP` apart (:func:`kept`); ``repairs``: segments the dense check sent back;
+    ``planner``: OMPL's planner that found it (``RRTConnect`` or :data:`LAZY`)."""
 
     q: FloatArray | None
     found: bool
@@ -98,6 +116,7 @@ class SearchResult(NamedTuple):
     shortcut_s: float = 0.0
     clearance: float = 0.0
     repairs: int = 0
+    planner: str = ""
 
 
 def ompl_modules() -> tuple[Any, Any, Any]:
@@ -204,10 +223,11 @@ def find_path(robot: MobileManipulator, scene: Scene, q_start: Any, q_goal: Any,
     levels = [budget.checker(robot, scene, c, floor) for c in (keep + SEARCH_MARGIN, keep)]
     levels = [c for c in levels if c.valid(q_start) and c.valid(q_goal)] or [checker]
     dense = levels[-1]  # the kept clearance (the asked one where round-off makes an end fail it)
-    path, states, shortcut, repairs = None, 0, 0.0, 0
-    for i, level in enumerate(levels):  # first with the margin, for part of the budget: it may close a passage
-        share = MARGIN_SHARE if i < len(levels) - 1 else 1.0
-        path, more, shortcut = _search(robot, level, q_start, q_goal, budget, share, seed, CHECK_STEP)
+    path, states, shortcut, repairs, name = None, 0, 0.0, 0, "RRTConnect"
+    stages = [(level, MARGIN_SHARE, "RRTConnect") for level in levels[:-1]]  # the margin may close a passage
+    stages += [(levels[-1], LAZY_SHARE, "RRTConnect"), (levels[-1], 1.0, LAZY)]
+    for level, share, name in stages:
+        path, more, shortcut = _search(robot, level, q_start, q_goal, budget, share, seed, CHECK_STEP, name)
         states += more
         if path is not None:
             path, more, repairs = _repaired(robot, dense, path, budget, seed)
@@ -215,6 +235,7 @@ def find_path(robot: MobileManipulator, scene: Scene, q_start: Any, q_goal: Any,
         if path is not None:
             break
     if path is None and not budget.over():  # a coarse path the repairs could not mend: the rest, densely
+        name = "RRTConnect"
         path, more, shortcut = _search(robot, dense, q_start, q_goal, budget, 1.0, seed, DENSE_STEP)
         states += more
         if path is not None:
@@ -225,7 +246,8 @@ def find_path(robot: MobileManipulator, scene: Scene, q_start: Any, q_goal: Any,
         spent = f"{budget.spent} state checks" if checks is not None and elapsed < time_limit else f"{time_limit:g} s"
         return SearchResult(None, False, f"no collision-free path in {spent} ({states} states sampled, "
                             f"{elapsed:.1f} s)", states, budget.spent, elapsed, repairs=repairs)
-    return SearchResult(_spaced(path), True, "", states, budget.spent, elapsed, shortcut, dense.clearance, repairs)
+    return SearchResult(_spaced(path), True, "", states, budget.spent, elapsed, shortcut, dense.clearance, repairs,
+                        name)
 
 
 def _repaired(robot: MobileManipulator, dense: StateChecker, path: FloatArray, budget: _Budget,
@@ -233,7 +255,8 @@ def _repaired(robot: MobileManipulator, dense: StateChecker, path: FloatArray, b
     """``path`` without its vertices that fail ``dense``, and with every segment that fails the dense
     check (:func:`segment_free` at :data:`DENSE_STEP`) replaced by a search between its ends at that step, at most
     :data:`REPAIRS` rounds; the path (``None`` when a repair fails), the states sampled and the
-    segments repaired."""
+    segments repaired. A repair that returns the segment it was sent (OMPL checks its motions at
+    other states than :func:`segment_free`) fails the path at once."""
     states, repairs = 0, 0
     path = path[[dense.valid(q) for q in path]]  # a smoothed vertex may fail (OMPL warns); the ends pass
     for round_ in range(REPAIRS + 1):
@@ -246,8 +269,8 @@ def _repaired(robot: MobileManipulator, dense: StateChecker, path: FloatArray, b
         for n, k in enumerate(bad):
             sub, more, _s = _search(robot, dense, path[k], path[k + 1], budget, 1.0, seed, DENSE_STEP)
             states, repairs = states + more, repairs + 1
-            if sub is None:
-                return None, states, repairs
+            if sub is None or len(sub) == 2:  # two states: the search's own check passes the segment
+                return None, states, repairs  # the dense one fails, and would again every round
             end = bad[n + 1] if n + 1 < len(bad) else len(path) - 1
             pieces += [sub[1:], path[k + 2: end + 1]]
         path = np.concatenate(pieces)
@@ -259,15 +282,16 @@ def _spaced(path: FloatArray) -> FloatArray:
     out = [path[:1]]
     for a, b in zip(path[:-1], path[1:], strict=True):
         n = max(1, int(np.ceil(np.linalg.norm(b - a) / SPACING)))
-        out.append(a + (b - a) * (np.arange(1, n + 1) / n)[:, None])
+        out.append(on_segment(a, b, np.arange(1, n + 1) / n))
     return np.concatenate(out)
 
 
 def _search(robot: MobileManipulator, checker: StateChecker, q_start: FloatArray, q_goal: FloatArray,
-            budget: _Budget, share: float, seed: int, step: float) -> tuple[FloatArray | None, int, float]:
-    """RRT-Connect (range :data:`RANGE`, motions checked every ``step``) until ``share`` of the
-    budget is spent, shortcut; the path's vertices (or ``None``), the states sampled and the
-    shortcut's time (s)."""
+            budget: _Budget, share: float, seed: int, step: float,
+            planner: str = "RRTConnect") -> tuple[FloatArray | None, int, float]:
+    """OMPL's ``planner`` (RRT-Connect, or :data:`LAZY`; range :data:`RANGE`, motions checked every
+    ``step``) until ``share`` of the budget is spent, shortcut; the path's vertices (or ``None``),
+    the states sampled and the shortcut's time (s)."""
     ob, og, ou = ompl_modules()
     ou.setLogLevel(ou.LogLevel.LOG_NONE)  # re-seeding after an earlier search logs an error, yet
     ou.RNG.setSeed(int(seed) + 1)  # every generator made after it (planner, sampler) is seeded; 0 = none
@@ -294,9 +318,9 @@ def _search(robot: MobileManipulator, checker: StateChecker, q_start: FloatArray
     for i, j in enumerate(joints):
         start[i], goal[i] = float(q_start[j]), float(q_goal[j])
     setup.setStartAndGoalStates(start, goal)
-    rrt = og.RRTConnect(info)
-    rrt.setRange(RANGE)
-    setup.setPlanner(rrt)
+    made = getattr(og, planner)(info)
+    made.setRange(RANGE)
+    setup.setPlanner(made)
     solved = setup.solve(budget.condition(ob, share)) and setup.haveExactSolutionPath()
     data = ob.PlannerData(info)
     setup.getPlannerData(data)

@@ -173,10 +173,20 @@ class StateChecker:
         return "" if self.valid(q) else "in collision (hull check)"
 
 
+def on_segment(q_a: Any, q_b: Any, s: Any) -> FloatArray:
+    """The states ``q_a + s (q_b - q_a)`` (one row per ``s`` in [0, 1]), each joint kept between
+    its two ends: the product rounds past ``q_b`` at ``s = 1`` by an ulp, which puts a goal at a
+    joint's limit out of range (MotionBenchMaker's table_under_pick 0041: every segment into its
+    goal failed the dense check at its last state)."""
+    q_a, q_b = np.asarray(q_a, dtype=float), np.asarray(q_b, dtype=float)
+    s = np.atleast_1d(np.asarray(s, dtype=float))
+    return np.clip(q_a + s[:, None] * (q_b - q_a), np.minimum(q_a, q_b), np.maximum(q_a, q_b))
+
+
 def segment_free(checker: StateChecker, q_a: Any, q_b: Any, resolution: float = 0.02) -> bool:
     """Whether the straight C-space segment from ``q_a`` to ``q_b`` is free: ``checker.valid`` at
     both ends and at ``ceil(|q_b - q_a|_inf / resolution)`` equal steps between (no joint moves more
-    than ``resolution`` rad, or m for the base, between two checked states)."""
+    than ``resolution`` rad, or m for the base, between two checked states; :func:`on_segment`)."""
     q_a, q_b = np.asarray(q_a, dtype=float), np.asarray(q_b, dtype=float)
     steps = max(1, int(np.ceil(np.max(np.abs(q_b - q_a)) / resolution)))
-    return all(checker.valid(q_a + (q_b - q_a) * s) for s in np.linspace(0.0, 1.0, steps + 1))
+    return all(checker.valid(q) for q in on_segment(q_a, q_b, np.linspace(0.0, 1.0, steps + 1)))
