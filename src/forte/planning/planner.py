@@ -28,6 +28,7 @@ from forte.planning.tasks.tasks import Task
 from forte.planning.tasks.terms_section import with_task_terms
 from forte.planning.terms.wrench_terms import for_requirement
 from forte.planning.verdict.evaluation import evaluate
+from forte.planning.verdict.goal_load import said_at_goal
 from forte.planning.verdict.start_load import said_at_start
 from forte.planning.verdict.verdict import SOLVER_FAILED, Verdict
 from forte.validation import FloatArray
@@ -205,6 +206,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         q, solved, status = spec.produce(task), True, spec.status
         verdict, force = judged(task, q, force)
     verdict = said_at_start(task, verdict)  # a start that cannot carry the load is no plan's doing
+    verdict = said_at_goal(task, q, verdict)  # nor a goal that cannot hold it
     info["wall_time_s"] = time.perf_counter() - start
     if task.goal is not None:  # the plan's own end-effector motion (its force is the judged one)
         task = task.following(q)
