@@ -181,19 +181,20 @@ def slower(unrouted: Task, spec: Method, task: Task, sol: SolverResult, info: di
     converged plan fails only on what a slower motion fixes (:data:`BY_DURATION`: the payload's
     torques and the capacity margin are not in toppra's problem): planned again on a route
     :data:`SLOWER` times longer, at most :data:`SLOWER_ROUNDS` times; the first feasible plan is kept.
-    When the optimized plan on the longer route is not feasible (its NLP breaks what the route
-    keeps, e.g. a cut corner's clearance) and the task's own route fails as the plan too (else
-    :func:`route_as_plan` keeps that faster one), the longer route itself is judged as the plan
-    (:func:`judged_route`) and kept when feasible: the arm's inertial torques fall as
-    ``1 / stretch^2`` along the same path, so a route that failed on capacity only by the motion's
-    share passes when slower (MotionBenchMaker's table_pick 0003 with 1.5 kg: 6.7 N short on
-    toppra's x 1.5, the route feasible on x 2.25). A configuration goal that cannot hold the load at
-    rest (:func:`~forte.planning.verdict.goal_load.goal_load`) is not slowed down: no motion ending
-    there can. ``info["search"]`` records the route, the
-    duration and the limit that set it; a kept route's ``info["fallback"]`` says so."""
+    When no optimized plan on a longer route is feasible (its NLP breaks what the route keeps, e.g.
+    a cut corner's clearance) and the task's own route fails as the plan too (else
+    :func:`route_as_plan` keeps that faster one), the longer routes themselves are judged as the
+    plan (:func:`judged_route`), the shortest first, and the first feasible one is kept: the arm's
+    inertial torques fall as ``1 / stretch^2`` along the same path, so a route that failed on
+    capacity only by the motion's share passes when slower (MotionBenchMaker's table_pick 0003 with
+    1.5 kg: 6.7 N short on toppra's x 1.5, the route feasible on x 2.25). A configuration goal
+    that cannot hold the load at rest (:func:`~forte.planning.verdict.goal_load.goal_load`) is not
+    slowed down: no motion ending there can. ``info["search"]`` records the route, the duration and
+    the limit that set it; a kept route's ``info["fallback"]`` says so."""
     rounds: list[dict[str, Any]] = []
+    trials: list[tuple[Task, SolverResult, dict[str, Any], Verdict, TaskForce]] = []
     limiting = route.get("limiting", "")
-    stretch, as_fast = 1.0, None
+    stretch = 1.0
     held = task.goal.pose is not None or "capacity" not in verdict.failed or goal_load(task, sol.q[-1]) is None
     while (not task.goal.duration_given and sol.success and not verdict.feasible and len(rounds) < SLOWER_ROUNDS
            and set(verdict.failed) <= BY_DURATION and held):
@@ -202,34 +203,37 @@ def slower(unrouted: Task, spec: Method, task: Task, sol: SolverResult, info: di
         trial_task = trial_task.following(trial_task.goal.route)
         trial, trial_info = optimize(trial_task, spec, trial_task.force(), None)
         trial_verdict, trial_force = judged(trial_task, trial.q, trial_task.force(), trial_info)
-        record = {"duration_s": float(trial_task.t[-1]), "verdict": trial_verdict.label,
-                  "failed": list(trial_verdict.failed), "iterations": trial.iterations}
-        rounds.append(record)
-        if not trial_verdict.feasible and len(trial_task.goal.route) == trial_task.n:
-            if as_fast is None:  # the task's own route as the plan (route_as_plan's next) is the faster one
-                as_fast = judged_route(task, force)[1].feasible
-            if not as_fast:
-                trial_task, trial, trial_info, trial_verdict, trial_force = _slower_route(
-                    trial_task, trial, trial_info, trial_verdict, record)
+        rounds.append({"duration_s": float(trial_task.t[-1]), "verdict": trial_verdict.label,
+                       "failed": list(trial_verdict.failed), "iterations": trial.iterations})
+        trials.append((trial_task, trial, trial_info, trial_verdict, trial_force))
         if trial_verdict.feasible or not trial.success:
-            limiting = f"{', '.join(verdict.failed)} with the task's force" if trial_verdict.feasible else limiting
-            if trial_verdict.feasible:
-                task, sol, info, verdict, force = trial_task, trial, trial_info, trial_verdict, trial_force
             break
+    faster = task.goal.route is not None and len(task.goal.route) == task.n  # route_as_plan's next try
+    if trials and not trials[-1][3].feasible and not (faster and judged_route(task, force)[1].feasible):
+        for (trial_task, trial, trial_info, trial_verdict, _), record in zip(trials, rounds, strict=True):
+            kept = _slower_route(trial_task, trial, trial_info, trial_verdict, record)
+            if kept is not None:
+                trials.append(kept)
+                break
+    if trials and trials[-1][3].feasible:
+        limiting = f"{', '.join(verdict.failed)} with the task's force"
+        task, sol, info, verdict, force = trials[-1]
     info["search"] = route | {"duration_s": float(task.t[-1] - task.t[0]), "limiting": limiting,
                               "slower_rounds": rounds}
     return task, sol, info, verdict, force
 
 
 def _slower_route(task: Task, sol: SolverResult, info: dict[str, Any], verdict: Verdict, record: dict[str, Any]
-                  ) -> tuple[Task, SolverResult, dict[str, Any], Verdict, TaskForce]:
-    """A slower round's route judged as the plan (:func:`judged_route`); when feasible, the task on
-    its waypoints, the route as a converged plan whose status says it is the route, its facts (with
-    ``fallback``) and verdict; else the optimized trial as it was. ``record["route"]`` notes the try."""
+                  ) -> tuple[Task, SolverResult, dict[str, Any], Verdict, TaskForce] | None:
+    """A slower round's route judged as the plan (:func:`judged_route`; ``record["route"]`` notes
+    the try); when feasible, the task on its waypoints, the route as a converged plan whose status
+    says it is the route, its facts (with ``fallback``), its verdict and force; else ``None``."""
+    if len(task.goal.route) != task.n:
+        return None
     route_task, route_verdict, route_force, tries = judged_route(task, task.force())
     record["route"] = {"verdict": route_verdict.label, "failed": list(route_verdict.failed), "tries": tries}
     if not route_verdict.feasible:
-        return task, sol, info, verdict, task.force()
+        return None
     status = (f"route: the optimized plan on the slower route ({task.t[-1] - task.t[0]:.3g} s) was {verdict.label} "
               f"({sol.status}); that route, timed by toppra, is judged feasible as it is on {route_task.n} "
               "waypoints (its force capability not optimized)")
