@@ -88,24 +88,58 @@ def _table_pick_0003(tmp_path: Path):
 def test_a_route_short_of_capacity_by_its_own_motion_is_the_plan_when_slower_and_runs_in_mujoco(tmp_path):
     """MotionBenchMaker's table_pick 0003 with 1.5 kg: on toppra's x 1.5 the plan and the route fail
     capacity near the goal (the arm's own deceleration), the goal holds the load at rest; the NLP's
-    plan on the slower route fails clearance, the slower route itself is feasible: it is the plan,
-    and MuJoCo runs it clean."""
+    plans on slower routes fail clearance, the route itself 1.5 x slower is feasible: it is the
+    plan, and MuJoCo runs it clean."""
     from forte.execution.run import simulate_plan
     from forte.io.plandir import write_plan
+    from forte.planning.rounds import judged
 
     task = _table_pick_0003(tmp_path)
     assert goal_load(task, task.goal.q_end) is None
     plan = forte.plan(task)
     assert plan.feasible, plan.verdict.reason()
-    rounds = plan.solver["search"]["slower_rounds"]
-    assert rounds and all(r["verdict"] != "feasible" for r in rounds)  # no optimized plan on a slower route ...
-    tried = [r["route"]["verdict"] for r in rounds if "route" in r]
-    assert tried[-1] == "feasible" and "feasible" not in tried[:-1]  # ... the shortest feasible route is kept
-    assert plan.t[-1] == pytest.approx(rounds[len(tried) - 1]["duration_s"])
-    assert plan.status.startswith("route: the optimized plan on the slower route")
+    search = plan.solver["search"]
+    assert search["slower_rounds"] and all(r["verdict"] != "feasible" for r in search["slower_rounds"])
+    assert [r["verdict"] for r in search["slower_routes"]] == ["feasible"]
+    assert plan.status.startswith("route, 1.5 x slower: ") and "failed capacity" in plan.status
     assert plan.solver["fallback"]["kept"] and np.array_equal(plan.q, plan.task.goal.route)
-    assert plan.t[-1] >= 1.5 * 1.5 * plan.solver["search"]["toppra_duration_s"] - 1e-9  # slower than the first
+    first = 1.5 * search["toppra_duration_s"]
+    assert plan.t[-1] == pytest.approx(1.5 * first)  # the route's own law, stretched
     assert np.allclose(plan.q[-1], task.goal.q_end, atol=1e-9)
+    # the same route on the first duration: short of capacity (an independent verdict of it)
+    from forte.planning.search.route import on_samples
+
+    fast = on_samples(plan.task, plan.t / 1.5)
+    assert judged(fast, fast.goal.route, fast.force())[0].failed == ("capacity",)
     write_plan(plan, tmp_path / "plan")
     result = simulate_plan(tmp_path / "plan")
     assert result.success, result.detail
+
+
+def test_the_route_is_judged_slower_whatever_the_optimized_plan_failed(tmp_path):
+    """The route of table_pick 0003 (1.5 kg) fails capacity on its first duration: slowed down 1.5 x
+    along its own law it is feasible, and kept, even where the optimized plan failed on clearance
+    (no slower NLP round then: a slower motion does not fix the NLP's cut corner); a task whose
+    duration is given is never slowed down."""
+    from dataclasses import replace
+
+    from forte.planning.nlp.solvers.result import SolverResult
+    from forte.planning.rounds import judged, slower_route
+    from forte.planning.search.route import routed
+
+    task, _ = routed(_table_pick_0003(tmp_path))
+    task = task.following(task.goal.route)
+    force = task.force()
+    own = judged(task, task.goal.route, force)[0]
+    assert own.failed == ("capacity",)
+    sol = SolverResult(q=task.goal.route, success=True, status="Solve_Succeeded", iterations=20, objective=0.0,
+                       constraint_violation=0.0, build_time=0.0, solve_time=0.0, codegen="cached")
+    cut = own._replace(violations=(own.violations[0]._replace(requirement="clearance"),))
+    kept, records = slower_route(task, sol, {}, cut, force)
+    assert kept is not None and [r["verdict"] for r in records] == ["feasible"]
+    slow, plan, info, verdict, _ = kept
+    assert verdict.feasible and np.array_equal(plan.q, slow.goal.route) and plan.success
+    assert slow.t[-1] == pytest.approx(1.5 * task.t[-1]) and np.allclose(slow.goal.route[-1], task.goal.route[-1])
+    assert info["fallback"]["optimized"]["failed"] == ["clearance"] and info["fallback"]["stretch"] == 1.5
+    given = replace(task, goal=replace(task.goal, duration_given=True))
+    assert slower_route(given, sol, {}, cut, force) == (None, [])

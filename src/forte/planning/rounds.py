@@ -5,7 +5,8 @@ it fails (:func:`forte.planning.planner.plan` runs them in this order):
 - :func:`apart`: self-collision rows for a plan whose arm runs into the robot;
 - :func:`refine`: rounds for what the NLP's waypoint view misses between waypoints (capacity,
   velocity, acceleration, keep_level);
-- :func:`slower`: a goal task on a slower route (what toppra's time law does not know);
+- :func:`slower`: a goal task on a slower route (what toppra's time law does not know), else its
+  route itself slower (:func:`slower_route`);
 - :func:`route_as_plan`: a goal task's route judged as the plan when the optimized one is not feasible.
 """
 
@@ -181,18 +182,12 @@ def slower(unrouted: Task, spec: Method, task: Task, sol: SolverResult, info: di
     converged plan fails only on what a slower motion fixes (:data:`BY_DURATION`: the payload's
     torques and the capacity margin are not in toppra's problem): planned again on a route
     :data:`SLOWER` times longer, at most :data:`SLOWER_ROUNDS` times; the first feasible plan is kept.
-    When no optimized plan on a longer route is feasible (its NLP breaks what the route keeps, e.g.
-    a cut corner's clearance) and the task's own route fails as the plan too (else
-    :func:`route_as_plan` keeps that faster one), the longer routes themselves are judged as the
-    plan (:func:`judged_route`), the shortest first, and the first feasible one is kept: the arm's
-    inertial torques fall as ``1 / stretch^2`` along the same path, so a route that failed on
-    capacity only by the motion's share passes when slower (MotionBenchMaker's table_pick 0003 with
-    1.5 kg: 6.7 N short on toppra's x 1.5, the route feasible on x 2.25). A configuration goal
-    that cannot hold the load at rest (:func:`~forte.planning.verdict.goal_load.goal_load`) is not
-    slowed down: no motion ending there can. ``info["search"]`` records the route, the duration and
-    the limit that set it; a kept route's ``info["fallback"]`` says so."""
+    A configuration goal that cannot hold the load at rest
+    (:func:`~forte.planning.verdict.goal_load.goal_load`) is not slowed down: no motion ending
+    there can. When no plan is feasible yet, the route itself may be slowed down
+    (:func:`slower_route`). ``info["search"]`` records the route, the duration and the limit that
+    set it, the slower rounds and the slower routes judged."""
     rounds: list[dict[str, Any]] = []
-    trials: list[tuple[Task, SolverResult, dict[str, Any], Verdict, TaskForce]] = []
     limiting = route.get("limiting", "")
     stretch = 1.0
     held = task.goal.pose is not None or "capacity" not in verdict.failed or goal_load(task, sol.q[-1]) is None
@@ -205,42 +200,64 @@ def slower(unrouted: Task, spec: Method, task: Task, sol: SolverResult, info: di
         trial_verdict, trial_force = judged(trial_task, trial.q, trial_task.force(), trial_info)
         rounds.append({"duration_s": float(trial_task.t[-1]), "verdict": trial_verdict.label,
                        "failed": list(trial_verdict.failed), "iterations": trial.iterations})
-        trials.append((trial_task, trial, trial_info, trial_verdict, trial_force))
         if trial_verdict.feasible or not trial.success:
+            limiting = f"{', '.join(verdict.failed)} with the task's force" if trial_verdict.feasible else limiting
+            if trial_verdict.feasible:
+                task, sol, info, verdict, force = trial_task, trial, trial_info, trial_verdict, trial_force
             break
-    faster = task.goal.route is not None and len(task.goal.route) == task.n  # route_as_plan's next try
-    if trials and not trials[-1][3].feasible and not (faster and judged_route(task, force)[1].feasible):
-        for (trial_task, trial, trial_info, trial_verdict, _), record in zip(trials, rounds, strict=True):
-            kept = _slower_route(trial_task, trial, trial_info, trial_verdict, record)
-            if kept is not None:
-                trials.append(kept)
-                break
-    if trials and trials[-1][3].feasible:
-        limiting = f"{', '.join(verdict.failed)} with the task's force"
-        task, sol, info, verdict, force = trials[-1]
+    routes: list[dict[str, Any]] = []
+    if not verdict.feasible:
+        kept, routes = slower_route(task, sol, info, verdict, force)
+        if kept is not None:
+            task, sol, info, verdict, force = kept
+            limiting = f"{info['fallback']['route_failed']} of the route with the task's force"
     info["search"] = route | {"duration_s": float(task.t[-1] - task.t[0]), "limiting": limiting,
-                              "slower_rounds": rounds}
+                              "slower_rounds": rounds, "slower_routes": routes}
     return task, sol, info, verdict, force
 
 
-def _slower_route(task: Task, sol: SolverResult, info: dict[str, Any], verdict: Verdict, record: dict[str, Any]
-                  ) -> tuple[Task, SolverResult, dict[str, Any], Verdict, TaskForce] | None:
-    """A slower round's route judged as the plan (:func:`judged_route`; ``record["route"]`` notes
-    the try); when feasible, the task on its waypoints, the route as a converged plan whose status
-    says it is the route, its facts (with ``fallback``), its verdict and force; else ``None``."""
-    if len(task.goal.route) != task.n:
-        return None
-    route_task, route_verdict, route_force, tries = judged_route(task, task.force())
-    record["route"] = {"verdict": route_verdict.label, "failed": list(route_verdict.failed), "tries": tries}
-    if not route_verdict.feasible:
-        return None
-    status = (f"route: the optimized plan on the slower route ({task.t[-1] - task.t[0]:.3g} s) was {verdict.label} "
-              f"({sol.status}); that route, timed by toppra, is judged feasible as it is on {route_task.n} "
-              "waypoints (its force capability not optimized)")
-    fallback = {"verdict": route_verdict.label, "failed": [], "kept": True, "waypoints": route_task.n, "tries": tries,
-                "optimized": {"status": sol.status, "verdict": verdict.label, "failed": list(verdict.failed)}}
-    kept = replace(sol, q=route_task.goal.route, success=True, status=status)
-    return route_task, kept, info | {"fallback": fallback}, route_verdict, route_force
+def slower_route(task: Task, sol: SolverResult, info: dict[str, Any], verdict: Verdict, force: TaskForce
+                 ) -> tuple[tuple[Task, SolverResult, dict[str, Any], Verdict, TaskForce] | None, list[dict[str, Any]]]:
+    """A goal task with no feasible plan yet whose duration forte chose and whose route, judged as
+    the plan (:func:`judged_route`), fails only on what a slower motion fixes (:data:`BY_DURATION`):
+    the same route on a time law :data:`SLOWER` times longer (the task's times stretched,
+    :func:`~forte.planning.search.route.on_samples`), at most :data:`SLOWER_ROUNDS` times, judged as
+    the plan; the first feasible one is kept. Along the same path the arm's inertial torques and
+    the payload's ``m p''`` fall as ``1 / stretch^2`` and the velocities as ``1 / stretch``
+    (MotionBenchMaker's table_pick 0003 with 1.5 kg: the route 5.3 N short of capacity near the
+    goal on toppra's x 1.5, feasible on x 2.25; the NLP's plans there cut a corner, failing
+    clearance). A configuration goal that cannot hold the load at rest is not tried. Returns the
+    task on the kept route's waypoints, the route as a converged plan whose status says so, its
+    facts (``fallback``), verdict and force (``None`` when none is kept), and one record per try."""
+    goal, records = task.goal, []
+    if goal.duration_given or goal.law is None or goal.route is None or len(goal.route) != task.n:
+        return None, records
+    fast = judged(task, goal.route, force)[0]  # on its own waypoints first: one verdict, as route_as_plan's
+    if not fast.feasible and set(fast.failed) <= BY_DURATION:
+        fast = judged_route(task, force)[1]
+    if fast.feasible or not set(fast.failed) <= BY_DURATION:  # route_as_plan keeps the faster one
+        return None, records
+    if goal.pose is None and "capacity" in fast.failed and goal_load(task, goal.route[-1]) is not None:
+        return None, records
+    for k in range(1, SLOWER_ROUNDS + 1):
+        slow = on_samples(task, task.t[0] + (task.t - task.t[0]) * SLOWER ** k)
+        route_task, route_verdict, route_force, tries = judged_route(slow, slow.force())
+        records.append({"duration_s": float(slow.t[-1] - slow.t[0]), "verdict": route_verdict.label,
+                        "failed": list(route_verdict.failed), "waypoints": route_task.n})
+        if route_verdict.feasible:
+            failed = ", ".join(fast.failed)
+            status = (f"route, {SLOWER ** k:.3g} x slower: the optimized plan was {verdict.label} ({sol.status}) "
+                      f"and the route on {task.t[-1] - task.t[0]:.3g} s failed {failed}; the route on "
+                      f"{records[-1]['duration_s']:.3g} s, timed by toppra, is judged feasible as it is on "
+                      f"{route_task.n} waypoints (its force capability not optimized)")
+            fallback = {"verdict": route_verdict.label, "failed": [], "kept": True, "waypoints": route_task.n,
+                        "tries": tries, "stretch": SLOWER ** k, "route_failed": failed,
+                        "optimized": {"status": sol.status, "verdict": verdict.label, "failed": list(verdict.failed)}}
+            kept = replace(sol, q=route_task.goal.route, success=True, status=status)
+            return (route_task, kept, info | {"fallback": fallback}, route_verdict, route_force), records
+        if not set(route_verdict.failed) <= BY_DURATION:
+            break
+    return None, records
 
 
 def passing(task: Task) -> dict[str, Any]:
