@@ -55,7 +55,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="sustained torque saturation in s (0.25)")
     p.add_argument("--gains", type=Path, default=None, metavar="FILE.yaml",
                    help="controller gains: a 'controller:' mapping (K_a, D_a, bandwidth_hz, damping_ratio, "
-                   "M_b, B_b, K_b, D_b, base_feedforward, force_feedforward, base_coupling)")
+                   "M_b, B_b, K_b, D_b, base_feedforward, force_feedforward, base_coupling, "
+                   "force_along_reference)")
     p.add_argument("--bandwidth", type=float, default=None, metavar="HZ",
                    help="arm gain rule K_i = M_ii (2 pi HZ)^2 (default: Franka's gains on the Panda, 4 Hz "
                    "on other arms)")

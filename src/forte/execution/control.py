@@ -76,6 +76,9 @@ class ControlGains:
         base_coupling: Feed forward the arm's dynamics on the moving base (the base's velocity and
             planned acceleration in the arm's inverse dynamics, :mod:`forte.execution.base_coupling`);
             off (default): the paper's ``M_a(q_a) ddq_{a,d} + C_a + g``.
+        force_along_reference: a payload's ``f_d = m (p'' - g)`` on the reference's own hand
+            acceleration (:mod:`forte.execution.reference_force`); off: the plan's waypoint
+            forces, linear in time (they lag the executed spline by about a step).
     """
 
     K_a: tuple[float, ...] = DEFAULT_K_A
@@ -87,6 +90,7 @@ class ControlGains:
     base_feedforward: bool = True
     force_feedforward: bool = True
     base_coupling: bool = False
+    force_along_reference: bool = True
 
     def check(self, n_arm: int) -> None:
         """Validate sizes and signs (``InvalidInputError`` naming the gain)."""

@@ -65,7 +65,7 @@ DEFAULT_DAMPING_RATIO = 1.0
 _BASE_FIELDS = {"M_b": ("kg, kg m^2", True), "B_b": ("N s/m, Nm s/rad", False),
                 "K_b": ("N/m, Nm/rad", False), "D_b": ("N s/m, Nm s/rad", False)}
 _ARM_FIELDS = {"K_a": "Nm/rad", "D_a": "Nm s/rad"}
-_FLAGS = ("base_feedforward", "force_feedforward", "base_coupling")
+_FLAGS = ("base_feedforward", "force_feedforward", "base_coupling", "force_along_reference")
 _RULE_FIELDS = ("bandwidth_hz", "damping_ratio")
 #: Every field a ``controller:`` mapping may hold.
 CONTROLLER_FIELDS: tuple[str, ...] = (*_RULE_FIELDS, *_ARM_FIELDS, *_BASE_FIELDS, *_FLAGS)

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -58,6 +58,7 @@ from forte.execution.grasp import attach_at_grasp, attach_facts, chained
 from forte.execution.judge import Judge, SimResult, Thresholds
 from forte.execution.model import SimModel, build_sim_model
 from forte.execution.reference import plan_reference
+from forte.execution.reference_force import along_reference, carried_mass
 from forte.execution.render import FrameRecorder, FrameSink, LiveViewer
 from forte.execution.run_log import RunLog, write_results
 from forte.io.plandir import read_plan_dir
@@ -313,8 +314,8 @@ def _setup(plan: Plan, mass: float | None, force_feedforward: bool | None,
     gains = resolve_gains(gains, sim, plan.q[0, N_BASE:], force_feedforward)
     # the moment is the payload's alone: none without it
     moment_share = 0.0 if mass is not None and true_mass == 0.0 and force_feedforward is None else force_share
-    return _Run(sim, gains, _plan_reference(plan, sim.timestep, hold, force_share, reference, moment_share),
-                force_share, rig)
+    ref = _plan_reference(plan, sim.timestep, hold, force_share, reference, moment_share, gains.force_along_reference)
+    return _Run(sim, gains, ref, force_share, rig)
 
 
 def _closed_loop(plan_dir: Path, plan: Plan, sim: SimModel, reference: Reference, replan: Any, mpc: Any) -> Any:
@@ -380,14 +381,18 @@ def _run_facts(plan: Plan, plan_dir: Path, run: _Run, reference: str) -> dict[st
 
 
 def _plan_reference(plan: Plan, dt: float, hold: float, force_share: float = 1.0,
-                    kind: str = "spline", moment_share: float = 1.0) -> Reference:
+                    kind: str = "spline", moment_share: float = 1.0, along: bool = False) -> Reference:
     """The plan's reference at every control step ``t_0 + k dt`` up to ``hold`` s after its end
-    (the force times ``force_share``; the moment, when the plan has one, times ``moment_share``)."""
+    (the force times ``force_share``; the moment, when the plan has one, times ``moment_share``);
+    ``along``: a payload's force ``m (p'' - g)`` on the reference's own hand acceleration
+    (:mod:`forte.execution.reference_force`)."""
     steps = int(round((plan.t[-1] - plan.t[0] + hold) / dt)) + 1
     times = plan.t[0] + dt * np.arange(steps)
     force_t, force = (None, None) if plan.force is None else (plan.force.t, force_share * np.asarray(plan.force.f))
     moment = None if plan.force is None or plan.force.m is None else moment_share * np.asarray(plan.force.m)
-    return plan_reference(plan.t, plan.q, times, force_t, force, kind, moment, joint_limits(plan.robot))
+    ref = plan_reference(plan.t, plan.q, times, force_t, force, kind, moment, joint_limits(plan.robot))
+    mass = None if force is None or not along else carried_mass(plan.robot, plan.t, plan.q, plan.force.f)
+    return ref if mass is None else replace(ref, f=force_share * along_reference(plan.robot, ref.t, ref.q, mass))
 
 
 #: ``forte.simulate``: the public name of :func:`simulate_plan`.

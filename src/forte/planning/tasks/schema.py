@@ -290,7 +290,7 @@ def support_section(r: Reader, robot: MobileManipulator) -> MobileManipulator:
 #: Fields of a ``controller:`` block (their values are checked against the robot by
 #: :func:`forte.execution.gains.gains_from_mapping` when the plan is simulated).
 CONTROLLER_FIELDS = frozenset({"bandwidth_hz", "damping_ratio", "K_a", "D_a", "M_b", "B_b", "K_b", "D_b",
-                               "base_feedforward", "force_feedforward", "base_coupling"})
+                               "base_feedforward", "force_feedforward", "base_coupling", "force_along_reference"})
 
 
 def controller_section(reader: Reader) -> dict[str, Any]:

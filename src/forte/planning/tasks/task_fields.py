@@ -183,6 +183,8 @@ _CONTROLLER = [
     Field("controller.force_feedforward", BOOL, "add J^T f_d to the arm torques", default=True),
     Field("controller.base_coupling", BOOL, "the arm's feedforward with the base's motion (whole-body inverse "
           "dynamics)", default=False),
+    Field("controller.force_along_reference", BOOL, "a payload's force m (p'' - g) fed forward on the executed "
+          "reference's hand acceleration (false: the plan's waypoint forces, linear in time)", default=True),
 ]
 
 
