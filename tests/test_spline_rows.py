@@ -61,6 +61,9 @@ def test_the_rows_hold_at_the_splines_knot_accelerations_and_the_start_velocity_
     wrong = acc.copy()
     wrong[4, 1] += 0.1
     assert np.max(np.abs(np.array(rows(q, wrong.T, np.diff(t)[None])).ravel() - lower)) > 0.05
+    jac = ca.jacobian(spline_rows(X, A, h, [1, 3]), ca.vertcat(ca.vec(X), ca.vec(A))).sparsity()
+    per_row = np.bincount(np.array(jac.get_triplet()[0]), minlength=jac.size1())
+    assert per_row.max() <= 6 and jac.nnz() < 6 * 2 * t.size  # banded: 3 waypoints, 3 accelerations a row
     low, high = knot_bounds(np.array([2.0, 5.0]), t.size)
     np.testing.assert_allclose(high.reshape(t.size, 2), np.tile([2.0, 5.0], (t.size, 1)))
     np.testing.assert_allclose(low, -high)
