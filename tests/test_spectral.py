@@ -269,3 +269,37 @@ def test_the_banded_alternative_plans_the_authors_lift_like_the_formula():
     assert np.abs(banded.q - dense.q).max() < 1e-3
     j5 = banded.solver["cost_terms"]["base_spectral"], dense.solver["cost_terms"]["base_spectral"]
     assert j5[0] == pytest.approx(j5[1], rel=0.05)
+
+
+def test_the_spline_rows_knot_accelerations_follow_the_lifted_block(robot, spectral_method):
+    """With J5 lifted and the spline rows on, the knot accelerations are the last variables: the
+    spline's own (full_x) meet their rows, and the assembled Jacobian and Hessian of the whole NLP
+    equal CasADi's AD."""
+    n, nq = 9, robot.nq
+    opt = TrajectoryOptimizer(robot, n, spectral_method, CostWeights(), options=SolverOptions(codegen=False),
+                              settings=FLAT, goal="configuration", on_spline=True)
+    m, arm = opt._lift.shape[0], len(opt._spline_rows)
+    assert m > 0 and arm > 0
+    rng = np.random.default_rng(5)
+    q = np.tile(robot.home(), (n, 1)) + 0.2 * rng.normal(size=(n, nq))
+    T = np.repeat(robot.ee_pose(robot.home())[None], n, 0)
+    t, f, r = np.linspace(0, 2, n), np.zeros((n, 3)), np.full(n, 10.0)
+    p = opt.parameters(t, T, f, r)
+    x = opt.full_x(q)
+    assert x.size == n * nq + m + arm * n
+    g = np.array(opt._g(x, p)).ravel()
+    end = g.size - opt._lateral
+    np.testing.assert_allclose(g[end - arm * n:end], 0.0, atol=1e-8)  # the spline rows, at rest at the start
+    lbx, ubx, _, _ = opt.bounds(t, q[0], q_goal=q[-1])
+    np.testing.assert_allclose(ubx[-arm * n:], np.tile(opt._acc[opt._spline_rows], n))
+    x = x + 0.05 * rng.normal(size=x.size)
+    xs, ps = ca.MX.sym("x", x.size), ca.MX.sym("p", p.size)
+    out = opt.solver.oracle()(x=xs, p=ps)
+    lam_g = rng.normal(size=out["g"].numel())
+    lagrangian = 0.7 * out["f"] + ca.dot(ca.DM(lam_g), out["g"])
+    auto = ca.Function("auto", [xs, ps], [ca.jacobian(out["g"], xs), ca.hessian(lagrangian, xs)[0]])
+    jac_a, hess_a = (np.array(ca.densify(v)) for v in auto(x, p))
+    _, jac = opt.solver.get_function("nlp_jac_g")(x, p)
+    hess = np.array(ca.densify(opt.solver.get_function("nlp_hess_l")(x, p, 0.7, lam_g)))
+    np.testing.assert_allclose(np.array(ca.densify(jac)), jac_a, atol=1e-9 * (1 + np.abs(jac_a).max()))
+    np.testing.assert_allclose(np.triu(hess) + np.triu(hess, 1).T, hess_a, atol=1e-10 * (1 + np.abs(hess_a).max()))

@@ -10,9 +10,14 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from forte.model.robot import N_BASE
-from forte.model.trajectory import clamped_spline
 from forte.planning.nlp.optimizer import TrajectoryOptimizer
-from forte.planning.nlp.spline_rows import knot_acceleration_operator, spline_bounds, spline_rows
+from forte.planning.nlp.spline_rows import (
+    knot_acceleration_operator,
+    knot_accelerations,
+    knot_bounds,
+    spline_bounds,
+    spline_rows,
+)
 from forte.planning.solve import goal_guess
 from forte.planning.verdict.verdict import limit_ratios
 
@@ -36,19 +41,32 @@ def test_the_knot_operator_gives_scipys_clamped_spline_accelerations():
         assert np.max(np.abs(reference(dense, 2))) <= np.max(np.abs(reference(t, 2))) + 1e-9
 
 
-def test_the_rows_are_the_knot_accelerations_and_their_bounds_move_with_the_start_velocity():
+def test_the_rows_hold_at_the_splines_knot_accelerations_and_the_start_velocity_moves_their_bounds():
+    """At the clamped spline's own knot accelerations (start velocity ``v_1``, the dense operator
+    ``S q + c v_1``) the rows equal their bounds; other accelerations break them; the variables'
+    bounds are the limits."""
     rng = np.random.default_rng(4)
-    t = np.linspace(0.0, 1.2, 9)
+    t = np.cumsum(np.r_[0.0, rng.uniform(0.05, 0.2, 8)])
     q = rng.normal(size=(5, t.size))
-    X, S = ca.MX.sym("X", 5, t.size), ca.MX.sym("S", t.size, t.size)
-    rows = ca.Function("rows", [X, S], [spline_rows(X, S, [1, 3])])
+    v1 = np.array([0.5, -0.3])
+    X, A, h = ca.MX.sym("X", 5, t.size), ca.MX.sym("A", 2, t.size), ca.MX.sym("h", 1, t.size - 1)
+    rows = ca.Function("rows", [X, A, h], [spline_rows(X, A, h, [1, 3])])
     op = knot_acceleration_operator(t)
-    got = np.array(rows(q, op.S)).ravel()
-    _, _, acc = clamped_spline(t, q.T, t)
-    np.testing.assert_allclose(got, acc[:, [1, 3]].ravel(), atol=1e-9)  # knot by knot, coordinate fastest
-    lower, upper = spline_bounds(np.array([2.0, 5.0]), op.c, np.array([0.5, 0.0]))
-    np.testing.assert_allclose(upper.reshape(t.size, 2)[:, 0], 2.0 - 0.5 * op.c)
-    np.testing.assert_allclose(lower.reshape(t.size, 2)[:, 1], -5.0)
+    acc = np.stack([op.S @ q[j] + op.c * v for j, v in zip((1, 3), v1, strict=True)], axis=1)  # N x 2
+    np.testing.assert_allclose(knot_accelerations(t, q[[1, 3]].T, v1), acc, atol=1e-8)
+    lower, upper = spline_bounds(t, v1, 2)
+    np.testing.assert_allclose(lower, upper)
+    np.testing.assert_allclose(np.array(rows(q, acc.T, np.diff(t)[None])).ravel(), lower, atol=1e-8)
+    assert np.any(lower[:2] != 0) and not np.any(lower[2:])
+    wrong = acc.copy()
+    wrong[4, 1] += 0.1
+    assert np.max(np.abs(np.array(rows(q, wrong.T, np.diff(t)[None])).ravel() - lower)) > 0.05
+    jac = ca.jacobian(spline_rows(X, A, h, [1, 3]), ca.vertcat(ca.vec(X), ca.vec(A))).sparsity()
+    per_row = np.bincount(np.array(jac.get_triplet()[0]), minlength=jac.size1())
+    assert per_row.max() <= 6 and jac.nnz() < 6 * 2 * t.size  # banded: 3 waypoints, 3 accelerations a row
+    low, high = knot_bounds(np.array([2.0, 5.0]), t.size)
+    np.testing.assert_allclose(high.reshape(t.size, 2), np.tile([2.0, 5.0], (t.size, 1)))
+    np.testing.assert_allclose(low, -high)
 
 
 def test_a_goal_tasks_nlp_keeps_the_executed_splines_accelerations_within_the_limits():

@@ -62,7 +62,7 @@ from forte.planning.nlp.keep_level_rows import keep_bounds, keep_rows, keep_step
 from forte.planning.nlp.kernels import load_kernels, notice
 from forte.planning.nlp.solvers.result import SolverResult, accepted_violation
 from forte.planning.nlp.solvers.stage_problem import StageNLP, supported
-from forte.planning.nlp.spline_rows import knot_acceleration_operator, spline_bounds, spline_rows
+from forte.planning.nlp.spline_rows import knot_accelerations, knot_bounds, spline_bounds, spline_rows
 from forte.planning.tasks.keep_level import KeepLevel
 from forte.settings import (
     DEFAULT_WEIGHT_SET,
@@ -142,6 +142,7 @@ class TrajectoryOptimizer:
         self.goal, self.keep_level = goal, keep_level
         self.via_steps = tuple(sorted({int(k) for k in via_steps}))
         self._warm_solver: Any = None
+        self._spline_times: tuple[FloatArray, FloatArray | None] | None = None
         self._vel, self._acc = limits.resolve(robot)
         #: the arm's accelerations bounded on the executed spline too (spline_rows); default: goal tasks'
         asked = limits.on_spline if on_spline is None else on_spline
@@ -173,8 +174,6 @@ class TrajectoryOptimizer:
             sizes |= {name: size * n for name, size in term.parameters}
         for ck in self._clear:
             sizes[ck.name] = ck.size * n
-        if self.on_spline:
-            sizes["spline"] = n * n
         spans, offset = {}, 0
         for name, size in sizes.items():
             spans[name] = (offset, size)
@@ -200,7 +199,14 @@ class TrajectoryOptimizer:
     def full_x(self, q: FloatArray) -> FloatArray:
         """The NLP's variables for configurations ``q`` (N x nq): ``vec(q)`` and the lifted
         ``z = A vec(q)`` (:mod:`forte.planning.nlp.layout`)."""
-        return layout.full_x(q, self._lift)
+        x = layout.full_x(q, self._lift)
+        if not self._spline_rows:
+            return x
+        if self._spline_times is None:  # no times yet (no parameters packed): 0
+            return np.concatenate([x, np.zeros(len(self._spline_rows) * self.n)])
+        t, v_start = self._spline_times
+        q = np.asarray(q, dtype=float).reshape(self.n, self.robot.nq)[:, self._spline_rows]
+        return np.concatenate([x, knot_accelerations(t, q, v_start).ravel()])
 
     def bounds(self, t: Any, q_init: FloatArray, start: StartMotion | None = None,
                q_goal: FloatArray | None = None) -> layout.Bounds:
@@ -210,6 +216,9 @@ class TrajectoryOptimizer:
         ``q_N = q_goal`` when given (a configuration goal)."""
         lifted = self._lift.shape[0]
         lbx, ubx = layout.variable_bounds(self.robot, self.n, lifted, q_init if self.fix_initial else None)
+        if self._spline_rows:  # the knot accelerations, last (spline_rows)
+            low, high = knot_bounds(self._acc[self._spline_rows], self.n)
+            lbx, ubx = np.concatenate([lbx, low]), np.concatenate([ubx, high])
         pin_base(self.robot, self.n, lbx, ubx, q_init)
         if q_goal is not None:
             nq = self.robot.nq
@@ -225,9 +234,7 @@ class TrajectoryOptimizer:
         kinematic = shifted_acceleration_bounds(kinematic, start, self._vel_rows.size * (self.n - 1), self._acc_rows)
         lbg, ubg = layout.constraint_bounds(self._pose_steps.size, kinematic, lifted)
         if self._spline_rows:
-            cols = self._spline_rows
-            low, high = spline_bounds(self._acc[cols], knot_acceleration_operator(np.asarray(t, dtype=float)).c,
-                                      None if start is None else np.asarray(start.velocity)[cols])
+            low, high = spline_bounds(t, self._spline_start(start), len(self._spline_rows))
             lbg, ubg = np.concatenate([lbg, low]), np.concatenate([ubg, high])
         clear = self._clear_index.size  # clearance rows: >= 0; then the base's lateral rows: = 0
         lateral = np.zeros(self._lateral)
@@ -247,6 +254,7 @@ class TrajectoryOptimizer:
 
         Q, self._lift = layout.lifted_quadratic(self._quadratic, [self.method_spec.term_weight(t, self.weights)
                                                            for t in self._quadratic], robot.n_arm, n, nq * n)
+        Q, slopes = self._knot_variables(Q)
         x = ca.MX.sym("x", Q.shape[0])
         xq = x[: nq * n]
         X = ca.reshape(xq, nq, n)
@@ -255,8 +263,7 @@ class TrajectoryOptimizer:
         dt = par("dt", 1)
         stage_args = [Z, ca.horzcat(dt[:, :1], dt[:, : n - 1]), dt, par("f", 3), par("r", 1), par("q_nom", nq)]
         stage_args += [par(name, size) for t in self._stage for name, size in t.parameters]
-        wvec = ca.DM([self.method_spec.term_weight(t, self.weights) for t in self._stage])
-        stage_args.append(ca.repmat(wvec, 1, n))
+        stage_args.append(ca.repmat(ca.DM([self.method_spec.term_weight(t, self.weights) for t in self._stage]), 1, n))
         Qx = ca.mtimes(dm(Q), x)
         cost = ca.sum2(kern.cost.map(n)(*stage_args)) + 0.5 * ca.dot(x, Qx)
         first = 1 if self.fix_initial else 0
@@ -264,9 +271,10 @@ class TrajectoryOptimizer:
         pd, Rd = par("p_d", 3), par("R_d", 9)
         g_kin = kinematic_rows(self, X, dt)
         if self._lift.shape[0]:  # z = A x
-            lift = sparse.hstack([self._lift, -sparse.identity(self._lift.shape[0])])
+            lift = sparse.hstack([self._lift, -sparse.identity(self._lift.shape[0])], format="csr")
+            lift.resize(lift.shape[0], x.numel())  # the knot accelerations after z: no part in these rows
             g_kin = ca.vertcat(g_kin, ca.mtimes(dm(lift), x))
-        g_kin = ca.vertcat(g_kin, self._on_spline_rows(X, par))  # after the lifting rows
+        g_kin = ca.vertcat(g_kin, self._on_spline_rows(X, x[x.numel() - slopes:], dt))  # after the lifting rows
         g = ca.vertcat(ca.vec(kern.pose.map(n)(X, pd, Rd)[:, self._pose_steps.tolist()]), g_kin)
         kept = [np.flatnonzero(f.keep.ravel()) for f in self.slots.frames] if self.slots else []
         self._clear_index = np.concatenate(kept) if kept else np.array([], int)
@@ -315,11 +323,28 @@ class TrajectoryOptimizer:
         quadratic = [0.5 * ca.dot(xq, ca.mtimes(dm(M), xq)) for M in self._quadratic_matrices()]
         self._terms = ca.Function("terms", [x, P], [ca.vertcat(stage_values, *quadratic)])
 
-    def _on_spline_rows(self, X: ca.MX, par: Any) -> ca.MX:
-        """The executed spline's knot accelerations of the arm's limited joints (none unless
-        ``on_spline``; :mod:`forte.planning.nlp.spline_rows`)."""
-        self._spline_rows = [int(i) for i in self._acc_rows if i >= N_BASE] if self.on_spline else []
-        return spline_rows(X, par("spline", self.n), self._spline_rows) if self._spline_rows else ca.MX(0, 1)
+    def _knot_variables(self, Q: sparse.csr_matrix) -> tuple[sparse.csr_matrix, int]:
+        """``Q`` over the variables with the spline's knot accelerations after ``z`` (outside every
+        cost; :mod:`forte.planning.nlp.spline_rows`), and their count (0 unless ``on_spline``)."""
+        # the arm's limited joints (kinematic_rows' acceleration rows: on_spline needs limits and N >= 3)
+        limited = np.flatnonzero(np.isfinite(self._acc)) if self.on_spline else []
+        self._spline_rows = [int(i) for i in limited if i >= N_BASE]
+        count = len(self._spline_rows) * self.n
+        if count:
+            Q = sparse.block_diag([Q, sparse.csr_matrix((count, count))], format="csr")
+        return Q, count
+
+    def _on_spline_rows(self, X: ca.MX, slopes: ca.MX, dt: ca.MX) -> ca.MX:
+        """The rows that make ``slopes`` the executed spline's knot accelerations of the arm's
+        limited joints (none unless ``on_spline``; :mod:`forte.planning.nlp.spline_rows`)."""
+        if not self._spline_rows:
+            return ca.MX(0, 1)
+        M = ca.reshape(slopes, len(self._spline_rows), self.n)
+        return spline_rows(X, M, dt[:, 1:], self._spline_rows)
+
+    def _spline_start(self, start: StartMotion | None) -> FloatArray | None:
+        """The spline's start slopes: the start's velocity of its joints (``None``: at rest)."""
+        return None if start is None else np.asarray(start.velocity, dtype=float)[self._spline_rows]
 
     @property
     def rests_at_end(self) -> bool:
@@ -375,8 +400,7 @@ class TrajectoryOptimizer:
                        else term.parameter_values(name, f, r) for name, _ in term.parameters}
         for f, ck in zip(self.slots.frames if self.slots else (), self._clear, strict=True):
             values[ck.name] = f.values.ravel()
-        if self.on_spline:
-            values["spline"] = knot_acceleration_operator(t).S.ravel(order="F")
+        self._spline_times = (t, self._spline_start(start))  # full_x's knot slopes
         return np.concatenate([values[name] for name in self._layout])
 
     def solve(self, t: Any, targets: Any, f: Any, r: Any, q_init: FloatArray, q_guess: FloatArray,
