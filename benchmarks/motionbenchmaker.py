@@ -237,6 +237,7 @@ def summary(rows: list[dict[str, Any]], command: str) -> str:
     feasible = [r for r in rows if r.get("verdict") == "feasible"]
     sim_ok = sum(r.get("sim") == "ok" for r in feasible)
     ratio = [_num(r, "duration_s") / _num(r, "toppra_s") for r in feasible if _num(r, "toppra_s") > 0]
+    solved = [_num(r, "iterations") for r in feasible if _num(r, "iterations") >= 0]  # route plans: no NLP
     lines += ["", f"- Stages (median over the problems that reached them): search {med['search_s']:.2f} s "
               f"({searched} of {len(rows)} problems searched; the others' straight line was free; of it, "
               f"shortcutting {med['shortcut_s']:.2f} s), retiming (toppra) {med['retime_s']:.2f} s, "
@@ -249,7 +250,7 @@ def summary(rows: list[dict[str, Any]], command: str) -> str:
               f"- Plans that are the route itself (the searched route, timed by toppra, judged feasible as it is: "
               f"before any NLP with `--route-first`, else after the optimized plan was not feasible): "
               f"{sum(str(r.get('route_plan')) == 'True' for r in feasible)} of the {len(feasible)} feasible plans.",
-              f"- NLP: median {np.nanmedian([_num(r, 'iterations') for r in feasible] or [np.nan]):.0f} "
+              f"- NLP: median {np.nanmedian(solved or [np.nan]):.0f} "
               f"IPOPT iterations in the kept solve; {sum(_num(r, 'refine_rounds') > 0 for r in feasible)} of the "
               f"feasible plans needed a refinement round (the verdict's spline checks after the NLP's rows)."]
     reasons: dict[str, int] = {}
