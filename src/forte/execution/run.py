@@ -385,13 +385,15 @@ def _plan_reference(plan: Plan, dt: float, hold: float, force_share: float = 1.0
     """The plan's reference at every control step ``t_0 + k dt`` up to ``hold`` s after its end
     (the force times ``force_share``; the moment, when the plan has one, times ``moment_share``);
     ``along``: a payload's force ``m (p'' - g)`` on the reference's own hand acceleration
-    (:mod:`forte.execution.reference_force`)."""
+    (:mod:`forte.execution.reference_force`; not for a payload off the hand, whose moment is planned too)."""
     steps = int(round((plan.t[-1] - plan.t[0] + hold) / dt)) + 1
     times = plan.t[0] + dt * np.arange(steps)
     force_t, force = (None, None) if plan.force is None else (plan.force.t, force_share * np.asarray(plan.force.f))
     moment = None if plan.force is None or plan.force.m is None else moment_share * np.asarray(plan.force.m)
     ref = plan_reference(plan.t, plan.q, times, force_t, force, kind, moment, joint_limits(plan.robot))
-    mass = None if force is None or not along else carried_mass(plan.robot, plan.t, plan.q, plan.force.f)
+    # a payload off the hand (a moment) keeps force and moment as planned, the two consistent
+    mass = None if force is None or moment is not None or not along else \
+        carried_mass(plan.robot, plan.t, plan.q, plan.force.f)
     return ref if mass is None else replace(ref, f=force_share * along_reference(plan.robot, ref.t, ref.q, mass))
 
 
