@@ -20,9 +20,10 @@ every knot bounds the executed acceleration everywhere: the rows hold exactly wh
 executed on a shorter spline, :func:`~forte.model.trajectory.limit_rests`; the verdict judges
 those as before). ``S`` is dense (every knot reaches every waypoint of its coordinate, with
 weights that fall by 2 - sqrt(3) = 0.27 per step), and dense rows fill the KKT factorization;
-the NLP keeps the slopes as variables instead (:func:`spline_rows`): each acceleration row reaches
-2 waypoints and 2 slopes, and the continuity system is a banded row per interior knot. The same
-accelerations, ~1/3 less time per IPOPT iteration on MotionBenchMaker's goals than ``S q``.
+the NLP keeps the knot accelerations as bounded variables instead, tied to ``q`` by the spline's
+continuity rows (:func:`spline_rows`: each row reaches 3 accelerations and 3 waypoints). The same
+accelerations; on 16 MotionBenchMaker goals ~20 % less time per IPOPT iteration than ``S q``
+(slopes as the variables instead were slower, with more iterations).
 """
 
 from __future__ import annotations
