@@ -24,7 +24,7 @@ import numpy as np
 
 from forte.planning.verdict.motion_samples import sample_motion
 from forte.planning.verdict.requirements import Capacity
-from forte.planning.verdict.verdict import MIN_MASS, Verdict, context, largest_mass
+from forte.planning.verdict.verdict import MIN_MASS, Verdict, context, largest_mass, with_load_line
 from forte.validation import FloatArray
 
 
@@ -81,12 +81,4 @@ def said_at_goal(task: Any, q: FloatArray, verdict: Verdict) -> Verdict:
     """``verdict`` with its capacity failure at the last waypoint said as the goal configuration's
     when that configuration (``q[-1]``), at rest, cannot hold the payload (:func:`goal_load`;
     ``payload_bound["goal"]`` records it)."""
-    last = len(q) - 1
-    at_goal = [i for i, v in enumerate(verdict.violations) if v.requirement == "capacity" and last in v.waypoints]
-    load = goal_load(task, np.asarray(q)[-1]) if at_goal else None
-    if load is None:
-        return verdict
-    violations, k = list(verdict.violations), at_goal[0]
-    violations[k] = violations[k]._replace(detail=f"{violations[k].detail}; {load.line()}")
-    bound = (verdict.payload_bound or {}) | {"goal": load.to_json()}
-    return verdict._replace(violations=tuple(violations), payload_bound=bound)
+    return with_load_line(verdict, len(q) - 1, "goal", lambda: goal_load(task, np.asarray(q)[-1]))

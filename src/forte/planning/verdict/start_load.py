@@ -29,7 +29,7 @@ from forte.planning.tasks.ik import pose_error
 from forte.planning.tasks.posture import _walk
 from forte.planning.verdict.motion_samples import sample_motion
 from forte.planning.verdict.requirements import Capacity
-from forte.planning.verdict.verdict import MIN_MASS, Verdict, context, largest_mass
+from forte.planning.verdict.verdict import MIN_MASS, Verdict, context, largest_mass, with_load_line
 from forte.validation import FloatArray
 
 #: Seeded arm postures tried for a start that carries the load, besides the start, home and centres.
@@ -119,11 +119,4 @@ def said_at_start(task: Any, verdict: Verdict) -> Verdict:
     """``verdict`` with its capacity failure at waypoint 0 said as the start posture's when the
     start, at rest, cannot carry the payload (:func:`start_load`; ``payload_bound["start"]``
     records it)."""
-    at_start = [i for i, v in enumerate(verdict.violations) if v.requirement == "capacity" and 0 in v.waypoints]
-    load = start_load(task) if at_start else None
-    if load is None:
-        return verdict
-    violations, k = list(verdict.violations), at_start[0]
-    violations[k] = violations[k]._replace(detail=f"{violations[k].detail}; {load.line()}")
-    bound = (verdict.payload_bound or {}) | {"start": load.to_json()}
-    return verdict._replace(violations=tuple(violations), payload_bound=bound)
+    return with_load_line(verdict, 0, "start", lambda: start_load(task))

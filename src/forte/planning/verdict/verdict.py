@@ -301,3 +301,18 @@ def judge_plan(task: Any, q: Any, force: TaskForce, solver: dict[str, Any] | Non
         record["unloaded_failed"] = [r.name for r in REQUIREMENTS if r.mass_dependent and r.check(unloaded)]
     return verdict._replace(payload_bound=record)
 
+
+def with_load_line(verdict: Verdict, waypoint: int, key: str, load_of: Any) -> Verdict:
+    """``verdict`` with its first capacity failure at ``waypoint`` followed by what a posture held
+    there can carry: ``load_of()`` (called only when there is such a failure) gives an object
+    with ``line()`` and ``to_json()``, or ``None`` (then ``verdict`` as it is);
+    ``payload_bound[key]`` records it (:mod:`~forte.planning.verdict.start_load`,
+    :mod:`~forte.planning.verdict.goal_load`)."""
+    at = [i for i, v in enumerate(verdict.violations) if v.requirement == "capacity" and waypoint in v.waypoints]
+    load = load_of() if at else None
+    if load is None:
+        return verdict
+    violations = list(verdict.violations)
+    violations[at[0]] = violations[at[0]]._replace(detail=f"{violations[at[0]].detail}; {load.line()}")
+    bound = (verdict.payload_bound or {}) | {key: load.to_json()}
+    return verdict._replace(violations=tuple(violations), payload_bound=bound)
