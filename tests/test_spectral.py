@@ -64,6 +64,20 @@ def direct(b: np.ndarray, gamma: np.ndarray) -> tuple[float, np.ndarray]:
     return 0.5 * float(np.sum(gamma * bhat**2)), idct(gamma * bhat, norm="ortho")
 
 
+
+def _derivatives_and_ad(opt, x, p, rng):
+    """The NLP's assembled constraint Jacobian and Lagrangian Hessian (upper triangle) at ``(x, p)``
+    with random multipliers, and CasADi's automatic ones of the same functions (all dense)."""
+    xs, ps = ca.MX.sym("x", x.size), ca.MX.sym("p", p.size)
+    out = opt.solver.oracle()(x=xs, p=ps)
+    lam_g = rng.normal(size=out["g"].numel())
+    lagrangian = 0.7 * out["f"] + ca.dot(ca.DM(lam_g), out["g"])
+    auto = ca.Function("auto", [xs, ps], [ca.jacobian(out["g"], xs), ca.hessian(lagrangian, xs)[0]])
+    jac_a, hess_a = (np.array(ca.densify(v)) for v in auto(x, p))
+    _, jac = opt.solver.get_function("nlp_jac_g")(x, p)
+    hess = np.array(ca.densify(opt.solver.get_function("nlp_hess_l")(x, p, 0.7, lam_g)))
+    return np.array(ca.densify(jac)), jac_a, hess, hess_a
+
 def test_dct_rows_and_the_laplacian_they_diagonalize():
     x = np.random.default_rng(1).normal(size=30)
     C = dct_matrix(30)
@@ -172,15 +186,8 @@ def test_the_optimizer_minimizes_the_formula(robot, spectral_method, settings, k
     np.testing.assert_allclose(reduced, expected.ravel(), atol=1e-9 * (1 + np.abs(expected).max()))
     # derivatives of the whole lifted NLP (pose rows, kinematic rows, lifting rows) against AD
     x = x + 0.05 * rng.normal(size=x.size)  # off the lifting manifold too
-    xs, ps = ca.MX.sym("x", x.size), ca.MX.sym("p", p.size)
-    out = opt.solver.oracle()(x=xs, p=ps)
-    lam_g = rng.normal(size=out["g"].numel())
-    lagrangian = 0.7 * out["f"] + ca.dot(ca.DM(lam_g), out["g"])
-    auto = ca.Function("auto", [xs, ps], [ca.jacobian(out["g"], xs), ca.hessian(lagrangian, xs)[0]])
-    jac_a, hess_a = (np.array(ca.densify(v)) for v in auto(x, p))
-    _, jac = opt.solver.get_function("nlp_jac_g")(x, p)
-    hess = np.array(ca.densify(opt.solver.get_function("nlp_hess_l")(x, p, 0.7, lam_g)))
-    np.testing.assert_allclose(np.array(ca.densify(jac)), jac_a, atol=1e-12)
+    jac, jac_a, hess, hess_a = _derivatives_and_ad(opt, x, p, rng)
+    np.testing.assert_allclose(jac, jac_a, atol=1e-12)
     np.testing.assert_allclose(np.triu(hess) + np.triu(hess, 1).T, hess_a, atol=1e-10 * (1 + np.abs(hess_a).max()))
     # what reports show is J5 itself, whatever form the solver used
     terms = opt.cost_terms(q, t, T, f, r)
@@ -293,13 +300,6 @@ def test_the_spline_rows_knot_accelerations_follow_the_lifted_block(robot, spect
     lbx, ubx, _, _ = opt.bounds(t, q[0], q_goal=q[-1])
     np.testing.assert_allclose(ubx[-arm * n:], np.tile(opt._acc[opt._spline_rows], n))
     x = x + 0.05 * rng.normal(size=x.size)
-    xs, ps = ca.MX.sym("x", x.size), ca.MX.sym("p", p.size)
-    out = opt.solver.oracle()(x=xs, p=ps)
-    lam_g = rng.normal(size=out["g"].numel())
-    lagrangian = 0.7 * out["f"] + ca.dot(ca.DM(lam_g), out["g"])
-    auto = ca.Function("auto", [xs, ps], [ca.jacobian(out["g"], xs), ca.hessian(lagrangian, xs)[0]])
-    jac_a, hess_a = (np.array(ca.densify(v)) for v in auto(x, p))
-    _, jac = opt.solver.get_function("nlp_jac_g")(x, p)
-    hess = np.array(ca.densify(opt.solver.get_function("nlp_hess_l")(x, p, 0.7, lam_g)))
-    np.testing.assert_allclose(np.array(ca.densify(jac)), jac_a, atol=1e-9 * (1 + np.abs(jac_a).max()))
+    jac, jac_a, hess, hess_a = _derivatives_and_ad(opt, x, p, rng)
+    np.testing.assert_allclose(jac, jac_a, atol=1e-9 * (1 + np.abs(jac_a).max()))
     np.testing.assert_allclose(np.triu(hess) + np.triu(hess, 1).T, hess_a, atol=1e-10 * (1 + np.abs(hess_a).max()))

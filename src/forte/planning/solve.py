@@ -114,9 +114,10 @@ def optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | N
     """Solve the method's NLP (coarse-to-fine unless a guess is given); returns the result and facts
     (the cost terms evaluated with the ``reported`` force, default ``force``); ``self_rows``: with
     rows for the robot's own pairs near the solve (:func:`_apart`)."""
-    with solve_budget(*budget_of(task.solver)):  # a plan's rounds share the plan's; a lone call has its own
+    budget = budget_of(task.solver)
+    with solve_budget(*budget):  # a plan's rounds share the plan's; a lone call has its own
         sol, info = _optimize(task, method, force, guess, reported, self_rows)
-    return sol, info | {"time_budget_s": budget_of(task.solver)[0]}
+    return sol, info | {"time_budget_s": budget[0]}
 
 
 def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None,
