@@ -16,7 +16,7 @@ from forte.force.taskforce import given_force
 from forte.io.plandir import LEGACY_METRIC_COLUMNS, METRIC_COLUMNS, read_metrics, read_plan_dir, write_plan
 from forte.model.clearance import BASE_PART, ClearanceChecker, clearances
 from forte.model.description import BASE_BOX_HALF_XY
-from forte.model.scene import Box, Scene, SceneObject, Sphere, pose_matrix
+from forte.model.scene import Box, Cylinder, Mesh, Scene, SceneObject, Sphere, pose_matrix
 from forte.planning.verdict.verdict import judge
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -94,6 +94,52 @@ def test_penetration_agrees_with_coals_collide_and_the_broad_phase_is_exact(robo
         elif got.distance[0] > 1e-6:
             assert contact is None
     assert overlapping >= 5
+
+
+def test_the_broad_phase_bounds_never_exceed_a_pairs_distance_and_prune_long_boards(robot, tmp_path):
+    """Every (part, body) lower bound of the broad phase (sphere and oriented box) is at most
+    coal's signed distance of that pair, apart and overlapping, for tilted boxes, cylinders,
+    spheres and a triangle mesh; and against long thin boards (a shelf's, whose bounding spheres
+    contain the arm) the box bound leaves a few coal calls where the spheres alone leave most pairs."""
+    import coal
+
+    cube = tmp_path / "cube.obj"
+    corners = [[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1)]
+    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6),
+             (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    cube.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in corners)
+                    + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces))
+    rng = np.random.default_rng(11)
+    q = np.r_[0.0, 0.0, 0.0, robot.home_arm]
+    ee = robot.ee_pose(q)[:3, 3]
+    overlapping = 0
+    for _ in range(12):
+        place = lambda: [*(ee + rng.uniform(-0.5, 0.5, 3)), *rng.uniform(-np.pi, np.pi, 3)]  # noqa: E731
+        checker = ClearanceChecker(robot, _scene(("board", Box((1.2, 0.02, 0.3)), place()),
+                                                 ("can", Cylinder(0.05, 0.4), place()),
+                                                 ("ball", Sphere(0.1), place()), ("cube", Mesh(cube), place())))
+        T = checker.placements(q)
+        centres = np.einsum("gij,gj->gi", T[:, :3, :3], checker._part_centres) + T[:, :3, 3]
+        bound = checker.bounds(centres, np.arange(len(checker.parts)))
+        for g, part in enumerate(checker.parts):
+            for b, (obj, body) in enumerate(zip(checker.scene.objects, checker.bodies, strict=True)):
+                d = coal.distance(part.geometry, coal.Transform3s(T[g, :3, :3], T[g, :3, 3]), body.geometry,
+                                  coal.Transform3s(obj.pose[:3, :3], obj.pose[:3, 3]), coal.DistanceRequest(),
+                                  coal.DistanceResult())
+                assert bound[g, b] <= d + 1e-9, (part.name, obj.name)
+                overlapping += d < 0
+    assert overlapping >= 5
+
+    boards = _scene(*((f"board{i}", Box((1.5, 0.02, 1.5)), [ee[0] + 0.25 + 0.2 * i, 0, ee[2], 0, 0, np.pi / 2])
+                      for i in range(3)))
+    checker = ClearanceChecker(robot, boards)
+    T = checker.placements(q)
+    centres = np.einsum("gij,gj->gi", T[:, :3, :3], checker._part_centres) + T[:, :3, 3]
+    exact = checker.evaluate(q[None]).distance[0]
+    spheres = np.linalg.norm(centres[:, None] - checker._body_centres[None], axis=-1) \
+        - checker._scene_radii - checker._part_radii[:, None]
+    assert np.count_nonzero(checker.bounds(centres, np.arange(len(checker.parts))) < exact) <= 4
+    assert np.count_nonzero(spheres < exact) >= 3 * len(checker.parts)
 
 
 def test_arm_parts_follow_the_planners_kinematics_and_the_panda_meshes_are_convex(robot):

@@ -27,12 +27,19 @@ then the smallest signed distance between one of its triangles and the robot par
 that triangle's depth when they overlap (not the depth of the solids), and positive for a part
 wholly inside a closed mesh that touches none of its triangles (a mesh has no inside for coal).
 
-**Broad phase.** Every part and body has a bounding sphere (coal's local AABB: its centre and
-the radius that contains the box), so ``|c_a - c_b| - r_a - r_b`` bounds the pair's signed
-distance from below (for the floor: the centre's height above it minus the radius). Per
-configuration, the pairs are tried in the order of that bound and the narrow phase stops when
-the next bound is no smaller than the best distance found: the exact minimum over all pairs,
-after typically one to three coal calls, whatever the number of bodies.
+**Broad phase.** Every part has a bounding sphere (coal's local AABB: its centre ``c`` and the
+radius ``r`` that contains the box) and every scene body its oriented box (that AABB in the body's
+frame, placed by its pose). The pair's signed distance is bounded from below by both
+``|c - c_b| - r - r_b`` (the body's sphere) and ``s(c) - r``, where ``s`` is the signed distance
+of the point ``c`` to the body's box (negative inside, by its depth): outside the box by ``s``, the
+part keeps at least ``s - r``; inside by ``e``, a shift of ``e + r`` along the nearest face takes
+the part's sphere out of the box, so no overlap is deeper (for a mesh, no triangle's). The box
+bound is the tight one for the long thin boards and walls of shelves and cages (whose spheres
+contain the arm): a tenth of the coal calls on MotionBenchMaker's scenes. For the floor the bound
+is the centre's height above it minus the radius. Per configuration, the pairs are tried in the
+order of that bound and the narrow phase stops when the next bound is no smaller than the best
+distance found: the exact minimum over all pairs, after typically one to five coal calls,
+whatever the number of bodies.
 """
 
 from __future__ import annotations
@@ -158,6 +165,11 @@ class ClearanceChecker:
             poses.append(np.eye(4))
         self.bodies = tuple(bodies)
         self._scene_radii = np.array([b.radius for b in bodies[:len(scene.objects)]])
+        # the bodies' oriented boxes: rotation (B x 3 x 3), origin, the local AABB's corners
+        self._body_rotations = np.array([T[:3, :3] for T in poses[:len(scene.objects)]]).reshape(-1, 3, 3)
+        self._body_origins = np.array([T[:3, 3] for T in poses[:len(scene.objects)]]).reshape(-1, 3)
+        self._box_low = np.array([b.geometry.aabb_local.min_ for b in bodies[:len(scene.objects)]]).reshape(-1, 3)
+        self._box_high = np.array([b.geometry.aabb_local.max_ for b in bodies[:len(scene.objects)]]).reshape(-1, 3)
         self._body_transforms = [coal.Transform3s(T[:3, :3].copy(), T[:3, 3].copy()) for T in poses]
         self._request = coal.DistanceRequest()
         if self._arm is not None:
@@ -192,30 +204,45 @@ class ClearanceChecker:
         wr, wb = np.full((k, 3), np.nan), np.full((k, 3), np.nan)
         if self.bodies:
             hint = 0 if self.scene.objects else int(np.flatnonzero(~self.grounded)[0]) * len(self.bodies)
-            for i, q in enumerate(Q):
-                hint, distance[i], wr[i], wb[i] = self._closest(self.placements(q), hint)
+            T = np.array([self.placements(q) for q in Q])  # K x parts x 4 x 4
+            bound = self.pair_bounds(T)  # every configuration's bounds at once: one set of array operations
+            for i in range(k):
+                hint, distance[i], wr[i], wb[i] = self._closest(T[i], hint, bound[i])
                 g, b = divmod(hint, len(self.bodies))
                 robot[i], body[i] = self.parts[g].name, self.bodies[b].name
         return Clearances(distance, tuple(robot), tuple(body), wr, wb)
+
+    def pair_bounds(self, T: FloatArray) -> FloatArray:
+        """:meth:`bounds` of every pair (K x parts * bodies, flat index part x body) with the parts
+        placed at ``T`` (K x parts x 4 x 4)."""
+        centres = np.einsum("kgij,gj->kgi", T[..., :3, :3], self._part_centres) + T[..., :3, 3]
+        parts = np.tile(np.arange(len(self.parts)), len(T))
+        return self.bounds(centres.reshape(-1, 3), parts).reshape(len(T), -1)
 
     def bounds(self, centres: FloatArray, parts: FloatArray) -> FloatArray:
         """Lower bounds (len(parts) x bodies) on the signed distance of each of ``parts`` (indices)
         whose bounding spheres are centred at ``centres`` (world) to each body; ``inf`` for a part
         rigid with the base against the floor (not a pair)."""
         radii = self._part_radii[parts]
-        scene = np.linalg.norm(centres[:, None, :] - self._body_centres[None], axis=-1) - radii[:, None] \
-            - self._scene_radii
+        spheres = np.linalg.norm(centres[:, None, :] - self._body_centres[None], axis=-1) - self._scene_radii
+        scene = np.maximum(spheres, self._box_distance(centres)) - radii[:, None]
         if self._floor is None:
             return scene
         floor = np.where(self.grounded[parts], np.inf, centres[:, 2] - self._floor - radii)
         return np.column_stack([scene, floor])
 
-    def _closest(self, T: FloatArray, hint: int) -> tuple[int, float, FloatArray, FloatArray]:
-        """Branch and bound over the pairs of one configuration (module docstring), starting with
-        pair ``hint`` (the previous sample's closest: usually close again, so few bounds pass).
-        Returns the closest pair's flat index (part x body), its distance and witness points."""
-        centres = np.einsum("gij,gj->gi", T[:, :3, :3], self._part_centres) + T[:, :3, 3]
-        bound = self.bounds(centres, np.arange(len(self.parts))).ravel()
+    def _box_distance(self, points: FloatArray) -> FloatArray:
+        """Signed distance (P x bodies) of each world point to each body's oriented box (negative
+        inside, by the depth to its nearest face)."""
+        local = np.einsum("bji,pbj->pbi", self._body_rotations, points[:, None, :] - self._body_origins[None])
+        beyond = np.maximum(self._box_low[None] - local, local - self._box_high[None])  # > 0: outside that face
+        return np.linalg.norm(np.maximum(beyond, 0.0), axis=-1) + np.minimum(beyond.max(axis=-1), 0.0)
+
+    def _closest(self, T: FloatArray, hint: int, bound: FloatArray) -> tuple[int, float, FloatArray, FloatArray]:
+        """Branch and bound over the pairs of one configuration (module docstring; ``bound``: its
+        row of :meth:`pair_bounds`), starting with pair ``hint`` (the previous sample's closest:
+        usually close again, so few bounds pass). Returns the closest pair's flat index (part x
+        body), its distance and witness points."""
         best = (hint, *self._distance(T, hint))
         candidates = np.flatnonzero(bound < best[1])
         for idx in candidates[np.argsort(bound[candidates])]:
