@@ -143,7 +143,7 @@ class StateChecker:
 
     def _in_range(self, q: Any) -> bool:
         arm = np.asarray(q, dtype=float)[N_BASE:]
-        return not (np.any(arm < self.lower) or np.any(arm > self.upper))
+        return bool((arm >= self.lower).all() and (arm <= self.upper).all())  # the methods: no wrapper's cost
 
     def valid(self, q: Any) -> bool:
         """Within the joint limits, every scene distance >= the clearance, no self-collision."""
