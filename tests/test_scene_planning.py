@@ -108,27 +108,6 @@ def test_clearance_kernel_equals_its_numpy_twin_and_its_jacobian_finite_differen
         assert J == pytest.approx(fd, abs=1e-5)
 
 
-def test_the_clearance_jacobians_pattern_holds_every_entry_the_kernels_rows_depend_on():
-    """window_columns leaves out of the NLP's pattern the window entries no row depends on:
-    CasADi's own structural Jacobian of the rows (symbolic) and the numbers at random windows agree."""
-    import casadi as ca
-
-    from forte.planning.nlp.clearance_rows import window_columns
-
-    robot = default_robot()
-    nq = robot.nq
-    for frame, other in ((0, None), (2, None), (robot.n_arm, None), (robot.n_arm, 1)):
-        kern = build_collision_kernels(robot, frame, 2, other)
-        z, p = ca.SX.sym("z", 3 * nq), ca.SX.sym("p", kern["clear_rows"].size1_in(1))
-        depends = np.unique(ca.jacobian(kern["clear_rows"](z, p), z).sparsity().get_col())
-        used = window_columns(robot, frame, other)
-        assert set(depends) <= set(used) and used.min() >= nq  # never q_{k-2}
-        assert len(used) == 2 * (3 + (max(frame, other or 0)))  # the base and the arm joints up to the frame
-        rng = np.random.default_rng(frame)
-        J = np.array(kern["clear_jac"](rng.normal(size=3 * nq), rng.normal(size=p.numel())))
-        assert np.all(J[:, np.setdiff1d(np.arange(3 * nq), used)] == 0)
-
-
 def test_an_empty_slot_gives_rows_that_always_hold():
     robot = default_robot()
     kern = build_collision_kernels(robot, 0, 2)

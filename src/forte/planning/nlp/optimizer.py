@@ -292,7 +292,7 @@ class TrajectoryOptimizer:
         grad = ca.densify(ca.mtimes(scatter, ca.vec(kern.grad.map(n)(*stage_args))) + Qx)
         jac = constraint_jacobian(self, x, X, pd, Rd, g_kin)
         for ck, P_f, rows in zip(self._clear, clear_par, kept, strict=True):
-            jac = ca.vertcat(jac, clearance_jacobian(ck, Z, P_f, index, rows, x.numel(), robot))
+            jac = ca.vertcat(jac, clearance_jacobian(ck, Z, P_f, index, rows, x.numel()))
         if self._lateral:
             jac = ca.vertcat(jac, ca.jacobian(lateral, x))
         if level.numel():
