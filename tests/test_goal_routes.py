@@ -281,7 +281,7 @@ def _rows_at(robot: object, q: np.ndarray, slots: object) -> np.ndarray:
 
 def test_a_route_close_to_a_body_meets_the_nlps_rows_it_starts_from():
     """A body within 1 cm of the route (exact meshes) where the route moves several cm per waypoint: with
-    the clearance alone its rows (cover distance >= m + |step| / 2 at both waypoints) are broken at
+    the clearance alone its rows (cover distance >= m + |step| / 2 at the chord's midpoint) are broken at
     the route, so IPOPT would start outside them; with the margins from the route's own distances
     and steps (``clear``) every row holds there, by the slack."""
     from forte.planning.nlp.collision_slots import START_OVERLAP_SLACK, assign_slots

@@ -93,11 +93,13 @@ def test_clearance_kernel_equals_its_numpy_twin_and_its_jacobian_finite_differen
         rows = np.array(kern["clear_rows"](z, params)).ravel()
         c0 = primitive_centres(robot, q0, primitives)[hand]
         c1 = primitive_centres(robot, q1, primitives)[hand]
-        d0 = pair_distances(c0, tuple(primitives[i] for i in hand), [proxy])[:, 0]
-        d1 = pair_distances(c1, tuple(primitives[i] for i in hand), [proxy])[:, 0]
+        middle = pair_distances(0.5 * (c0 + c1), tuple(primitives[i] for i in hand), [proxy])[:, 0]
         need = 0.02 + 0.5 * np.linalg.norm(c1 - c0, axis=1)
-        assert rows[0::2] == pytest.approx(d1 - need, abs=1e-8)
-        assert rows[1::2] == pytest.approx(d0 - need, abs=1e-8)
+        assert rows == pytest.approx(middle - need, abs=1e-8)  # one row per slot: the chord's midpoint
+        # the row keeps the whole chord: every point of it (numpy, 21 samples) at least the clearance
+        chord = [pair_distances(c0 + s * (c1 - c0), tuple(primitives[i] for i in hand), [proxy])[:, 0]
+                 for s in np.linspace(0, 1, 21)]
+        assert np.all(np.min(chord, axis=0) >= 0.02 + np.minimum(rows, 0) - 1e-9)
         J = np.array(kern["clear_jac"](z, params))
         h = 1e-6
         fd = np.column_stack([(np.array(kern["clear_rows"](z + h * e, params)).ravel()
@@ -110,7 +112,7 @@ def test_an_empty_slot_gives_rows_that_always_hold():
     robot = default_robot()
     kern = build_collision_kernels(robot, 0, 2)
     rows = np.array(kern["clear_rows"](np.zeros(3 * robot.nq), np.zeros(2 * SLOT_SIZE))).ravel()
-    assert rows == pytest.approx(np.ones(4))
+    assert rows == pytest.approx(np.ones(2))
 
 
 CRATE_TASK = {
@@ -282,10 +284,14 @@ def test_self_collision_kernel_equals_its_numpy_twin_and_the_pairs_skip_structur
         q1 = q0 + rng.normal(0, 0.05, robot.nq)
         rows = np.array(kern["clear_rows"](np.r_[q0, q0, q1], params)).ravel()
         c0, c1 = primitive_centres(robot, q0, primitives), primitive_centres(robot, q1, primitives)
-        d0, d1 = self_distances(c0, primitives, tuple(chosen)), self_distances(c1, primitives, tuple(chosen))
         rel = np.array([np.linalg.norm((c1[a] - c1[b]) - (c0[a] - c0[b])) for a, b in chosen])
-        assert rows[0::2] == pytest.approx(d1 - rel / 2, abs=1e-8)
-        assert rows[1::2] == pytest.approx(d0 - rel / 2, abs=1e-8)
+        # the midpoint of the relative chord: a's centre moved to b's (fixed) plus the mean offset
+        middle = []
+        for a, b in chosen:
+            cm = c1.copy()
+            cm[a] = c1[b] + 0.5 * ((c1[a] - c1[b]) + (c0[a] - c0[b]))
+            middle.append(self_distances(cm, primitives, ((a, b),))[0])
+        assert rows == pytest.approx(middle - rel / 2, abs=1e-8)
 
 
 def test_a_raw_tiagos_pair_overlapping_at_all_zeros_but_apart_at_the_start_gets_rows(tmp_path):

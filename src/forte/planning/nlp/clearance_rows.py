@@ -22,7 +22,7 @@ from forte.validation import FloatArray
 def clearance_jacobian(kern: CollisionKernels, Z: ca.MX, params: ca.MX, index: FloatArray, kept: FloatArray,
                        nx: int) -> ca.MX:
     """Jacobian (rows kept x nx) of the kept clearance rows."""
-    n, w, rows = index.shape[1], index.shape[0], 2 * kern.slots
+    n, w, rows = index.shape[1], index.shape[0], kern.slots
     blocks = kern.jac.map(n)(Z, params)  # rows x (w n)
     k, r = np.divmod(np.asarray(kept, dtype=np.int64), rows)
     c = np.arange(w)
@@ -38,7 +38,7 @@ def clearance_hessian(kern: CollisionKernels, Z: ca.MX, params: ca.MX, lam: ca.M
                       pattern: tuple[ca.Sparsity, Any], n: int) -> ca.MX:
     """Upper triangle of ``sum lam_i Hess(g_i)`` over the kept clearance rows, in the Lagrangian
     Hessian's ``pattern`` (:func:`~forte.planning.nlp.assembly.hessian_pattern`: the stage blocks)."""
-    rows = 2 * kern.slots
+    rows = kern.slots
     spread = sparse.csr_matrix((np.ones(kept.size), (kept, np.arange(kept.size))), shape=(rows * n, kept.size))
     lam_full = ca.reshape(ca.mtimes(dm(spread), lam), rows, n)
     blocks = kern.hess.map(n)(Z, params, lam_full)  # w x (w n)

@@ -9,14 +9,18 @@ arm kinematics). Which pairs fill the slots is task data (NLP parameters,
 :mod:`forte.planning.nlp.collision_slots`), so one compiled kernel serves every scene with at most
 ``K_f`` close pairs on frame ``f`` per waypoint; ``K_f`` is rounded up to :data:`SLOT_BUCKETS`.
 
-For waypoint ``k`` a slot gives two rows, ``D(q_k) >= c`` and ``D(q_{k-1}) >= c`` with
+For waypoint ``k`` a slot gives one row, at the midpoint of the straight chord from waypoint
+``k - 1`` to ``k``:
 
-    D(q) = sdf_b(x_a(q)) - r_a,      c = m + |Δ_k| / 2,
+    D(x) = sdf_b(x) - r_a,      D((x_a(q_{k-1}) + x_a(q_k)) / 2) >= m + |Δ_k| / 2,
 
 ``m`` the clearance and ``Δ_k`` the change of ``a``'s position relative to ``b`` between the two
-waypoints: along the straight chord between them every point is within ``|Δ_k| / 2`` of an end,
-and a signed distance is 1-Lipschitz, so the chord keeps the clearance ``m`` (the executed
-spline bends away from the chord by a little; the exact check measures it).
+waypoints: every point of the chord is within ``|Δ_k| / 2`` of its midpoint, and a signed
+distance is 1-Lipschitz, so the whole chord, both waypoints included, keeps the clearance ``m``
+(the executed spline bends away from the chord by a little; the exact check measures it). One
+row per slot, not one per end (``D(q_k) >= c`` and ``D(q_{k-1}) >= c``, which keep the chord
+too): half the inequality rows in IPOPT's KKT system, and never tighter than the two ends'
+rows for a distance that is linear along the chord (a primitive moving straight at a wall).
 
 Guards (the exact distances are what the verdict reports): a norm is ``sqrt(|v|^2 + eps^2) -
 eps`` with ``eps`` = 1e-9 m, so its derivative exists at 0; the value moves by < 1e-9 m.
@@ -90,27 +94,31 @@ def world_frames(twin: CasadiTwin, q: Any) -> list[tuple[Any, Any]]:
     return [(Rb, pb)] + [(Rb @ R, Rb @ p + pb) for R, p in twin._arm_poses(q[N_BASE:])]
 
 
-def slot_distance(frame: tuple[Any, Any], s: dict[str, Any]) -> tuple[Any, Any]:
-    """``(D(q), x_a - x_b)`` of one slot whose primitive hangs on ``frame`` (world R, p at ``q``)."""
+def slot_offset(frame: tuple[Any, Any], s: dict[str, Any]) -> Any:
+    """``x_a - x_b`` of one slot whose primitive hangs on ``frame`` (world R, p at ``q``): from
+    the body's origin to the primitive's centre."""
     R, p = frame
-    xa = R @ s["centre_a"] + p
-    xb = s["origin"]
+    return R @ s["centre_a"] + p - s["origin"]
+
+
+def slot_distance(d: Any, s: dict[str, Any]) -> Any:
+    """``D`` of one slot at the offset ``d = x_a - x_b`` (:func:`slot_offset`)."""
     c, sn = s["yaw"][0], s["yaw"][1]
-    d = xa - xb
     local_xy = ca.vertcat(c * d[0] + sn * d[1], -sn * d[0] + c * d[1])
     dz = d[2] - ca.fmin(ca.fmax(d[2], -s["half_a"]), s["half_a"])  # nearest point of a's vertical segment
-    value = rounded_box_distance(ca.vertcat(local_xy, dz), s["half"], s["rho"], s["sigma"]) - s["radius_a"]
-    return value, d
+    return rounded_box_distance(ca.vertcat(local_xy, dz), s["half"], s["rho"], s["sigma"]) - s["radius_a"]
 
 
-def self_distance(frame_a: tuple[Any, Any], frame_b: tuple[Any, Any], s: dict[str, Any]) -> tuple[Any, Any]:
-    """``(D(q), x_a - x_b)`` of a self-collision slot: primitive ``a`` (a sphere) against ``b``
-    (a sphere, or a vertical capsule on the base), at the frames of ``q``."""
-    xa = frame_a[0] @ s["centre_a"] + frame_a[1]
-    xb = frame_b[0] @ s["centre_b"] + frame_b[1]
-    d = xa - xb
+def self_offset(frame_a: tuple[Any, Any], frame_b: tuple[Any, Any], s: dict[str, Any]) -> Any:
+    """``x_a - x_b`` of a self-collision slot at the frames of ``q``."""
+    return frame_a[0] @ s["centre_a"] + frame_a[1] - (frame_b[0] @ s["centre_b"] + frame_b[1])
+
+
+def self_distance(d: Any, s: dict[str, Any]) -> Any:
+    """``D`` of a self-collision slot at the offset ``d`` (:func:`self_offset`): primitive ``a``
+    (a sphere) against ``b`` (a sphere, or a vertical capsule on the base)."""
     dz = d[2] - ca.fmin(ca.fmax(d[2], -s["half_b"]), s["half_b"])
-    return _norm(ca.vertcat(d[0], d[1], dz)) - s["radius_a"] - s["radius_b"], d
+    return _norm(ca.vertcat(d[0], d[1], dz)) - s["radius_a"] - s["radius_b"]
 
 
 def build_collision_kernels(robot: Any, frame: int, slots: int, other: int | None = None) -> dict[str, ca.Function]:
@@ -127,16 +135,16 @@ def build_collision_kernels(robot: Any, frame: int, slots: int, other: int | Non
         v = P[i * size:(i + 1) * size]
         s = {name: v[o:o + n] for name, (o, n) in fields.items()}
         if other is None:
-            now, d_now = slot_distance(frames_now[frame], s)
-            before, d_before = slot_distance(frames_before[frame], s)
+            d_now, d_before = slot_offset(frames_now[frame], s), slot_offset(frames_before[frame], s)
+            middle = slot_distance(0.5 * (d_now + d_before), s)
         else:
-            now, d_now = self_distance(frames_now[frame], frames_now[other], s)
-            before, d_before = self_distance(frames_before[frame], frames_before[other], s)
+            d_now = self_offset(frames_now[frame], frames_now[other], s)
+            d_before = self_offset(frames_before[frame], frames_before[other], s)
+            middle = self_distance(0.5 * (d_now + d_before), s)
         need = s["margin"] + 0.5 * _norm(d_now - d_before)
-        off = 1 - s["active"]
-        rows += [s["active"] * (now - need) + off, s["active"] * (before - need) + off]
+        rows.append(s["active"] * (middle - need) + 1 - s["active"])
     g = ca.vertcat(*rows)
-    lam = ca.SX.sym("lam", 2 * slots)
+    lam = ca.SX.sym("lam", slots)
     H, _ = ca.hessian(ca.dot(lam, g), z)
     return {
         "clear_rows": ca.Function("clear_rows", [z, P], [g]),
@@ -146,7 +154,7 @@ def build_collision_kernels(robot: Any, frame: int, slots: int, other: int | Non
 
 
 class CollisionKernels(NamedTuple):
-    """One frame's clearance rows (2 per slot), their Jacobian and Lagrangian Hessian in ``z``
+    """One frame's clearance rows (1 per slot), their Jacobian and Lagrangian Hessian in ``z``
     (``other``: the second frame of self-collision slots, ``None`` for scene slots)."""
 
     rows: ca.Function

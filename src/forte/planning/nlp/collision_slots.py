@@ -33,9 +33,10 @@ ACTIVATION = 0.10
 
 class FrameSlots(NamedTuple):
     """The clearance rows of one frame in one solve: ``slots`` per waypoint; ``values``
-    (N x slots * slot size) their NLP parameters; ``keep`` (N x 2 slots) the rows written into
-    the NLP; ``pairs``: ``(k, slot) -> (primitive, body)`` (a self pair's body: ``-1 -
-    primitive``); ``other``: the second frame of self-collision slots, ``None`` for the scene."""
+    (N x slots * slot size) their NLP parameters; ``keep`` (N x slots) the rows written into
+    the NLP (one per slot: the chord from waypoint k - 1 to k); ``pairs``: ``(k, slot) ->
+    (primitive, body)`` (a self pair's body: ``-1 - primitive``); ``other``: the second frame of
+    self-collision slots, ``None`` for the scene."""
 
     frame: int
     slots: int
@@ -55,8 +56,8 @@ class Slots(NamedTuple):
         return int(sum(f.keep.sum() for f in self.frames))
 
     def triples(self) -> set[tuple[int, int, int]]:
-        """``(k, primitive, body)`` of every pair with rows (at ``k`` and, through the interval's
-        second row, ``k - 1``)."""
+        """``(k, primitive, body)`` of every pair with rows (at ``k`` and ``k - 1``: the row keeps
+        the chord between them)."""
         out = set()
         for f in self.frames:
             for (k, _), (p, m) in f.pairs.items():
@@ -233,14 +234,13 @@ def assign_slots(robot: object, q: FloatArray, scene: Scene, clearance: float, f
         size = min(bucket(max(len(groups.get(key, ())) for groups in chosen)), SLOT_BUCKETS[-1])
         width = SLOT_SIZE if key[1] < 0 else SELF_SIZE
         values = np.zeros((n, size * width))
-        keep = np.zeros((n, 2 * size), dtype=bool)
+        keep = np.zeros((n, size), dtype=bool)
         pairs = {}
         for k, groups in enumerate(chosen):
             for j, (_, p, m) in enumerate(sorted(groups.get(key, ()))[:size]):
                 values[k, j * width:(j + 1) * width] = _slot(primitives[p], proxies[m], kept[k, p, m]) if m >= 0 \
                     else _self_slot(primitives[p], primitives[-1 - m], margins[index_self[(p, -1 - m)]])
-                keep[k, 2 * j] = True
-                keep[k, 2 * j + 1] = n > 1  # one waypoint (holding): no interval, one row
+                keep[k, j] = True
                 pairs[(k, j)] = (p, m)
         frames.append(FrameSlots(key[0], size, values, keep, pairs, None if key[1] < 0 else key[1]))
     return Slots(tuple(frames))
@@ -252,22 +252,23 @@ def scene_margins(robot: object, scene: Scene, clearance: float, shape: tuple[in
     clearance, or where a motion ``clear`` of the scene (exact geometry) would break its rows, what
     it keeps there less :data:`START_OVERLAP_SLACK` (see :func:`assign_slots`).
 
-    A slot at waypoint ``k`` asks ``D(q_k) >= c`` and ``D(q_{k-1}) >= c`` with ``c = m + |Δ_k| / 2``
-    (:mod:`~forte.planning.nlp.collision_kernels`), so the motion meets it with
-    ``m_k = min(D_k, D_{k-1}) - |Δ_k| / 2``, ``D`` its cover distances and ``|Δ_k|`` how far the
-    primitive moves between the two waypoints: ``m`` is the clearance or that, less the slack,
-    whichever is smaller. Covers are up to ~12 % thicker than the meshes and a route through a
-    cage moves a link 7-23 cm per waypoint on 30 waypoints: with the clearance alone the route
+    A slot at waypoint ``k`` asks ``D(x_mid) >= m + |Δ_k| / 2`` at the midpoint ``x_mid`` of the
+    primitive's chord from waypoint ``k - 1`` to ``k`` (:mod:`~forte.planning.nlp.collision_kernels`),
+    so the motion meets it with ``m_k = D(x_mid) - |Δ_k| / 2``, ``D`` its cover distance and
+    ``|Δ_k|`` how far the primitive moves between the two waypoints (at the first waypoint: its
+    own distance): ``m`` is the clearance or that, less the slack, whichever is smaller. Covers
+    are up to ~12 % thicker than the meshes and a route through a cage moves a link 7-23 cm per
+    waypoint on 30 waypoints: with the clearance alone the route
     broke ~200 of its rows by up to 14 cm (MotionBenchMaker's cage, table_under_pick), and IPOPT,
     started there, ran out of iterations or called the problem infeasible. The verdict checks
     the exact clearance of what the NLP returns."""
     kept = np.full(shape, float(clearance))
     if clear is not None and len(clear) == shape[0]:
         centres = _centres(robot, clear, primitives)
-        reference = scene_distances(centres, primitives, scene, clearance + ACTIVATION)
-        step = np.linalg.norm(np.diff(centres, axis=0), axis=-1)  # (N-1) x P
-        reference[1:] = np.minimum(reference[1:], reference[:-1]) - 0.5 * step[..., None]
-        kept = np.minimum(kept, reference - START_OVERLAP_SLACK)
+        before = np.concatenate([centres[:1], centres[:-1]])  # the first waypoint's chord: itself
+        middle = scene_distances(0.5 * (centres + before), primitives, scene, clearance + ACTIVATION)
+        step = np.linalg.norm(centres - before, axis=-1)  # N x P
+        kept = np.minimum(kept, middle - 0.5 * step[..., None] - START_OVERLAP_SLACK)
     return kept
 
 

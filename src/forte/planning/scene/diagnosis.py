@@ -11,8 +11,8 @@ violation is
 
 recomputed from ``x`` (so it reads the same whichever solver ran). A clearance row stands for one
 pair (:attr:`forte.planning.nlp.collision_slots.FrameSlots.pairs`: a robot primitive and a scene body,
-or a pair of the robot's own parts) at one waypoint: slot ``j`` of waypoint ``k`` writes
-``D(q_k) >= c`` (row ``2j``) and ``D(q_{k-1}) >= c`` (row ``2j + 1``),
+or a pair of the robot's own parts) at one waypoint: slot ``j`` of waypoint ``k`` writes row ``j``,
+the clearance at the midpoint of the chord from waypoint ``k - 1`` to ``k`` less half the chord,
 :mod:`forte.planning.nlp.collision_kernels`. So ``v_i`` of a clearance row is how far (m) the part is
 inside the clearance it must keep from that body.
 
@@ -80,10 +80,10 @@ def _clearance_rows(opt: TrajectoryOptimizer, body_names: list[str]) -> list[tup
     out = []
     for frame in opt.slots.frames if opt.slots else ():
         for idx in np.flatnonzero(frame.keep.ravel()):
-            k, rest = divmod(int(idx), 2 * frame.slots)
-            p, m = frame.pairs.get((k, rest // 2), (-1, 0))
+            k, slot = divmod(int(idx), frame.slots)  # the row of the chord from waypoint k - 1 to k
+            p, m = frame.pairs.get((k, slot), (-1, 0))
             body = body_names[m] if m >= 0 else f"self: {primitives[-1 - m].piece}"
-            out.append((len(out), body, primitives[p].piece if p >= 0 else "", k - (rest % 2)))
+            out.append((len(out), body, primitives[p].piece if p >= 0 else "", k))
     return out
 
 
