@@ -302,9 +302,10 @@ def test_the_spline_rows_knot_accelerations_follow_the_lifted_block(robot, spect
     lbx, ubx, _, ubg = opt.bounds(t, q[0], q_goal=q[-1])
     np.testing.assert_allclose(ubx[-arm * n:], np.tile(opt._spline.acceleration, n))
     fast = [opt._spline_rows[j] for j in opt._spline.velocity]  # the velocity rows' ends: the spline's knot slopes
-    ends = np.r_[g[end:end + velocity], np.zeros(len(fast))].reshape(n - 1, 2, len(fast))[:, 1]
+    h = np.diff(t)[:, None]  # the rows are h v (the kinematic rows' units)
+    ends = np.r_[g[end:end + velocity], np.zeros(len(fast))].reshape(n - 1, 2, len(fast))[:, 1] / h
     np.testing.assert_allclose(ends[:-1], clamped_spline(t, q[:, fast], t)[1][1:-1], atol=1e-9)
-    np.testing.assert_allclose(ubg[end:end + velocity], np.tile(opt._vel[fast], 2 * n - 2)[:velocity])
+    np.testing.assert_allclose(ubg[end:end + velocity], (np.repeat(h, 2, 0) * opt._vel[fast]).ravel()[:velocity])
     x = x + 0.05 * rng.normal(size=x.size)
     jac, jac_a, hess, hess_a = _derivatives_and_ad(opt, x, p, rng)
     np.testing.assert_allclose(jac, jac_a, atol=1e-9 * (1 + np.abs(jac_a).max()))

@@ -110,13 +110,13 @@ def test_limits_on_spline_turns_the_rows_on_or_off_for_any_task():
 
 
 def _velocity_rows(t, q, v1, pieces):
-    """The velocity rows of every column of ``q`` (N x C) at the spline's own knot accelerations (N-1 segments x
-    2 pieces x C, the last segment's end, the last knot's 0, appended)."""
+    """The velocity rows of every column of ``q`` (N x C) at the spline's own knot accelerations, divided by
+    their segment's length (N-1 segments x 2 pieces x C, the last segment's end, the last knot's 0, appended)."""
     C = q.shape[1]
     X, A, h = ca.MX.sym("X", C, t.size), ca.MX.sym("A", C, t.size), ca.MX.sym("h", 1, t.size - 1)
     rows = ca.Function("rows", [X, A, h], [velocity_rows(X, A, h, list(range(C)), pieces)])
     values = np.array(rows(q.T, knot_accelerations(t, q, v1).T, np.diff(t)[None])).ravel()
-    return np.r_[values, np.zeros(C)].reshape(t.size - 1, 2 * pieces, C)
+    return np.r_[values, np.zeros(C)].reshape(t.size - 1, 2 * pieces, C) / np.diff(t)[:, None, None]  # rad/s
 
 
 def test_the_velocity_rows_are_control_points_of_scipys_clamped_spline_velocity():
@@ -149,13 +149,15 @@ def test_the_velocity_rows_are_control_points_of_scipys_clamped_spline_velocity(
     assert excess[3] < excess[1] and excess[1] > 1e-3  # a case where the hull is conservative
 
 
-def test_the_velocity_bounds_are_the_limits_but_a_faster_start_keeps_its_speed():
-    low, high = velocity_bounds(np.array([1.0, 2.0]), 4)
+def test_the_velocity_bounds_are_the_limits_times_the_segments_but_a_faster_start_keeps_its_speed():
+    t = np.array([0.0, 0.1, 0.3, 0.4])
+    low, high = velocity_bounds(np.array([1.0, 2.0]), t)
     assert high.size == 2 * (2 * 3 - 1) and np.all(low == -high)
-    np.testing.assert_allclose(high, np.tile([1.0, 2.0], 5))
-    _, high = velocity_bounds(np.array([1.0, 2.0]), 4, np.array([-1.5, 0.5]))
-    np.testing.assert_allclose(high[:2], [1.5, 2.0])  # the first piece's middle point only
-    np.testing.assert_allclose(high[2:], np.tile([1.0, 2.0], 4))
+    np.testing.assert_allclose(high, np.array([1.0, 2.0, 1.0, 2.0, 2.0, 4.0, 2.0, 4.0, 1.0, 2.0]) * 0.1)
+    _, high = velocity_bounds(np.array([1.0, 2.0]), t, np.array([-1.5, 0.5]))
+    np.testing.assert_allclose(high[:4], np.array([1.5, 2.0, 1.0, 2.0]) * 0.1)  # the first piece's middle point only
+    _, high = velocity_bounds(np.array([1.0]), t, pieces=2)
+    np.testing.assert_allclose(high, np.repeat(np.diff(t), 4)[:-1])
 
 
 def test_the_spline_coordinates_are_the_velocity_and_acceleration_limited_ones():
@@ -181,10 +183,11 @@ def _dense_velocity_ratio(task, q):
 
 
 def test_an_own_urdf_riding_its_velocity_limits_keeps_them_on_the_executed_spline(tmp_path):
-    """The raw Kinova URDF from a user's start (issue 36): without the rows its first solve rides a
-    0.849 rad/s joint at its limit at the waypoints and the executed spline exceeds it (1.35 x);
-    with them (``limits.on_spline``) the dense-sampled spline keeps every coordinate within its
-    limit and the first solve is feasible, no refinement round."""
+    """The raw Kinova URDF from a user's start (issue 36): without the rows its first solve keeps
+    the 0.628 rad/s limits at the waypoints and the executed spline exceeds them (measured 1.34 x,
+    joint 1 between waypoints 0 and 1); with them (``limits.on_spline``) SciPy's spline through
+    the plan, sampled 25 x denser than the verdict, keeps every coordinate within its limit and the
+    first solve is feasible, no refinement round."""
     ratios = {}
     for on in (False, True):
         task = task_from_dict(_kinova(rounds=0) | {"limits": {"on_spline": on}}, tmp_path / "task.yaml")
