@@ -161,15 +161,15 @@ def test_the_velocity_bounds_are_the_limits_times_the_segments_but_a_faster_star
 
 
 def test_the_spline_coordinates_are_the_velocity_and_acceleration_limited_ones():
-    """The base's velocity (when it moves) and the arm's joints with a velocity or acceleration
-    limit; the base's knot accelerations are free (the verdict does not judge them)."""
+    """The arm's joints with a velocity or acceleration limit, and the base's velocity when asked
+    (its knot accelerations free: the verdict does not judge them); the NLP leaves the base out."""
     inf = np.inf
     vel, acc = np.array([1.0, 1.0, 1.5, 2.0, inf, inf]), np.array([1.0, 1.0, 2.0, 5.0, 7.0, inf])
-    moving = SplineCoordinates.of(vel, acc, base_moves=True)
+    moving = SplineCoordinates.of(vel, acc, with_base=True)
     assert moving.coordinates == [0, 1, 2, 3, 4] and moving.velocity == [0, 1, 2, 3]
     np.testing.assert_allclose(moving.acceleration, [inf, inf, inf, 5.0, 7.0])
     np.testing.assert_allclose(moving.velocity_limits, [1.0, 1.0, 1.5, 2.0])
-    fixed = SplineCoordinates.of(vel, acc, base_moves=False)
+    fixed = SplineCoordinates.of(vel, acc, with_base=False)
     assert fixed.coordinates == [3, 4] and fixed.velocity == [0]
 
 
