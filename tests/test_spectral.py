@@ -12,6 +12,7 @@ import pytest
 from scipy.fft import dct, idct
 
 from forte.exceptions import InvalidInputError
+from forte.model.trajectory import clamped_spline
 from forte.planning.methods.catalog import Method, method_names, register_method, unregister_method
 from forte.planning.nlp.optimizer import TrajectoryOptimizer
 from forte.planning.planner import plan
@@ -295,10 +296,16 @@ def test_the_spline_rows_knot_accelerations_follow_the_lifted_block(robot, spect
     x = opt.full_x(q)
     assert x.size == n * nq + m + arm * n
     g = np.array(opt._g(x, p)).ravel()
-    end = g.size - opt._lateral
+    velocity = len(opt._spline.velocity) * (2 * n - 3)  # the velocity rows, after the continuity rows
+    end = g.size - opt._lateral - velocity
     np.testing.assert_allclose(g[end - arm * n:end], 0.0, atol=1e-8)  # the spline rows, at rest at the start
-    lbx, ubx, _, _ = opt.bounds(t, q[0], q_goal=q[-1])
-    np.testing.assert_allclose(ubx[-arm * n:], np.tile(opt._acc[opt._spline_rows], n))
+    lbx, ubx, _, ubg = opt.bounds(t, q[0], q_goal=q[-1])
+    np.testing.assert_allclose(ubx[-arm * n:], np.tile(opt._spline.acceleration, n))
+    fast = [opt._spline_rows[j] for j in opt._spline.velocity]  # the velocity rows' ends: the spline's knot slopes
+    h = np.diff(t)[:, None]  # the rows are h v (the kinematic rows' units)
+    ends = np.r_[g[end:end + velocity], np.zeros(len(fast))].reshape(n - 1, 2, len(fast))[:, 1] / h
+    np.testing.assert_allclose(ends[:-1], clamped_spline(t, q[:, fast], t)[1][1:-1], atol=1e-9)
+    np.testing.assert_allclose(ubg[end:end + velocity], (np.repeat(h, 2, 0) * opt._vel[fast]).ravel()[:velocity])
     x = x + 0.05 * rng.normal(size=x.size)
     jac, jac_a, hess, hess_a = _derivatives_and_ad(opt, x, p, rng)
     np.testing.assert_allclose(jac, jac_a, atol=1e-9 * (1 + np.abs(jac_a).max()))

@@ -381,10 +381,11 @@ class KinematicLimits:
         end_at_rest: zero velocity and acceleration at the last waypoint on the same backward
             differences (``q_N = q_{N-1} = q_{N-2}``); the pose equalities of waypoints N-1 and
             N-2 are then replaced by these rows (the pose of waypoint N is still imposed).
-        on_spline: the arm's accelerations also bounded on the clamped cubic spline that
-            execution follows, at its knots, where they are extreme
-            (:mod:`forte.planning.nlp.spline_rows`); ``None``: for goal tasks only (a given path
-            keeps the rows above, and its refinement rounds do the rest).
+        on_spline: the arm's velocities and accelerations also bounded on
+            the clamped cubic spline that execution follows, between waypoints too (the
+            accelerations at its knots, where they are extreme; the velocities by their Bernstein
+            control points, :mod:`forte.planning.nlp.spline_rows`); ``None``: for goal tasks only
+            (a given path keeps the rows above, and its refinement rounds do the rest).
     """
 
     enabled: bool = True

@@ -40,7 +40,7 @@ from scipy import sparse
 
 from forte import progress
 from forte.exceptions import InvalidInputError, SolverError
-from forte.model.robot import N_BASE, MobileManipulator
+from forte.model.robot import MobileManipulator
 from forte.model.trajectory import StartMotion
 from forte.planning.methods.catalog import Method, get_method, method_names
 from forte.planning.nlp import layout
@@ -62,7 +62,7 @@ from forte.planning.nlp.keep_level_rows import keep_bounds, keep_rows, keep_step
 from forte.planning.nlp.kernels import load_kernels, notice
 from forte.planning.nlp.solvers.result import SolverResult, accepted_violation
 from forte.planning.nlp.solvers.stage_problem import StageNLP, supported
-from forte.planning.nlp.spline_rows import knot_accelerations, knot_bounds, spline_bounds, spline_rows
+from forte.planning.nlp.spline_rows import SplineCoordinates, knot_accelerations, knot_bounds
 from forte.planning.tasks.keep_level import KeepLevel
 from forte.settings import (
     DEFAULT_WEIGHT_SET,
@@ -108,8 +108,9 @@ class TrajectoryOptimizer:
             (:mod:`forte.planning.tasks.goal_poses`).
         keep_level: a tool axis kept near a world axis (``path.keep_level``): one row per waypoint
             the solver orients (:mod:`forte.planning.nlp.keep_level_rows`); ``None``: none.
-        on_spline: bound the arm's accelerations on the executed spline too, at its knots
-            (:mod:`forte.planning.nlp.spline_rows`); ``None``: ``limits.on_spline``'s choice
+        on_spline: bound the arm's velocities and accelerations on the executed spline too,
+            everywhere (:mod:`forte.planning.nlp.spline_rows`); ``None``:
+            ``limits.on_spline``'s choice
             (:class:`~forte.settings.KinematicLimits`).
     """
 
@@ -144,7 +145,7 @@ class TrajectoryOptimizer:
         self._warm_solver: Any = None
         self._spline_times: tuple[FloatArray, FloatArray | None] | None = None
         self._vel, self._acc = limits.resolve(robot)
-        #: the arm's accelerations bounded on the executed spline too (spline_rows); default: goal tasks'
+        #: velocities and accelerations bounded on the executed spline too (spline_rows); default: goal tasks'
         asked = limits.on_spline if on_spline is None else on_spline
         self.on_spline = (goal is not None if asked is None else asked) and limits.enabled and fix_initial and n >= 3
         terms = resolved.cost_terms(settings)
@@ -217,7 +218,7 @@ class TrajectoryOptimizer:
         lifted = self._lift.shape[0]
         lbx, ubx = layout.variable_bounds(self.robot, self.n, lifted, q_init if self.fix_initial else None)
         if self._spline_rows:  # the knot accelerations, last (spline_rows)
-            low, high = knot_bounds(self._acc[self._spline_rows], self.n)
+            low, high = knot_bounds(self._spline.acceleration, self.n)
             lbx, ubx = np.concatenate([lbx, low]), np.concatenate([ubx, high])
         pin_base(self.robot, self.n, lbx, ubx, q_init)
         if q_goal is not None:
@@ -234,7 +235,7 @@ class TrajectoryOptimizer:
         kinematic = shifted_acceleration_bounds(kinematic, start, self._vel_rows.size * (self.n - 1), self._acc_rows)
         lbg, ubg = layout.constraint_bounds(self._pose_steps.size, kinematic, lifted)
         if self._spline_rows:
-            low, high = spline_bounds(t, self._spline_start(start), len(self._spline_rows))
+            low, high = self._spline.bounds(t, self._spline_start(start))
             lbg, ubg = np.concatenate([lbg, low]), np.concatenate([ubg, high])
         clear = self._clear_index.size  # clearance rows: >= 0; then the base's lateral rows: = 0
         lateral = np.zeros(self._lateral)
@@ -325,22 +326,27 @@ class TrajectoryOptimizer:
 
     def _knot_variables(self, Q: sparse.csr_matrix) -> tuple[sparse.csr_matrix, int]:
         """``Q`` over the variables with the spline's knot accelerations after ``z`` (outside every
-        cost; :mod:`forte.planning.nlp.spline_rows`), and their count (0 unless ``on_spline``)."""
-        # the arm's limited joints (kinematic_rows' acceleration rows: on_spline needs limits and N >= 3)
-        limited = np.flatnonzero(np.isfinite(self._acc)) if self.on_spline else []
-        self._spline_rows = [int(i) for i in limited if i >= N_BASE]
+        cost; :mod:`forte.planning.nlp.spline_rows`), and their count (0 unless ``on_spline``): of
+        the arm's joints with a velocity or acceleration limit. Not the base's: its velocity rows
+        cost 3 of 6 holonomic MotionBenchMaker goals (per-scenario 2) their NLP's convergence within
+        the budget (441 IPOPT iterations in all without any velocity rows, 560 with the base's and
+        the arm's, 484 with the arm's), and its velocity stays to the waypoint rows and the rounds."""
+        none = np.full(self.robot.nq, np.inf)
+        self._spline = SplineCoordinates.of(self._vel if self.on_spline else none, self._acc if self.on_spline
+                                            else none, with_base=False)
+        self._spline_rows = self._spline.coordinates
         count = len(self._spline_rows) * self.n
         if count:
             Q = sparse.block_diag([Q, sparse.csr_matrix((count, count))], format="csr")
         return Q, count
 
     def _on_spline_rows(self, X: ca.MX, slopes: ca.MX, dt: ca.MX) -> ca.MX:
-        """The rows that make ``slopes`` the executed spline's knot accelerations of the arm's
-        limited joints (none unless ``on_spline``; :mod:`forte.planning.nlp.spline_rows`)."""
+        """The rows that make ``slopes`` the executed spline's knot accelerations, and its velocity
+        rows (none unless ``on_spline``; :mod:`forte.planning.nlp.spline_rows`)."""
         if not self._spline_rows:
             return ca.MX(0, 1)
         M = ca.reshape(slopes, len(self._spline_rows), self.n)
-        return spline_rows(X, M, dt[:, 1:], self._spline_rows)
+        return self._spline.rows(X, M, dt[:, 1:])
 
     def _spline_start(self, start: StartMotion | None) -> FloatArray | None:
         """The spline's start slopes: the start's velocity of its joints (``None``: at rest)."""
