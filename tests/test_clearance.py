@@ -300,12 +300,12 @@ def test_a_scene_mesh_measures_like_its_primitive_when_apart(robot, tmp_path):
 
 
 def test_a_self_pair_overlapping_at_the_start_keeps_its_start_distance():
-    from forte.planning.nlp.collision_slots import START_OVERLAP_SLACK, self_margins
-    from forte.planning.nlp.self_pairs import SELF_MARGIN
+    from forte.planning.nlp.collision_slots import self_margins
+    from forte.planning.nlp.self_pairs import SELF_MARGIN, SELF_START_SLACK
 
     S = np.array([[0.05, -0.03, 0.001], [0.02, -0.01, 0.0]])  # 2 waypoints x 3 pairs
-    np.testing.assert_allclose(self_margins(S, True), [SELF_MARGIN, -0.03 - START_OVERLAP_SLACK,
-                                                       min(SELF_MARGIN, 0.001 - START_OVERLAP_SLACK)])
+    np.testing.assert_allclose(self_margins(S, True), [SELF_MARGIN, -0.03 - SELF_START_SLACK,
+                                                       min(SELF_MARGIN, 0.001 - SELF_START_SLACK)])
     np.testing.assert_allclose(self_margins(S, False), SELF_MARGIN)  # no fixed start (a hold): the margin
 
 

@@ -303,8 +303,14 @@ def test_a_raw_tiagos_pair_overlapping_at_all_zeros_but_apart_at_the_start_gets_
     import feasibility_matrix as fm
 
     from forte.planning.nlp.collision_kernels import SELF_FIELDS, SELF_SIZE
-    from forte.planning.nlp.collision_slots import START_OVERLAP_SLACK
-    from forte.planning.nlp.self_pairs import HOME_GAP, SELF_ACTIVATION, SELF_MARGIN, self_distances, self_pairs
+    from forte.planning.nlp.self_pairs import (
+        HOME_GAP,
+        SELF_ACTIVATION,
+        SELF_MARGIN,
+        SELF_START_SLACK,
+        self_distances,
+        self_pairs,
+    )
     from forte.planning.tasks.tasks import task_from_dict
 
     task = task_from_dict(fm.task_dict(fm.Cell("tiago-urdf", fm.Reach("forward", 0.5, 3.0), 0.0, 21)),
@@ -325,7 +331,7 @@ def test_a_raw_tiagos_pair_overlapping_at_all_zeros_but_apart_at_the_start_gets_
               for f in slots.frames for (k, j), (p, m) in f.pairs.items() if m < 0}
     for pair, s in zip(pairs, at_start, strict=True):
         if s < SELF_ACTIVATION:  # near at the start: rows, keeping the start distance where they overlap
-            assert margin[pair] == pytest.approx(min(SELF_MARGIN, s - START_OVERLAP_SLACK))
+            assert margin[pair] == pytest.approx(min(SELF_MARGIN, s - SELF_START_SLACK))
     assert all(pair in margin and margin[pair] == SELF_MARGIN for pair in moved)
 
 

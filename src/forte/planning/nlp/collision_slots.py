@@ -24,7 +24,7 @@ import numpy as np
 from forte.model.body_spheres import BASE_FRAME, Primitive, primitive_centres, robot_primitives
 from forte.model.scene import Proxy, Scene, floor_proxy, rounded_box_distance
 from forte.planning.nlp.collision_kernels import SELF_FIELDS, SELF_SIZE, SLOT_BUCKETS, SLOT_FIELDS, SLOT_SIZE, bucket
-from forte.planning.nlp.self_pairs import SELF_ACTIVATION, SELF_MARGIN, self_distances, self_pairs
+from forte.planning.nlp.self_pairs import SELF_ACTIVATION, SELF_MARGIN, SELF_START_SLACK, self_distances, self_pairs
 from forte.validation import FloatArray
 
 #: A pair gets rows when its cover distance is below the clearance plus this (m).
@@ -292,11 +292,11 @@ def self_margins(S: FloatArray, fix_initial: bool) -> FloatArray:
     """Per self pair: the cover distance it keeps, :data:`~forte.planning.nlp.self_pairs.SELF_MARGIN`,
     or, for a pair whose covers already overlap at the fixed start (``S[0]``: its distance there;
     a cover is up to ~12 % thicker than the mesh, so the meshes may well be apart), its start
-    distance less :data:`START_OVERLAP_SLACK`, so the plan does not push the two further into
-    each other. ``S``: N x pairs."""
+    distance less :data:`~forte.planning.nlp.self_pairs.SELF_START_SLACK`, so the plan does not push the
+    two further into each other. ``S``: N x pairs."""
     margins = np.full(S.shape[1], SELF_MARGIN)
     if fix_initial and len(S):
-        margins = np.minimum(margins, S[0] - START_OVERLAP_SLACK)
+        margins = np.minimum(margins, S[0] - SELF_START_SLACK)
     return margins
 
 

@@ -46,6 +46,18 @@ HOME_GAP = 0.01
 #: How many postures within the joint limits (beside home) a pair must overlap at to count as
 #: always in contact.
 CONTACT_SAMPLES = 32
+#: A pair whose covers overlap at a fixed start keeps its start distance less this (m)
+#: (:func:`~forte.planning.nlp.collision_slots.self_margins`). Its rows ask
+#: ``D(q_k), D(q_{k-1}) >= margin + |Δ_k| / 2`` (``|Δ_k|``: how far the two primitives move
+#: relative to each other over the interval), and in the first interval ``D(q_0)`` is the start
+#: distance: the pair may move ``2 x`` this relative to each other there, and in every later interval
+#: no more than that beyond twice what it has moved apart. With 2 mm (the scene's
+#: :data:`~forte.planning.nlp.collision_slots.START_OVERLAP_SLACK`) a raw TIAGo tucked at the start
+#: (259 of its pairs overlapping, by up to 28 cm) could move its hand 4 mm per interval along its
+#: torso: the self-row solve of a 0.1 m down reach (41 samples) ran out of its 120 s budget at
+#: 346 iterations, its constraint violation stuck at 0.07-0.09 through restoration phases; with
+#: 1 cm it converged (291 iterations). The verdict checks the meshes all the same.
+SELF_START_SLACK = 0.01
 
 _CACHE: dict[str, tuple[tuple[int, int], ...]] = {}
 
