@@ -62,6 +62,10 @@ BASE_PART = "base"
 PAYLOAD_PART = "payload"
 
 
+#: About how many (part, body) pairs' bounds :meth:`ClearanceChecker.evaluate` computes in one batch.
+BOUND_PAIRS = 8192
+
+
 class Part(NamedTuple):
     """A rigid piece of geometry: its ``name`` (the link, or a scene body's name), the coal
     ``geometry`` in its own frame, and its bounding sphere (``centre`` in that frame, ``radius``)."""
@@ -205,7 +209,8 @@ class ClearanceChecker:
         if self.bodies:
             hint = 0 if self.scene.objects else int(np.flatnonzero(~self.grounded)[0]) * len(self.bodies)
             T = np.array([self.placements(q) for q in Q])  # K x parts x 4 x 4
-            bound = self.pair_bounds(T)  # every configuration's bounds at once: one set of array operations
+            step = max(1, BOUND_PAIRS // max(1, len(self.parts) * len(self.bodies)))  # arrays that stay in cache
+            bound = np.concatenate([self.pair_bounds(T[i:i + step]) for i in range(0, k, step)])
             for i in range(k):
                 hint, distance[i], wr[i], wb[i] = self._closest(T[i], hint, bound[i])
                 g, b = divmod(hint, len(self.bodies))
@@ -224,7 +229,8 @@ class ClearanceChecker:
         whose bounding spheres are centred at ``centres`` (world) to each body; ``inf`` for a part
         rigid with the base against the floor (not a pair)."""
         radii = self._part_radii[parts]
-        spheres = np.linalg.norm(centres[:, None, :] - self._body_centres[None], axis=-1) - self._scene_radii
+        d = centres[:, None, :] - self._body_centres[None]
+        spheres = np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2 + d[..., 2] ** 2) - self._scene_radii
         scene = np.maximum(spheres, self._box_distance(centres)) - radii[:, None]
         if self._floor is None:
             return scene
@@ -234,9 +240,13 @@ class ClearanceChecker:
     def _box_distance(self, points: FloatArray) -> FloatArray:
         """Signed distance (P x bodies) of each world point to each body's oriented box (negative
         inside, by the depth to its nearest face)."""
-        local = np.einsum("bji,pbj->pbi", self._body_rotations, points[:, None, :] - self._body_origins[None])
-        beyond = np.maximum(self._box_low[None] - local, local - self._box_high[None])  # > 0: outside that face
-        return np.linalg.norm(np.maximum(beyond, 0.0), axis=-1) + np.minimum(beyond.max(axis=-1), 0.0)
+        # body frame, one batched product per body (bodies x points x 3): R_b^T (p - o_b)
+        local = np.matmul(points[None, :, :] - self._body_origins[:, None, :], self._body_rotations)
+        beyond = np.maximum(self._box_low[:, None] - local, local - self._box_high[:, None])  # > 0: outside that face
+        x, y, z = beyond[..., 0], beyond[..., 1], beyond[..., 2]  # by component: numpy's reductions over an axis
+        inside = np.minimum(np.maximum(np.maximum(x, y), z), 0.0)  # of 3 cost more than the rest together
+        np.maximum(beyond, 0.0, out=beyond)
+        return (np.sqrt(x * x + y * y + z * z) + inside).T
 
     def _closest(self, T: FloatArray, hint: int, bound: FloatArray) -> tuple[int, float, FloatArray, FloatArray]:
         """Branch and bound over the pairs of one configuration (module docstring; ``bound``: its
