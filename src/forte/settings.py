@@ -384,9 +384,8 @@ class KinematicLimits:
         on_spline: the arm's velocities and accelerations also bounded on
             the clamped cubic spline that execution follows, between waypoints too (the
             accelerations at its knots, where they are extreme; the velocities by their Bernstein
-            control points, :mod:`forte.planning.nlp.spline_rows`); ``None``: for every plan but the
-            online re-planner's (:mod:`forte.planning.online.replan`: there they tripled a warm
-            re-plan's latency, 67 -> 195 ms in ``forte experiment mpc``; it keeps the rows above).
+            control points, :mod:`forte.planning.nlp.spline_rows`); ``None``: for every plan (the online
+            re-planner's horizons too: it solves the planner's problem).
     """
 
     enabled: bool = True

@@ -120,8 +120,6 @@ class Replanner:
         self.method = get_method(method)
         if not self.method.optimized:
             raise InvalidInputError(f"method: re-planning needs an optimized method, got '{self.method.name}'")
-        if task.limits.on_spline is None:  # online: the waypoint rows (the spline rows tripled a re-plan's latency)
-            task = replace(task, limits=replace(task.limits, on_spline=False))
         self.task = resolve_payload(task, estimator_options)
         self.force = self.task.force()
         # as the planner solves it: J1 on the wrench when the payload has a moment, the task's terms
