@@ -204,7 +204,6 @@ def test_a_replan_is_judged_along_the_motion_as_a_plan_is(task):
     from forte.planning.verdict.motion_samples import SAMPLES_PER_INTERVAL, sample_motion
     from forte.planning.verdict.verdict import judge_plan
 
-    task = replace(task, limits=replace(task.limits, on_spline=False))  # waypoint rows only: the spline may run over
     mass = task.payload.mass * 1.5
     free = Replanner(task).replan(mass=mass).plan
 

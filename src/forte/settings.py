@@ -384,8 +384,8 @@ class KinematicLimits:
         on_spline: the arm's velocities and accelerations also bounded on
             the clamped cubic spline that execution follows, between waypoints too (the
             accelerations at its knots, where they are extreme; the velocities by their Bernstein
-            control points, :mod:`forte.planning.nlp.spline_rows`); ``None``: for every plan (the online
-            re-planner's horizons too: it solves the planner's problem).
+            control points, :mod:`forte.planning.nlp.spline_rows`); ``None``: for goal tasks only
+            (a given path keeps the rows above, and its refinement rounds do the rest).
     """
 
     enabled: bool = True

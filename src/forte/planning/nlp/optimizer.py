@@ -145,9 +145,9 @@ class TrajectoryOptimizer:
         self._warm_solver: Any = None
         self._spline_times: tuple[FloatArray, FloatArray | None] | None = None
         self._vel, self._acc = limits.resolve(robot)
-        #: velocities and accelerations bounded on the executed spline too (spline_rows); default: every plan
+        #: velocities and accelerations bounded on the executed spline too (spline_rows); default: goal tasks'
         asked = limits.on_spline if on_spline is None else on_spline
-        self.on_spline = (asked is None or asked) and limits.enabled and fix_initial and n >= 3
+        self.on_spline = (goal is not None if asked is None else asked) and limits.enabled and fix_initial and n >= 3
         terms = resolved.cost_terms(settings)
         self._stage = tuple(t for t in terms if t.kind == "stage")
         self._quadratic = tuple(t for t in terms if t.kind == "quadratic")
