@@ -133,9 +133,10 @@ class TrajectoryOptimizer(NlpStructure):
         self._warm_solver: Any = None
         self._spline_times: tuple[FloatArray, FloatArray | None] | None = None
         self._vel, self._acc = limits.resolve(robot)
-        #: velocities and accelerations bounded on the executed spline too (spline_rows); default: goal tasks'
+        #: velocities and accelerations bounded on the executed spline too (spline_rows); default: on
         asked = limits.on_spline if on_spline is None else on_spline
-        self.on_spline = (goal is not None if asked is None else asked) and limits.enabled and fix_initial and n >= 3
+        self.on_spline = asked is not False and limits.enabled and fix_initial and n >= 3
+        self._spline_asked = asked is True  # the stagewise backend has no spline rows: IPOPT then
         terms = resolved.cost_terms(settings)
         self._stage = tuple(t for t in terms if t.kind == "stage")
         self._quadratic = tuple(t for t in terms if t.kind == "quadratic")
@@ -248,7 +249,9 @@ class TrajectoryOptimizer(NlpStructure):
 
     def stagewise(self) -> Any:
         """The stage-structured solver of this problem when ``options.backend`` asks for it and
-        it handles the problem (built once), else None (IPOPT solves)."""
+        it handles the problem (built once), else None (IPOPT solves). It has no rows on the
+        executed spline (:mod:`~forte.planning.nlp.spline_rows`): it solves the waypoint rows alone
+        unless ``on_spline`` was asked for explicitly (``true``: IPOPT solves, with them)."""
         if self.options.backend != "stagewise":
             return None
         if not hasattr(self, "_stagewise"):
@@ -256,6 +259,7 @@ class TrajectoryOptimizer(NlpStructure):
 
             nlp = self.stage_nlp()
             why = "goal tasks" if self.goal is not None else "keep_level rows" if self._keep_steps.size \
+                else "the executed spline's rows (limits.on_spline: true)" if self.on_spline and self._spline_asked \
                 else supported(nlp)
             self._stagewise = StagewiseSolver(nlp) if why is None else None
             if why is not None:
