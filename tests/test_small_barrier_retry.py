@@ -52,7 +52,8 @@ def test_no_retry_for_a_success_a_spent_budget_or_a_small_barrier_already(tmp_pa
     ok = replace(_failed(q), success=True, status="Solve_Succeeded", constraint_violation=0.0)
     assert solve._small_barrier_retry(task, method, force, q, nominal, task.solver, ok, False) is None
     for status in solve.OUT_OF_TIME:
-        assert solve._small_barrier_retry(task, method, force, q, nominal, task.solver, _failed(q, status), False) is None
+        spent = _failed(q, status)
+        assert solve._small_barrier_retry(task, method, force, q, nominal, task.solver, spent, False) is None
     small = replace(task.solver, extra={"mu_init": 1e-3})
     assert solve._small_barrier_retry(task, method, force, q, nominal, small, _failed(q), False) is None
 
