@@ -197,3 +197,22 @@ def test_an_own_urdf_riding_its_velocity_limits_keeps_them_on_the_executed_splin
         assert plan.feasible == on, plan.verdict.reason()
     assert ratios[False] > 1.2
     assert ratios[True] <= 1.0 + 1e-6
+
+
+def test_a_given_paths_problem_with_the_spline_rows_is_ordered_by_metis_and_others_by_qamd():
+    """MUMPS' ordering follows the problem's shape (:func:`forte.planning.nlp.ipopt_nlp.pivot_order`):
+    METIS once a given path's problem has the knot variables and rows, QAMD without them and for a
+    goal task."""
+    from forte.planning.methods.catalog import get_method
+    from forte.planning.nlp.ipopt_nlp import METIS, QAMD, ipopt_options
+    from forte.settings import KinematicLimits
+
+    task = forte.load_task("examples/tasks/lift.yaml", waypoints=9)
+    with_rows = TrajectoryOptimizer(task.robot, task.n, get_method("forte"), task.weights, limits=task.limits)
+    without = TrajectoryOptimizer(task.robot, task.n, get_method("forte"), task.weights,
+                                  limits=KinematicLimits(on_spline=False))
+    goal = TrajectoryOptimizer(task.robot, task.n, get_method("forte"), task.weights, limits=task.limits, goal="pose")
+    assert with_rows.on_spline and not without.on_spline and goal.on_spline
+    assert ipopt_options(with_rows)["ipopt.mumps_pivot_order"] == METIS
+    assert ipopt_options(without)["ipopt.mumps_pivot_order"] == QAMD
+    assert ipopt_options(goal)["ipopt.mumps_pivot_order"] == QAMD
