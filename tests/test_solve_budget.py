@@ -199,3 +199,36 @@ def test_a_small_time_budget_stops_the_plans_work_and_says_so(tmp_path):
     # what the budget cut: the re-solve not started, stopped, or stopped by IPOPT's own limit
     assert record["skipped"] or plan.solver["self_rows"]["status"] in ("Maximum_CpuTime_Exceeded",
                                                                      "Maximum_WallTime_Exceeded")
+
+
+def test_a_plan_ipopt_found_infeasible_is_not_solved_again_with_self_rows(monkeypatch):
+    """``apart`` does not re-solve a plan whose solve stopped with Infeasible_Problem_Detected: the
+    problem with the robot's own pairs as rows has fewer feasible points, not more (the raw TIAGo's
+    out-of-reach down 0.5 m: 500 iterations, 50 s of CPU, for the same verdict). A plan that
+    collides and stopped otherwise is still re-solved."""
+    import numpy as np
+
+    from forte.planning import rounds
+    from forte.planning.methods.catalog import get_method
+
+    task = forte.load_task(ROOT / "examples" / "tasks" / "lift.yaml", mass=0.35, waypoints=9)
+    force = task.force()
+    calls = []
+
+    def optimize(*args, **kwargs):
+        calls.append(kwargs.get("self_rows"))
+        return replace(sol, status="Solve_Succeeded", success=True), {}
+
+    monkeypatch.setattr(rounds, "optimize", optimize)
+    monkeypatch.setattr(rounds, "judged", lambda task, q, force, info: (colliding, force))
+    colliding = type("V", (), {"failed": ("self_collision",), "violations": (), "feasible": False,
+                               "label": "infeasible"})()
+    sol = rounds.SolverResult(q=np.asarray(task.nominal()), success=False, status=rounds.INFEASIBLE, iterations=86,
+                              objective=0.0, constraint_violation=0.33, build_time=0.0, solve_time=0.0,
+                              codegen="python")
+    kept, info, verdict, _ = rounds.apart(task, get_method("forte"), force, None, sol, {}, colliding)
+    assert calls == [] and kept is sol and verdict is colliding
+    assert info["self_rows"]["kept"] is False and rounds.INFEASIBLE in info["self_rows"]["skipped"]
+    stopped = replace(sol, status="Maximum_Iterations_Exceeded")
+    kept, info, _, _ = rounds.apart(task, get_method("forte"), force, None, stopped, {}, colliding)
+    assert calls == [True] and info["self_rows"]["status"] == "Solve_Succeeded"

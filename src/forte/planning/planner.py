@@ -157,6 +157,8 @@ def said_of_budget(verdict: Verdict, budget: Budget) -> Verdict:
     ``verdict`` as it is when feasible or when the budget did not run out."""
     if verdict.feasible or not verdict.violations or not (budget.skipped or budget.spent()):
         return verdict
+    if not budget.skipped and "solver.time_budget_s" in verdict.violations[0].detail:
+        return verdict  # the solver's line names it already (IPOPT stopped at the budget)
     line = (f"the plan's time budget ({budget.cpu_s:g} s of CPU, {budget.wall_s:g} s of wall time: "
             f"solver.time_budget_s) ran out" + (f" ({'; '.join(budget.skipped)})" if budget.skipped else ""))
     first = verdict.violations[0]

@@ -131,6 +131,10 @@ def refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info: 
     return sol, info, verdict, force
 
 
+#: IPOPT's status for a problem it found (locally) infeasible.
+INFEASIBLE = "Infeasible_Problem_Detected"
+
+
 def apart(task: Task, spec: Method, force: TaskForce, guess: FloatArray | None, sol: SolverResult,
            info: dict[str, Any], verdict: Verdict) -> tuple[SolverResult, dict[str, Any], Verdict, TaskForce]:
     """Solve again with self-collision rows a plan without clearance rows whose arm runs into the robot.
@@ -144,10 +148,19 @@ def apart(task: Task, spec: Method, force: TaskForce, guess: FloatArray | None, 
     not converge either (then it fails nothing more: one failed solve for another, minus the
     collision). A re-solve that did not converge is otherwise dropped, collision-free or not: its
     iterate is wherever IPOPT stopped (solver-failed), and the converged plan's verdict names
-    what is wrong with it more usefully. ``info["self_rows"]`` records the try. Returns the force
+    what is wrong with it more usefully. A plan whose solve IPOPT found infeasible (:data:`INFEASIBLE`:
+    the raw TIAGo's pose 0.33 m out of reach) is not solved again: the same problem with more rows
+    has fewer feasible points, not more (that re-solve ran 500 iterations, 50 s of CPU, or 110 s
+    stopped by the budget, for the same verdict).
+    ``info["self_rows"]`` records the try. Returns the force
     the kept plan was judged with too (:func:`judged`).
     """
-    if "clearance_rows" in info or "self_collision" not in verdict.failed or spent_before("self-collision re-solve"):
+    if "clearance_rows" in info or "self_collision" not in verdict.failed:
+        return sol, info, verdict, force
+    if sol.status == INFEASIBLE:  # rows only remove points: no feasible one to gain
+        skipped = f"the solve without them stopped with {INFEASIBLE}: rows only remove feasible points"
+        return sol, info | {"self_rows": {"kept": False, "skipped": skipped}}, verdict, force
+    if spent_before("self-collision re-solve"):
         return sol, info, verdict, force
     solved = bounded("self-collision re-solve", optimize, task, spec, force, guess, self_rows=True)
     if solved is None:  # stopped at the plan's budget: the plan as it was
@@ -254,9 +267,7 @@ def slower_route(task: Task, sol: SolverResult, info: dict[str, Any], verdict: V
         return None, records
     if goal.pose is None and "capacity" in fast.failed and goal_load(task, goal.route[-1]) is not None:
         return None, records
-    for k in range(1, SLOWER_ROUNDS + 1):
-        if spent_before("slower route"):
-            break
+    for k in range(1, SLOWER_ROUNDS + 1):  # verdicts, no solve: they run past a spent budget (nlp/budget.py)
         slow = on_samples(task, task.t[0] + (task.t - task.t[0]) * SLOWER ** k)
         route_task, route_verdict, route_force, tries = judged_route(slow, slow.force())
         records.append({"duration_s": float(slow.t[-1] - slow.t[0]), "verdict": route_verdict.label,

@@ -46,7 +46,7 @@ def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]
         return None
     coarse = task.resampled(COARSE_WAYPOINTS)
     force = coarse.force()
-    nominal = coarse.nominal()
+    nominal = once("nominal", coarse, coarse.nominal)  # start_guess's IK path too
     # with a scene (or near the floor) clear of it already: the fine solve starts outside the bodies
     sol = solve_clear(coarse, method, force, start_guess(coarse, nominal), nominal, task.solver)[1]
     if not sol.success:

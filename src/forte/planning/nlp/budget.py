@@ -21,11 +21,13 @@ rows' setup. Three rules make it hold for the whole plan:
 What runs past the budget is then bounded: the rest of the first solve's IPOPT iteration under
 way when it ends (or :data:`MIN_SOLVE_CPU_S` for a first solve started after it), a re-solve's
 :data:`BOUNDED_GRACE_S` plus :data:`POLL_S`, and the plan's closing work: the verdict of the plan
-kept (a goal task: its route judged as the plan, up to 4 verdicts) and the metrics (0.2 s and
-0.01 s of CPU on a 41-sample TIAGo plan). IPOPT's own clock counts user time only (a few % less
-than process time). :meth:`Budget.record` is the plan's ``solver.budget``: used against the
-budget, and what was not started or stopped. A budget opened inside an open one is the outer one:
-a plan's rounds share the plan's.
+kept and the metrics (0.2 s and 0.01 s of CPU on a 41-sample TIAGo plan); a goal task's route
+judged as the plan, on more waypoints and slower (verdicts, no solve: up to 4, and 3 x 4 more,
+:func:`~forte.planning.rounds.slower_route`), which keeps a feasible plan when its NLP runs
+out. IPOPT's own clock counts user time only (a few % less than process time).
+:meth:`Budget.record` is the plan's ``solver.budget``: used against the budget, and what was not
+started or stopped. A budget opened inside an open one is the outer one: a plan's rounds share
+the plan's.
 """
 
 from __future__ import annotations
