@@ -196,6 +196,12 @@ def test_a_small_time_budget_stops_the_plans_work_and_says_so(tmp_path):
     assert not plan.feasible and "self_collision" in plan.verdict.failed
     assert "the plan's time budget (2 s of CPU, 5 s of wall time: solver.time_budget_s) ran out" \
         in plan.verdict.reason()
+    import json
+
+    from forte.io.plan_writer import write_plan
+
+    written = json.loads((write_plan(plan, tmp_path / "plan", figures=False) / "plan.json").read_text())
+    assert written["solver"]["budget"] == json.loads(json.dumps(record))  # plan.json: used vs budget
     # what the budget cut: the re-solve not started, stopped, or stopped by IPOPT's own limit
     assert record["skipped"] or plan.solver["self_rows"]["status"] in ("Maximum_CpuTime_Exceeded",
                                                                      "Maximum_WallTime_Exceeded")
