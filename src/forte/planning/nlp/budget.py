@@ -223,15 +223,19 @@ def bounded(what: str, make: Callable[..., Any], *args: Any, **kwargs: Any) -> A
     child.start()
     send.close()
     message, stopped = None, False
-    while message is None and not stopped:
-        if receive.poll(POLL_S):  # its result, or the end of a child that died without one
-            message = _received(receive)
-            if message is None:
-                break
-        elif (_child_cpu(child.pid) or 0.0) > cpu_left + BOUNDED_GRACE_S \
-                or time.monotonic() - start > wall_left + BOUNDED_GRACE_S:
+    try:
+        while message is None and not stopped:
+            if receive.poll(POLL_S):  # its result, or the end of a child that died without one
+                message = _received(receive)
+                if message is None:
+                    break
+            elif (_child_cpu(child.pid) or 0.0) > cpu_left + BOUNDED_GRACE_S \
+                    or time.monotonic() - start > wall_left + BOUNDED_GRACE_S:
+                _stop(child)
+                stopped = True
+    finally:  # interrupted here (Ctrl-C: the child is in its own group, the terminal's signal missed it)
+        if message is None and not stopped and child.is_alive():
             _stop(child)
-            stopped = True
     child.join()
     receive.close()
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
