@@ -34,9 +34,15 @@ def test_assembled_derivatives_equal_automatic_differentiation(robot, method, fi
     n = 5 if fix else 1
     opt = TrajectoryOptimizer(robot, n, method, fix_initial=fix, options=SolverOptions(codegen=False))
     rng = np.random.default_rng(0)
-    x = np.tile(robot.home(), n) + 0.1 * rng.normal(size=robot.nq * n)
+    q = np.tile(robot.home(), n) + 0.1 * rng.normal(size=robot.nq * n)
     T = np.repeat(robot.ee_pose(robot.home())[None], n, 0)
     p = opt.parameters(np.linspace(0, 1, n), T, rng.normal(size=(n, 3)) * 30, np.full(n, 10.0))
+    # every variable the NLP has: in trajectory mode the executed spline's knot accelerations follow
+    # q (limits.on_spline, on by default), moved off the spline so their rows are not all at 0
+    assert opt.on_spline == fix and (opt.spans.knots.stop > opt.spans.knots.start) == fix
+    x = opt.full_x(q)
+    x[opt.spans.knots] += 0.1 * rng.normal(size=x[opt.spans.knots].size)
+    assert x.size == opt.solver.size_in("x0")[0]
     oracle = opt.solver.oracle()
     xs, ps = ca.MX.sym("x", x.size), ca.MX.sym("p", p.size)
     out = oracle(x=xs, p=ps)
@@ -62,8 +68,9 @@ def test_compiled_kernels_equal_the_virtual_machine(robot, tmp_path):
     vm = TrajectoryOptimizer(robot, n, "forte", options=SolverOptions(codegen=False))
     cg = TrajectoryOptimizer(robot, n, "forte", options=SolverOptions(cache_dir=str(tmp_path)))
     assert cg.codegen in ("compiled", "cached")
-    x = np.tile(q0, n) + 0.05
     p = vm.parameters(t, targets, force.f, force.r)
+    x = vm.full_x(np.tile(q0, n) + 0.05)  # with the spline's knot accelerations (on_spline)
+    assert vm.spans.knots.stop > vm.spans.knots.start and x.size == vm.solver.size_in("x0")[0]
     for name in ("nlp_grad_f", "nlp_jac_g"):
         a = vm.solver.get_function(name)(x, p)
         b = cg.solver.get_function(name)(x, p)

@@ -96,7 +96,7 @@ def test_a_short_last_segment_is_feasible(tmp_path):
     assert plan.feasible, plan.verdict.reason()
 
 
-def _kinova(rounds: int | None = None) -> dict:
+def _kinova(rounds: int | None = None, on_spline: bool | None = None) -> dict:
     task = {"name": "kinova-urdf",
             "robot": {"urdf": "erd:kinova_description/robots/kinova.urdf", "ee_frame": "j2s6s200_end_effector",
                       "mount": {"xyz": [0.2575, 0.0, 0.52]}},
@@ -104,16 +104,39 @@ def _kinova(rounds: int | None = None) -> dict:
             "path": {"kind": "waypoints", "relative": True, "samples": 31,
                      "waypoints": [{"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 5.0, "position": [0.3, 0.0, 0.0]}]},
             "payload": {"mass": 1.5}}
+    task |= {} if on_spline is None else {"limits": {"on_spline": on_spline}}
     return task if rounds is None else task | {"solver": {"refine_rounds": rounds}}
 
 
 @pytest.mark.slow
+def test_an_own_urdf_riding_its_velocity_limits_keeps_them_on_the_executed_spline(tmp_path):
+    """The NLP bounds the executed spline's velocities (limits.on_spline, on by default): the
+    first solve is feasible, without a refinement round, and the spline (sampled 50 times per
+    interval here, not at the verdict's samples) rides the limits without passing them."""
+    from forte.model.trajectory import clamped_spline
+
+    plan = forte.plan(task_from_dict(_kinova(), tmp_path / "task.yaml"))
+    assert plan.feasible, plan.verdict.reason()
+    assert not plan.solver.get("refinement", {}).get("rounds")
+    t = plan.task.t
+    dense = np.unique(np.concatenate([np.linspace(a, b, 50) for a, b in zip(t[:-1], t[1:], strict=True)]))
+    _, v, _ = clamped_spline(t, plan.q, dense)
+    ratio = np.max(np.abs(v[:, 3:]), axis=0) / np.asarray(plan.robot.model.velocityLimit)  # the URDF's
+    assert np.max(ratio) <= 1.0 + 1e-6
+    assert np.max(ratio) > 0.95  # it rides them: without the rows this plan's spline passes them
+    result = _simulate(plan, tmp_path / "kinova")
+    assert result.success, result.detail
+
+
+@pytest.mark.slow
 def test_an_own_urdf_riding_its_velocity_limits_is_refined_until_it_executes(tmp_path):
-    unrefined = forte.plan(task_from_dict(_kinova(rounds=0), tmp_path / "task.yaml"))
+    """Without the spline's rows (limits.on_spline: false) the waypoint rows let the spline pass
+    the limits between waypoints; the refinement rounds tighten the NLP's bounds until it executes."""
+    unrefined = forte.plan(task_from_dict(_kinova(rounds=0, on_spline=False), tmp_path / "task.yaml"))
     assert unrefined.verdict.failed == ("velocity",)
     detail = unrefined.verdict.violations[0].detail
     assert "between waypoints only" in detail and "(j2s6s200_joint_" in detail and "(between waypoints " in detail
-    plan = forte.plan(task_from_dict(_kinova(), tmp_path / "task.yaml"))
+    plan = forte.plan(task_from_dict(_kinova(on_spline=False), tmp_path / "task.yaml"))
     assert plan.feasible, plan.verdict.reason()
     rounds = plan.solver["refinement"]["rounds"]
     assert rounds and all(r["failed"] in ([], ["velocity"]) for r in rounds)

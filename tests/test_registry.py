@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import ClassVar
 
@@ -57,6 +57,12 @@ def toy_method():
 def test_new_term_and_method_plan_through_the_registries(toy_method, tmp_path):
     task = load_task(LIFT, waypoints=12)
     assert "toy" in methods_for(task) and "toy" in method_names(optimized=True)
+    # the toy's pull (weight 200 towards the origin, on a lift that ends 1.06 m out) makes IPOPT
+    # cycle between two iterates for hundreds of iterations once the executed spline's rows are in
+    # the NLP (limits.on_spline): 715 iterations to the optimum it reaches in 33 without them (the
+    # same objective, 251.022; the rows stay inactive there, the spline within 0.42 x every limit).
+    # The registries are under test here, not IPOPT's path: room for that many iterations.
+    task = replace(task, solver=replace(task.solver, max_iter=2000))
     toy = plan(task, "toy")
     assert toy.solved, toy.status
     terms = toy.solver["cost_terms"]

@@ -21,9 +21,28 @@ from forte.planning.tasks.tasks import load_task
 LIFT = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "lift.yaml"
 
 
+def waypoint_rows(task):
+    """``task`` with ``limits.on_spline: false`` written out: the re-planner's default (no spline
+    rows online), so that ``forte.plan`` solves the very problem the re-planner does."""
+    from dataclasses import replace
+
+    return replace(task, limits=replace(task.limits, on_spline=False))
+
+
 @pytest.fixture(scope="module")
 def task():
-    return load_task(LIFT, waypoints=15)
+    return waypoint_rows(load_task(LIFT, waypoints=15))
+
+
+def test_the_replanner_keeps_the_waypoint_rows_unless_the_task_asks_for_spline_rows():
+    from dataclasses import replace
+
+    task = load_task(LIFT, waypoints=15)
+    assert task.limits.on_spline is None
+    assert Replanner(task).task.limits.on_spline is False
+    asked = replace(task, limits=replace(task.limits, on_spline=True))
+    planner = Replanner(asked)
+    assert planner.task.limits.on_spline is True and planner.optimizer.on_spline
 
 
 def test_replan_equals_a_cold_solve_of_the_same_problem(task):
@@ -48,7 +67,7 @@ def test_a_replan_solves_what_the_planner_solves(name):
     the re-planner's first solve is the planner's plan, and a warm re-plan after a mass change is a
     solution of the planner's problem for the new mass (solved from it, the planner stays there;
     from its own start it may find a neighbouring optimum: the tip-over task has one 4e-4 rad off)."""
-    task = load_task(LIFT.parent / name, waypoints=15)
+    task = waypoint_rows(load_task(LIFT.parent / name, waypoints=15))
     planner = Replanner(task)
     spec = planner.optimizer.method_spec
     assert ("wrench_capability" in spec.terms) == (name == "offset-payload.yaml")

@@ -114,8 +114,9 @@ def _own_posture(centre: str | None = None) -> dict:
 def test_a_preset_plans_from_the_users_own_start_posture(tmp_path):
     """J3's quadratic centres on the task's nominal (its own posture) where the weight set's list is
     the Panda's, not the Kinova's: from [0, 3.6, 1.2, 0, 1.5, 0] joint 3 stays near its start; pulled to the middle
-    of its range (3.14 rad, the elbow straight) the plan swings it there from the first step and
-    breaks the velocity limit at any duration (the reported failure)."""
+    of its range (3.14 rad, the elbow straight) the plan swings it there from the first step and,
+    without the executed spline's rows (``limits.on_spline: false``, as the failure was reported),
+    breaks the velocity limit at any duration; with them (the default) it keeps the limit and swings."""
     from forte.planning.terms.capability_terms import JointLimits
 
     task = task_from_dict(_own_posture(), tmp_path / "task.yaml")
@@ -123,8 +124,10 @@ def test_a_preset_plans_from_the_users_own_start_posture(tmp_path):
     plan = forte.plan(task)
     assert plan.feasible, plan.verdict
     assert np.max(np.abs(plan.q[:, 5] - 1.2)) < 0.5  # joint 3 (index 3 + 2) near its start (measured: 0.22)
-    # without the refinement rounds (which bound the executed velocity and can rescue it)
-    ranged = forte.plan(task_from_dict(_own_posture("range") | {"solver": {"refine_rounds": 0}},
-                                       tmp_path / "task.yaml"))
+    # without the refinement rounds and the spline's rows (either bounds the executed velocity)
+    unbounded = {"solver": {"refine_rounds": 0}, "limits": {"on_spline": False}}
+    ranged = forte.plan(task_from_dict(_own_posture("range") | unbounded, tmp_path / "task.yaml"))
     assert "velocity" in ranged.verdict.failed
     assert np.max(ranged.q[:, 5]) > 2.0  # towards the range's middle, (0.33 + 5.95) / 2 = 3.14 rad (measured: 2.20)
+    kept = forte.plan(task_from_dict(_own_posture("range") | {"solver": {"refine_rounds": 0}}, tmp_path / "task.yaml"))
+    assert "velocity" not in kept.verdict.failed and np.max(kept.q[:, 5]) > 2.0  # (measured: feasible, 2.19)

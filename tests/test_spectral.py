@@ -171,7 +171,9 @@ def test_the_optimizer_minimizes_the_formula(robot, spectral_method, settings, k
     x = opt.full_x(q)
     value, grad = opt.solver.get_function("nlp_grad_f")(x, p)
     grad = np.array(grad).ravel()
-    reduced = grad[: n * nq] + opt._lift.T @ grad[n * nq:]  # d/dq f(q, A q)
+    reduced = grad[: n * nq] + opt._lift.T @ grad[opt.spans.lifted]  # d/dq f(q, A q)
+    # the executed spline's knot accelerations (on_spline, after z) are outside every cost term
+    assert opt.spans.knots.stop > opt.spans.knots.start and not np.any(grad[opt.spans.knots])
     smooth = 0.5 * np.sum((np.diff(q, axis=0)[:, 3:] * arm) ** 2)
     gamma = (alternative_gamma(n, j5_term.cutoff, j5_term.power, True, 6) if kind == "banded"
              else paper_gamma(n, j5_term.cutoff, j5_term.power, j5_term.ramp))
@@ -199,15 +201,16 @@ def test_multipliers_shift_around_the_lifted_block(robot, spectral_method):
     n, nq = 9, robot.nq
     opt = TrajectoryOptimizer(robot, n, spectral_method, CostWeights(),
                               options=SolverOptions(codegen=False), settings=FLAT)
-    m = opt._lift.shape[0]
-    ng = opt.solver.size_out("g")[0]
-    lam_x = np.concatenate([np.repeat(np.arange(n, dtype=float), nq), np.full(m, -1.0)])
+    ng, nx = opt.solver.size_out("g")[0], opt.solver.size_in("x0")[0]
+    lam_x = np.concatenate([np.repeat(np.arange(n, dtype=float), nq), np.full(nx - n * nq, -1.0)])
     lam_g = np.arange(ng, dtype=float)
     sx, sg = opt.shifted_multipliers(lam_x, lam_g, 2)
     assert sx.shape == lam_x.shape and sg.shape == lam_g.shape
     np.testing.assert_array_equal(sx[: n * nq].reshape(n, nq)[:, 0], [2, 3, 4, 5, 6, 7, 8, 8, 8])
-    np.testing.assert_array_equal(sx[n * nq:], -1.0)  # the lifted variables' block stays
-    np.testing.assert_array_equal(sg[ng - m:], lam_g[ng - m:])  # so do the lifting rows (the last rows)
+    np.testing.assert_array_equal(sx[n * nq:], -1.0)  # the lifted variables' and knot accelerations' blocks stay
+    after = opt.spans.lifting.start  # so do the lifting rows and everything after them (the spline's rows)
+    assert opt.spans.lifting.stop > after
+    np.testing.assert_array_equal(sg[after:], lam_g[after:])
 
 
 def test_bounds_cover_the_lifted_variables_and_rows(robot, spectral_method):
@@ -221,18 +224,29 @@ def test_bounds_cover_the_lifted_variables_and_rows(robot, spectral_method):
     q0 = robot.home()
     t = np.linspace(0, 2, n)
     b = opt.bounds(t, q0)
-    assert b.lbx.size == b.ubx.size == opt.solver.size_in("x0")[0] == n * nq + m
-    assert b.lbg.size == b.ubg.size == opt.solver.size_in("lbg")[0]
+    spans = opt.spans  # [vec(q); z; the spline's knot accelerations] (on_spline: on by default)
+    knots = spans.knots.stop - spans.knots.start
+    assert spans.lifted == slice(n * nq, n * nq + m) and knots == len(opt._spline_rows) * n > 0
+    assert b.lbx.size == b.ubx.size == opt.solver.size_in("x0")[0] == n * nq + m + knots
+    assert b.lbg.size == b.ubg.size == opt.solver.size_in("lbg")[0] == spans.keep_level.stop
     np.testing.assert_array_equal(b.lbx[:nq], q0)
     np.testing.assert_array_equal(b.ubx[:nq], q0)
-    assert np.all(b.lbx[n * nq:] == -np.inf) and np.all(b.ubx[n * nq:] == np.inf)
-    np.testing.assert_array_equal(b.lbg[-m:], 0)
-    np.testing.assert_array_equal(b.ubg[-m:], 0)
+    assert np.all(b.lbx[spans.lifted] == -np.inf) and np.all(b.ubx[spans.lifted] == np.inf)
+    np.testing.assert_array_equal(b.ubx[spans.knots], np.tile(opt._acc[opt._spline_rows], n))
+    np.testing.assert_array_equal(b.lbx[spans.knots], -b.ubx[spans.knots])
+    assert spans.lifting.stop - spans.lifting.start == m
+    np.testing.assert_array_equal(b.lbg[spans.lifting], 0)
+    np.testing.assert_array_equal(b.ubg[spans.lifting], 0)
     q = np.tile(q0, (n, 1)) + 0.01 * np.random.default_rng(4).normal(size=(n, nq))
     T = np.repeat(robot.ee_pose(q0)[None], n, 0)
     p = opt.parameters(t, T, np.zeros((n, 3)), np.full(n, 10.0))
     g = np.array(opt.solver.oracle()(x=opt.full_x(q), p=p)["g"]).ravel()
-    np.testing.assert_allclose(g[-m:], 0, atol=1e-12)  # z = A vec(q)
+    np.testing.assert_allclose(g[spans.lifting], 0, atol=1e-12)  # z = A vec(q)
+    # and the knot accelerations of full_x are the spline's: its continuity rows (the spline
+    # block's first ones, equalities) hold at their bounds, 0 from a start at rest
+    continuity = slice(spans.spline.start, spans.spline.start + knots)
+    np.testing.assert_array_equal(b.lbg[continuity], b.ubg[continuity])
+    np.testing.assert_allclose(g[continuity], b.lbg[continuity], atol=1e-9)
 
 
 @pytest.mark.slow

@@ -94,19 +94,20 @@ def test_a_goal_tasks_nlp_keeps_the_executed_splines_accelerations_within_the_li
 
 
 def test_limits_on_spline_turns_the_rows_on_or_off_for_any_task():
-    """``limits.on_spline``: null (goal tasks only), true (a given path too), false (a goal task without)."""
+    """``limits.on_spline``: null (every plan: a given path and a goal task), true, false (either without)."""
     path = {"kind": "waypoints", "relative": True, "samples": 12,
             "waypoints": [{"t": 0.0, "position": [0.0, 0.0, 0.0]}, {"t": 2.0, "position": [0.1, 0.0, 0.0]}]}
     given = panda_task(path, payload={"mass": 1.0})
     goal = panda_task({"kind": "goal", "configuration": GOAL})
     on = panda_task(path, payload={"mass": 1.0}, limits={"on_spline": True})
     off = panda_task({"kind": "goal", "configuration": GOAL}, limits={"on_spline": False})
+    given_off = panda_task(path, payload={"mass": 1.0}, limits={"on_spline": False})
 
     def rows(task, goal_kind):
         return TrajectoryOptimizer(task.robot, task.n, goal=goal_kind, limits=task.limits).on_spline
 
-    assert not rows(given, None) and rows(goal, "configuration")
-    assert rows(on, None) and not rows(off, "configuration")
+    assert rows(given, None) and rows(goal, "configuration")
+    assert rows(on, None) and not rows(off, "configuration") and not rows(given_off, None)
 
 
 def _velocity_rows(t, q, v1, pieces):

@@ -22,8 +22,15 @@ from forte.settings import SolverOptions
 TASKS = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 
 
+def waypoint_rows(task):
+    """``task`` with ``limits.on_spline: false``: the stagewise backend has no rows on the executed
+    spline (it solves the waypoint rows alone), so IPOPT is compared with it on that problem."""
+    return replace(task, limits=replace(task.limits, on_spline=False))
+
+
 def _optimizers(task):
-    """The task's NLP twice: solved by IPOPT and by the stagewise backend."""
+    """The task's NLP twice: solved by IPOPT and by the stagewise backend (waypoint rows only)."""
+    task = waypoint_rows(task)
     make = lambda backend: TrajectoryOptimizer(  # noqa: E731
         task.robot, task.n, "forte", task.weights, fix_initial=task.mode != "hold",
         options=replace(task.solver, backend=backend), limits=task.limits)
@@ -142,7 +149,7 @@ def test_real_time_iterations_converge_to_the_ipopt_solution(light_lift):
     new problem; published steps keep their constraint violation within the tolerance."""
     rti = RealTimeIteration(Replanner(light_lift, backend="stagewise"))
     heavy = light_lift.with_payload(light_lift.payload.with_mass(2.7))
-    reference = plan(replace(heavy, solver=replace(heavy.solver, refine_rounds=0)), "forte")
+    reference = plan(waypoint_rows(replace(heavy, solver=replace(heavy.solver, refine_rounds=0))), "forte")
     steps = [rti.step(mass=2.7)]
     while not steps[-1].converged and len(steps) < 40:
         steps.append(rti.step())
@@ -171,6 +178,20 @@ def test_backend_validation_and_fallback():
         SolverOptions(backend="fatrop")
     with pytest.raises(InvalidInputError, match="stagewise backend"):
         RealTimeIteration(Replanner(load_task(TASKS / "lift.yaml", waypoints=10)))
+
+
+def test_the_stagewise_backend_leaves_the_spline_rows_to_ipopt(capsys):
+    """Without spline rows of its own, the stagewise backend solves a plan's waypoint rows when
+    ``limits.on_spline`` is null (the default), and hands a task that sets it true to IPOPT."""
+    task = load_task(TASKS / "lift.yaml", waypoints=12)
+    for asked, handled in ((None, True), (True, False), (False, True)):
+        limits = replace(task.limits, on_spline=asked)
+        opt = TrajectoryOptimizer(task.robot, task.n, "forte", task.weights, limits=limits,
+                                  options=replace(task.solver, backend="stagewise"))
+        assert opt.on_spline == (asked is not False)
+        assert (opt.stagewise() is not None) == handled
+    assert "the stagewise solver does not handle the executed spline's rows (limits.on_spline: true)" \
+        in capsys.readouterr().err
 
 
 def test_banded_and_dense_reduced_systems_agree(monkeypatch):
@@ -218,7 +239,7 @@ def test_forte_plan_with_the_stagewise_solver(tmp_path):
 @pytest.mark.parametrize("method", ["manipulability", "rfp-radius", "rfp-cone", "static-polytope"])
 def test_every_optimized_method_solves_the_same_with_both_backends(method):
     """The baselines' stage terms (rfp-cone's per-waypoint rays among them) on the same fast path."""
-    task = load_task(TASKS / "lift.yaml", waypoints=25)
+    task = waypoint_rows(load_task(TASKS / "lift.yaml", waypoints=25))
     make = lambda backend: TrajectoryOptimizer(  # noqa: E731
         task.robot, task.n, method, task.weights, options=replace(task.solver, backend=backend), limits=task.limits)
     a, b = _solve(make("ipopt"), task), _solve(make("stagewise"), task)
@@ -229,7 +250,7 @@ def test_every_optimized_method_solves_the_same_with_both_backends(method):
 
 def test_the_wrench_term_solves_the_same_with_both_backends():
     """An offset payload (issue 25's wrench term, its per-waypoint moment given by the caller)."""
-    task = load_task(TASKS / "offset-payload.yaml", waypoints=25)
+    task = waypoint_rows(load_task(TASKS / "offset-payload.yaml", waypoints=25))
     plans = [plan(replace(task, solver=replace(task.solver, backend=b, refine_rounds=0)), "forte")
              for b in ("ipopt", "stagewise")]
     assert plans[1].solver["backend"] == "stagewise" and "wrench_capability" in plans[1].solver["cost_terms"]

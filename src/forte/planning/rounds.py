@@ -66,8 +66,10 @@ def refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info: 
     backward differences; the verdict also checks the executed spline between them, whose torques,
     velocities and accelerations differ (forte's 0.35 kg lift on the moca-like robot: arm
     accelerations within the limits at every waypoint, 1.45 x a limit on the spline; a Kinova
-    riding its 0.628 rad/s joint limits at the waypoints: 1.014 x on the spline). Each round,
-    solved again from the current plan:
+    riding its 0.628 rad/s joint limits at the waypoints: 1.014 x on the spline). With
+    ``limits.on_spline`` (on by default) the NLP bounds the arm's velocities and accelerations on
+    the spline itself (:mod:`forte.planning.nlp.spline_rows`): the rounds are left the base's
+    velocity, the capacity, and plans without those rows. Each round, solved again from the current plan:
 
     - ``capacity`` (methods whose objective uses the ball, the ``capability`` term): ``r_k`` grows
       at the waypoints next to every failing sample by the shortfall there plus

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -33,6 +33,11 @@ from forte.validation import FloatArray
 
 #: Trajectories longer than this are solved coarse-to-fine (see :func:`coarse_guess`).
 COARSE_WAYPOINTS = 25
+#: IPOPT's barrier settings for a start that is already near the optimum or on the constraints
+#: (the coarse optimum, or the retry of :func:`_small_barrier_retry`).
+SMALL_BARRIER = {"mu_strategy": "monotone", "mu_init": 1e-4}
+#: Statuses that end a solve for its time budget: no retry (the budget is spent).
+OUT_OF_TIME = ("Maximum_CpuTime_Exceeded", "Maximum_WallTime_Exceeded")
 
 
 def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]] | None:
@@ -132,8 +137,12 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
     if warm is not None:
         q_guess, info["coarse"] = warm
         # a near-optimal start: begin with a small barrier parameter
-        options = replace(options, extra={"mu_strategy": "monotone", "mu_init": 1e-4} | options.extra)
+        options = replace(options, extra=SMALL_BARRIER | options.extra)
     opt, sol, rows = solve_clear(task, method, force, q_guess, nominal, options, self_rows=self_rows)
+    if (retry := _small_barrier_retry(task, method, force, q_guess, nominal, options, sol, self_rows)) is not None:
+        info["small_barrier_retry"] = retry.facts
+        if retry.facts["kept"]:
+            opt, sol, rows, options = retry.opt, retry.sol, retry.rows, retry.options
     if rows is not None:
         info["clearance_rows"] = rows
     if not sol.success and (failed := failed_rows(opt, sol, task, force)) is not None:
@@ -161,6 +170,43 @@ def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | 
         starts["chosen_iterations"], starts["chosen_solve_time_s"] = sol.iterations, sol.solve_time
         info["iterations"], info["solve_time_s"] = starts["iterations"], starts["solve_time_s"]
     return sol, info
+
+
+class Retry(NamedTuple):
+    """A failed solve's second try (:func:`_small_barrier_retry`): its problem, solution, rows'
+    facts (``None``: no rows), solver options and what it did (``facts``)."""
+
+    opt: TrajectoryOptimizer
+    sol: SolverResult
+    rows: dict | None
+    options: Any
+    facts: dict[str, Any]
+
+
+def _small_barrier_retry(task: Task, method: Method, force: TaskForce, q: FloatArray, nominal: FloatArray,
+                         options: Any, sol: SolverResult, self_rows: bool) -> Retry | None:
+    """A failed solve solved again from the same start with a small, monotone barrier parameter
+    (:data:`SMALL_BARRIER`); returns the :class:`Retry`, ``facts["kept"]`` when
+    the retry succeeded or ended nearer the constraints, or ``None`` when no retry applies (the
+    solve succeeded, ran out of its time budget, or had the small barrier already).
+
+    Why: IPOPT's adaptive barrier starts from ``mu`` near 1 (its oracle), and from a start on the
+    pose constraints (the IK along the path) its first full Newton step can leave them by most
+    of a metre; the restoration phase then ends ``Infeasible_Problem_Detected`` or runs out of
+    iterations (the ``moca-like`` sideways reaches of ``benchmarks/feasibility_matrix.py``, which
+    converge in 6-7 iterations with ``mu_init = 1e-4``). The retry costs a second solve on
+    failures only.
+    """
+    if sol.success or sol.status in OUT_OF_TIME or "mu_init" in options.extra:
+        return None
+    small = replace(options, extra=SMALL_BARRIER | options.extra)
+    opt, again, rows = solve_clear(task, method, force, q, nominal, small, self_rows=self_rows)
+    kept = again.success or (again.status not in OUT_OF_TIME
+                             and again.constraint_violation < sol.constraint_violation)
+    facts = {"kept": bool(kept), "status": again.status, "iterations": again.iterations,
+             "constraint_violation": again.constraint_violation, "first_status": sol.status,
+             "first_iterations": sol.iterations, "first_constraint_violation": sol.constraint_violation}
+    return Retry(opt, again, rows, small, facts)
 
 
 def hold_starts(task: Task) -> FloatArray:

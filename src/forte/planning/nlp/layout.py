@@ -3,7 +3,9 @@
 Variables ``x = [vec(q_1..q_N); z]``: the configurations, then the lifted variables ``z = A x``
 of the quadratic terms solved in lifted form (:meth:`forte.planning.terms.costs.CostTerm.lifted`).
 Rows ``g = [pose; kinematic; A x - z]``: 6 pose equalities per posed waypoint, the velocity and
-acceleration rows (one block per time step, then the end-at-rest rows), the lifting rows last.
+acceleration rows (one block per time step, then the end-at-rest rows), the lifting rows. The
+optimizer appends more variables and rows after these (the executed spline's, a scene's, ...:
+:class:`forte.planning.nlp.structure.Spans`).
 
 Everything that depends on that order lives here: the lifted quadratic, the full ``x`` of a
 trajectory, the bounds of a solve, and the shift of a solve's multipliers along the horizon.

@@ -42,7 +42,7 @@ by ``h |a_0| |a_1| / (2 (|a_0| + |a_1|)) <= h |a_1 - a_0| / 8``. Split into ``p`
 most ``h |a_1 - a_0| / (8 p^2)``. Measured cost of the conservatism: none on the raw Kinova's
 reaches, which ride their 0.628 rad/s limits (12 of 12 feasible in the first solve, each riding its
 limit at 1.000 x on the spline). The NLP gives the arm these rows, not the base
-(:class:`SplineCoordinates`, :meth:`~forte.planning.nlp.optimizer.TrajectoryOptimizer._knot_variables`).
+(:class:`SplineCoordinates`, :meth:`~forte.planning.nlp.structure.NlpStructure._knot_variables`).
 """
 
 from __future__ import annotations

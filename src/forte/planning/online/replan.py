@@ -13,6 +13,11 @@ again by IK when new targets or a new start change it; never the last solution, 
 make each re-plan depend on the ones before it). So a converged re-plan is a cold plan of the
 changed task, reached from a better start, with one difference for a hold task: :func:`plan`
 keeps the best of ``solver.hold_starts`` starts, a re-plan continues from the last solution.
+And one for every task whose ``limits.on_spline`` is null (the default): the re-planner bounds
+velocities and accelerations at the waypoints only, as if it were false, where ``forte plan``
+bounds them on the executed spline too (:mod:`forte.planning.nlp.spline_rows`: those rows
+tripled a warm re-plan's latency, 67 -> 195 ms in ``forte experiment mpc``); a task that sets it
+true gets them online too.
 
 :meth:`Replanner.shift` moves the horizon forward (receding horizon): the targets, the nominal
 trajectory, the guess and the multipliers are shifted by whole waypoints and the tail holds the
@@ -120,6 +125,8 @@ class Replanner:
         self.method = get_method(method)
         if not self.method.optimized:
             raise InvalidInputError(f"method: re-planning needs an optimized method, got '{self.method.name}'")
+        if task.limits.on_spline is None:  # online: the waypoint rows (the spline rows tripled a re-plan's latency)
+            task = replace(task, limits=replace(task.limits, on_spline=False))
         self.task = resolve_payload(task, estimator_options)
         self.force = self.task.force()
         # as the planner solves it: J1 on the wrench when the payload has a moment, the task's terms

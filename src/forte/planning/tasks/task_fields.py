@@ -158,7 +158,7 @@ _LIMIT_DOCS = {
     "enabled": (BOOL, "false: the paper's NLP exactly (no velocity or acceleration limits)", ""),
     "end_at_rest": (BOOL, "zero velocity and acceleration at the last waypoint", ""),
     "on_spline": (nullable(BOOL), "bound the arm's velocities and accelerations on the executed spline too "
-                                  "(null: goal tasks only)", ""),
+                                  "(null: on, but off for online re-planning)", ""),
     "arm_velocity": (joint_values(above=0), f"{PER_ARM}, or {{joint: value}}", "rad/s"),
     "arm_acceleration": (joint_values(above=0), f"{PER_ARM}, or {{joint: value}}", "rad/s^2"),
     "base_velocity": (vector(3, above=0), "x, y, yaw", "m/s, m/s, rad/s"),
