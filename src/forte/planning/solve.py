@@ -188,7 +188,8 @@ def _small_barrier_retry(task: Task, method: Method, force: TaskForce, q: FloatA
     """A failed solve solved again from the same start with a small, monotone barrier parameter
     (:data:`SMALL_BARRIER`); returns the :class:`Retry`, ``facts["kept"]`` when
     the retry succeeded or ended nearer the constraints, or ``None`` when no retry applies (the
-    solve succeeded, ran out of its time budget, or had the small barrier already).
+    solve succeeded, ran out of its time budget, had the small barrier already, or the plan's
+    budget is spent: :func:`~forte.planning.nlp.budget.spent_before`).
 
     Why: IPOPT's adaptive barrier starts from ``mu`` near 1 (its oracle), and from a start on the
     pose constraints (the IK along the path) its first full Newton step can leave them by most
@@ -197,7 +198,7 @@ def _small_barrier_retry(task: Task, method: Method, force: TaskForce, q: FloatA
     converge in 6-7 iterations with ``mu_init = 1e-4``). The retry costs a second solve on
     failures only.
     """
-    if sol.success or sol.status in OUT_OF_TIME or "mu_init" in options.extra:
+    if sol.success or sol.status in OUT_OF_TIME or "mu_init" in options.extra or spent_before("small-barrier retry"):
         return None
     small = replace(options, extra=SMALL_BARRIER | options.extra)
     opt, again, rows = solve_clear(task, method, force, q, nominal, small, self_rows=self_rows)
