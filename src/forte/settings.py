@@ -267,9 +267,11 @@ def weight_set(name: str) -> WeightSet:
     return WEIGHT_SETS[name]
 
 
-#: CPU seconds (process time) that one plan's NLP solves may take in all: the first solve, its
-#: self-collision and clearance re-solves and the refinement rounds (IPOPT's ``max_cpu_time``,
-#: each solve given what is left; :func:`forte.planning.solve.solve_budget`). Every feasible plan of
+#: CPU seconds (process time) that one plan's optimization may take in all: its initial guess, the
+#: first solve, its self-collision and clearance re-solves and the refinement rounds, with their
+#: builds and verdicts (IPOPT's ``max_cpu_time``, each solve given what is left; no re-solve or round
+#: starts once it is spent: :mod:`forte.planning.nlp.budget`, which states the overrun; the plan's
+#: ``solver.budget`` records the use). Every feasible plan of
 #: the feasibility matrix and of MotionBenchMaker's 350 problems solved in under 45 s of wall time
 #: on two shared cores; 500 iterations of a 41-sample self-collision re-solve of the raw TIAGo ran
 #: for over 8 minutes without converging (its dual infeasibility growing to 1e15 while MUMPS
@@ -317,8 +319,10 @@ class SolverOptions:
             capability checked (the verdict's ``capacity``) but not optimized. ``False`` (default)
             optimizes every goal task (the paper's NLP), and the route is the plan only when the
             optimized one is not feasible.
-        time_budget_s: CPU seconds all of a plan's NLP solves may take (its rounds included; the
-            wall-clock bound is 2.5 times as long); ``None``: :data:`PLAN_SOLVE_CPU_S`. A goal
+        time_budget_s: CPU seconds a plan's optimization may take in all (its solves, re-solves and
+            rounds, their builds and verdicts; the wall-clock bound is 2.5 times as long; none
+            starts once it is spent, the overrun: :mod:`forte.planning.nlp.budget`);
+            ``None``: :data:`PLAN_SOLVE_CPU_S`. A goal
             task's default is :data:`~forte.planning.tasks.goals.GOAL_SOLVE_BUDGET_S`: its route
             is the plan when the optimization runs out (:func:`forte.planning.rounds.route_as_plan`).
     """

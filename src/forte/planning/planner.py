@@ -19,7 +19,7 @@ from forte.force.taskforce import TaskForce
 from forte.model.robot import MobileManipulator
 from forte.model.scene import Scene
 from forte.planning.methods.catalog import METHODS, Method, get_method, method_names
-from forte.planning.nlp.budget import budget_of, solve_budget
+from forte.planning.nlp.budget import Budget, budget_of, solve_budget
 from forte.planning.rounds import apart, judged, judged_route, own_force, passing, refine, route_as_plan, slower
 from forte.planning.scene.scene_solve import blocked_path
 from forte.planning.search.route import routed
@@ -150,6 +150,21 @@ def route_plan(task: Task, force: TaskForce, route: dict[str, Any]) -> tuple[Pla
     return (route_task, route_task.goal.route, True, status, info, verdict, judged_force), record
 
 
+def said_of_budget(verdict: Verdict, budget: Budget) -> Verdict:
+    """``verdict`` with its first failed requirement followed by the plan's time budget when it ran
+    out, and what the plan did not try or stopped for it (:func:`~forte.planning.nlp.budget.spent_before`,
+    :func:`~forte.planning.nlp.budget.bounded`): a re-solve or a round that might have fixed it;
+    ``verdict`` as it is when feasible or when the budget did not run out."""
+    if verdict.feasible or not verdict.violations or not (budget.skipped or budget.spent()):
+        return verdict
+    if not budget.skipped and "solver.time_budget_s" in verdict.violations[0].detail:
+        return verdict  # the solver's line names it already (IPOPT stopped at the budget)
+    line = (f"the plan's time budget ({budget.cpu_s:g} s of CPU, {budget.wall_s:g} s of wall time: "
+            f"solver.time_budget_s) ran out" + (f" ({'; '.join(budget.skipped)})" if budget.skipped else ""))
+    first = verdict.violations[0]
+    return verdict._replace(violations=(first._replace(detail=f"{first.detail}; {line}"), *verdict.violations[1:]))
+
+
 def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str, Any] | None = None,
          guess: FloatArray | None = None) -> Plan:
     """Plan ``task`` with ``method`` and judge it; never raises for a solver failure or an
@@ -177,6 +192,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
         task = task.following(start_guess(task) if guess is None else guess)
     force = task.force()
     info: dict[str, Any] = {}
+    budget: Budget | None = None
     blocked = (route.get("reason") or blocked_path(task)) if spec.optimized else None
     first, tried_route = route_plan(task, force, route) if route and blocked is None and task.solver.route_first \
         else (None, {})
@@ -189,7 +205,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
     elif spec.optimized:
         # J1 on the wrench when the payload needs a moment; the task's own terms (e.g. tipover) added
         solved_as = with_task_terms(for_requirement(spec, force), task.terms)
-        with solve_budget(*budget_of(task.solver)):  # every solve of the plan, its rounds included
+        with solve_budget(*budget_of(task.solver)) as budget:  # every solve of the plan, its rounds included
             sol, info = optimize(task, solved_as, force, guess)
             verdict, force = judged(task, sol.q, force, info)
             sol, info, verdict, force = own_force(task, solved_as, force, sol, info, verdict)
@@ -202,6 +218,7 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
                 q, solved, status = sol.q, sol.success, sol.status
         if tried_route:
             info["route_first"] = tried_route
+        verdict = said_of_budget(verdict, budget)
     else:
         q, solved, status = spec.produce(task), True, spec.status
         verdict, force = judged(task, q, force)
@@ -214,6 +231,8 @@ def plan(task: Task, method: str | Method = "forte", estimator_options: dict[str
                         "duration_given": task.goal.duration_given} | passing(task)
     metrics = evaluate(task.robot, q, task.t, force, task.settings.capability_params, task.scene,
                        task.start_motion)
+    if budget is not None:  # what the plan used of its budget, its closing verdict and metrics included
+        info["budget"] = budget.record()
     return Plan(method=spec.name, robot=task.robot, t=task.t, q=q, force=force, payload=task.payload,
                 metrics=metrics, solved=solved, status=status, solver=info, task=task, verdict=verdict,
                 scene=task.scene, contact=task.contact)

@@ -21,6 +21,7 @@ from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE
 from forte.model.trajectory import backward_differences
 from forte.planning.methods.catalog import Method
+from forte.planning.nlp.budget import bounded, spent_before
 from forte.planning.nlp.optimizer import SolverResult
 from forte.planning.search.route import on_samples, routed
 from forte.planning.solve import optimize
@@ -94,7 +95,9 @@ def refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info: 
     acc, keep = acc[N_BASE:], task.keep_level
     rounds, current, current_verdict = [], sol, verdict
     apart = bool(info.get("self_rows", {}).get("kept"))  # a plan kept apart by self rows keeps them
-    for _ in range(task.solver.refine_rounds):
+    for k in range(task.solver.refine_rounds):
+        if spent_before(f"refinement round {k + 1}"):
+            break
         if "capacity" in current_verdict.failed:
             short = capacity_shortfall(task, current.q, force)
             radius = radius + np.where(short > 0, short + REFINE_SLACK_N, 0.0)
@@ -109,8 +112,11 @@ def refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info: 
         trial_task = replace(task, limits=replace(task.limits, arm_acceleration=tuple(acc),
                                                   arm_velocity=tuple(vel[N_BASE:]),
                                                   base_velocity=tuple(vel[:N_BASE])), keep_level=keep)
-        trial, trial_info = optimize(trial_task, spec, replace(force, r=radius), current.q,
-                                     reported=force, self_rows=apart)
+        solved = bounded(f"refinement round {k + 1}", optimize, trial_task, spec, replace(force, r=radius),
+                         current.q, reported=force, self_rows=apart)
+        if solved is None:  # stopped at the plan's budget
+            break
+        trial, trial_info = solved
         trial_verdict, trial_force = judged(task, trial.q, force, trial_info)
         rounds.append({"max_added_radius_n": float(np.max(radius - force.r)), "arm_acceleration": acc.tolist(),
                        "velocity": vel.tolist(), "verdict": trial_verdict.label,
@@ -127,6 +133,10 @@ def refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info: 
     return sol, info, verdict, force
 
 
+#: IPOPT's status for a problem it found (locally) infeasible.
+INFEASIBLE = "Infeasible_Problem_Detected"
+
+
 def apart(task: Task, spec: Method, force: TaskForce, guess: FloatArray | None, sol: SolverResult,
            info: dict[str, Any], verdict: Verdict) -> tuple[SolverResult, dict[str, Any], Verdict, TaskForce]:
     """Solve again with self-collision rows a plan without clearance rows whose arm runs into the robot.
@@ -140,12 +150,24 @@ def apart(task: Task, spec: Method, force: TaskForce, guess: FloatArray | None, 
     not converge either (then it fails nothing more: one failed solve for another, minus the
     collision). A re-solve that did not converge is otherwise dropped, collision-free or not: its
     iterate is wherever IPOPT stopped (solver-failed), and the converged plan's verdict names
-    what is wrong with it more usefully. ``info["self_rows"]`` records the try. Returns the force
+    what is wrong with it more usefully. A plan whose solve IPOPT found infeasible (:data:`INFEASIBLE`:
+    the raw TIAGo's pose 0.33 m out of reach) is not solved again: the same problem with more rows
+    has fewer feasible points, not more (that re-solve ran 500 iterations, 50 s of CPU, or 110 s
+    stopped by the budget, for the same verdict).
+    ``info["self_rows"]`` records the try. Returns the force
     the kept plan was judged with too (:func:`judged`).
     """
     if "clearance_rows" in info or "self_collision" not in verdict.failed:
         return sol, info, verdict, force
-    trial, trial_info = optimize(task, spec, force, guess, self_rows=True)
+    if sol.status == INFEASIBLE:  # rows only remove points: no feasible one to gain
+        skipped = f"the solve without them stopped with {INFEASIBLE}: rows only remove feasible points"
+        return sol, info | {"self_rows": {"kept": False, "skipped": skipped}}, verdict, force
+    if spent_before("self-collision re-solve"):
+        return sol, info, verdict, force
+    solved = bounded("self-collision re-solve", optimize, task, spec, force, guess, self_rows=True)
+    if solved is None:  # stopped at the plan's budget: the plan as it was
+        return sol, info, verdict, force
+    trial, trial_info = solved
     trial_verdict, trial_force = judged(task, trial.q, force, trial_info)
     kept = "self_collision" not in trial_verdict.failed and (trial.success or not sol.success)
     record = {"verdict": trial_verdict.label, "failed": list(trial_verdict.failed), "kept": kept,
@@ -161,10 +183,13 @@ def own_force(task: Task, spec: Method, force: TaskForce, sol: SolverResult, inf
     (capacity, torque) with its own motion's ``force``: solved once more, from the plan, with that
     force; the new plan is kept when it converged (``info["own_force"]`` records the try)."""
     by_force = {"capacity", "torque"}
-    if task.goal is None or not sol.success or not set(verdict.failed) & by_force:
+    if task.goal is None or not sol.success or not set(verdict.failed) & by_force or spent_before("own-force re-solve"):
         return sol, info, verdict, force
     own = task.following(sol.q)
-    trial, trial_info = optimize(own, spec, force, sol.q)
+    solved = bounded("own-force re-solve", optimize, own, spec, force, sol.q)
+    if solved is None:  # stopped at the plan's budget
+        return sol, info, verdict, force
+    trial, trial_info = solved
     trial_verdict, trial_force = judged(own, trial.q, force, trial_info)
     record = {"verdict": trial_verdict.label, "failed": list(trial_verdict.failed), "kept": trial.success,
               "iterations": trial.iterations, "solve_time_s": trial.solve_time}
@@ -194,11 +219,14 @@ def slower(unrouted: Task, spec: Method, task: Task, sol: SolverResult, info: di
     stretch = 1.0
     held = task.goal.pose is not None or "capacity" not in verdict.failed or goal_load(task, sol.q[-1]) is None
     while (not task.goal.duration_given and sol.success and not verdict.feasible and len(rounds) < SLOWER_ROUNDS
-           and set(verdict.failed) <= BY_DURATION and held):
+           and set(verdict.failed) <= BY_DURATION and held and not spent_before("slower round")):
         stretch *= SLOWER
         trial_task, _ = routed(unrouted, stretch)
         trial_task = trial_task.following(trial_task.goal.route)
-        trial, trial_info = optimize(trial_task, spec, trial_task.force(), None)
+        solved = bounded("slower round", optimize, trial_task, spec, trial_task.force(), None)
+        if solved is None:  # stopped at the plan's budget
+            break
+        trial, trial_info = solved
         trial_verdict, trial_force = judged(trial_task, trial.q, trial_task.force(), trial_info)
         rounds.append({"duration_s": float(trial_task.t[-1]), "verdict": trial_verdict.label,
                        "failed": list(trial_verdict.failed), "iterations": trial.iterations})
@@ -241,7 +269,7 @@ def slower_route(task: Task, sol: SolverResult, info: dict[str, Any], verdict: V
         return None, records
     if goal.pose is None and "capacity" in fast.failed and goal_load(task, goal.route[-1]) is not None:
         return None, records
-    for k in range(1, SLOWER_ROUNDS + 1):
+    for k in range(1, SLOWER_ROUNDS + 1):  # verdicts, no solve: they run past a spent budget (nlp/budget.py)
         slow = on_samples(task, task.t[0] + (task.t - task.t[0]) * SLOWER ** k)
         route_task, route_verdict, route_force, tries = judged_route(slow, slow.force())
         records.append({"duration_s": float(slow.t[-1] - slow.t[0]), "verdict": route_verdict.label,

@@ -13,7 +13,7 @@ import numpy as np
 from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE
 from forte.planning.methods.catalog import Method
-from forte.planning.nlp.budget import budget_of, solve_budget
+from forte.planning.nlp.budget import budget_of, once, solve_budget, spent_before
 from forte.planning.nlp.optimizer import SolverResult, TrajectoryOptimizer, accepted_violation
 from forte.planning.scene.diagnosis import failed_rows
 from forte.planning.scene.scene_guess import clear_start
@@ -51,7 +51,7 @@ def coarse_guess(task: Task, method: Method) -> tuple[FloatArray, dict[str, Any]
         return None
     coarse = task.resampled(COARSE_WAYPOINTS)
     force = coarse.force()
-    nominal = coarse.nominal()
+    nominal = once("nominal", coarse, coarse.nominal)  # start_guess's IK path too
     # with a scene (or near the floor) clear of it already: the fine solve starts outside the bodies
     sol = solve_clear(coarse, method, force, start_guess(coarse, nominal), nominal, task.solver)[1]
     if not sol.success:
@@ -80,8 +80,10 @@ def start_guess(task: Task, nominal: FloatArray | None = None) -> FloatArray:
         return goal_guess(task)
     if task.knots is not None:
         guess = task.nominal() if nominal is None else nominal
-    else:
+    elif task.mode == "hold" and task.teaching is not None:
         guess = initial_guess(task)
+    else:  # a path of poses: its nominal is this IK path (Task.nominal), made once per plan
+        guess = once("nominal", task, task.nominal)
     if task.scene and task.robot.base != "fixed":  # a start clear of the scene (a fixed base has no other)
         clear = clear_start(task, guess)
         return guess if clear is None else clear
@@ -109,7 +111,7 @@ def solve_clear(task: Task, method: Method, force: TaskForce, q: FloatArray, nom
                                   options=options, limits=task.limits, settings=task.settings,
                                   goal=goal_kind(task), keep_level=task.keep_level, via_steps=goal_vias(task))
     sol = _solve(opt, task, force, q, nominal)
-    if sol.success and floor_near(task, sol.q, task.clearance):
+    if sol.success and floor_near(task, sol.q, task.clearance) and not spent_before("clearance re-solve (floor)"):
         return solve_in_scene(task, method, force, sol.q, nominal, options)
     return opt, sol, None
 
@@ -127,10 +129,11 @@ def optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | N
 
 def _optimize(task: Task, method: Method, force: TaskForce, guess: FloatArray | None,
               reported: TaskForce | None, self_rows: bool) -> tuple[SolverResult, dict]:
-    nominal = task.nominal()
-    q_guess = start_guess(task, nominal) if guess is None else guess
+    nominal = once("nominal", task, task.nominal)  # IK along a path of poses: seconds on a raw URDF
+    # a plan's re-solve from its own start (self rows) finds the same guess: made once per plan
+    q_guess = once("start_guess", task, lambda: start_guess(task, nominal)) if guess is None else guess
     options, info = task.solver, {}
-    warm = coarse_guess(task, method) if guess is None else None
+    warm = once(("coarse", id(method)), task, lambda: coarse_guess(task, method)) if guess is None else None
     if warm is not None:
         q_guess, info["coarse"] = warm
         # a near-optimal start: begin with a small barrier parameter
@@ -185,7 +188,8 @@ def _small_barrier_retry(task: Task, method: Method, force: TaskForce, q: FloatA
     """A failed solve solved again from the same start with a small, monotone barrier parameter
     (:data:`SMALL_BARRIER`); returns the :class:`Retry`, ``facts["kept"]`` when
     the retry succeeded or ended nearer the constraints, or ``None`` when no retry applies (the
-    solve succeeded, ran out of its time budget, or had the small barrier already).
+    solve succeeded, ran out of its time budget, had the small barrier already, or the plan's
+    budget is spent: :func:`~forte.planning.nlp.budget.spent_before`).
 
     Why: IPOPT's adaptive barrier starts from ``mu`` near 1 (its oracle), and from a start on the
     pose constraints (the IK along the path) its first full Newton step can leave them by most
@@ -194,7 +198,7 @@ def _small_barrier_retry(task: Task, method: Method, force: TaskForce, q: FloatA
     converge in 6-7 iterations with ``mu_init = 1e-4``). The retry costs a second solve on
     failures only.
     """
-    if sol.success or sol.status in OUT_OF_TIME or "mu_init" in options.extra:
+    if sol.success or sol.status in OUT_OF_TIME or "mu_init" in options.extra or spent_before("small-barrier retry"):
         return None
     small = replace(options, extra=SMALL_BARRIER | options.extra)
     opt, again, rows = solve_clear(task, method, force, q, nominal, small, self_rows=self_rows)
@@ -228,7 +232,9 @@ def _best_of_starts(solve_from: Callable[[FloatArray], SolverResult], task: Task
     weight 20 and 60 did); such a result is chosen only when no start converged the right way up
     (``facts["upside_down"]`` counts them)."""
     results = [first]
-    for q in hold_starts(task)[1:]:
+    for i, q in enumerate(hold_starts(task)[1:], 2):
+        if spent_before(f"hold start {i} of {task.solver.hold_starts}"):
+            break
         results.append(solve_from(q[None, :]))
     converged = [i for i, r in enumerate(results) if r.success]
     upright = [i for i in converged if _upright(task, results[i].q)]

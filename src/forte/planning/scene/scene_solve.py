@@ -23,6 +23,7 @@ import numpy as np
 from forte.force.taskforce import TaskForce
 from forte.model.body_spheres import BASE_FRAME, primitive_centres, robot_primitives
 from forte.planning.methods.catalog import Method
+from forte.planning.nlp.budget import spent_before
 from forte.planning.nlp.collision_slots import ACTIVATION, assign_slots, missing_pairs
 from forte.planning.nlp.optimizer import SolverResult, TrajectoryOptimizer
 from forte.planning.tasks.tasks import Task
@@ -111,7 +112,7 @@ def solve_in_scene(task: Task, method: Method, force: TaskForce, q_guess: FloatA
         missing = missing_pairs(task.robot, sol.q, task.scene, task.clearance, slots, fix_initial=fix)
         rounds.append({"rows": slots.rows, "slots": {ck.name: ck.slots for ck in opt._clear},
                        "iterations": sol.iterations, "missing_pairs": len(missing)})
-        if not missing or not sol.success:
+        if not missing or not sol.success or spent_before("clearance round"):
             break
         extra |= missing | slots.triples()
         # from the solution (it kept the rows it had), or a goal task's route: clear of the scene on
