@@ -45,7 +45,7 @@ def test_a_failed_solve_is_solved_again_with_the_small_barrier_from_its_start(tm
     np.testing.assert_array_equal(retry.sol.q[0], task.q_init)
 
 
-def test_no_retry_for_a_success_a_spent_budget_or_a_small_barrier_already(tmp_path):
+def test_no_retry_for_a_success_a_spent_budget_a_start_off_the_path_or_a_small_barrier_already(tmp_path):
     task = _sideways(tmp_path)
     method, force, nominal = get_method("forte"), task.force(), task.nominal()
     q = np.repeat(task.q_init[None], task.n, axis=0)
@@ -54,6 +54,10 @@ def test_no_retry_for_a_success_a_spent_budget_or_a_small_barrier_already(tmp_pa
     for status in solve.OUT_OF_TIME:
         spent = _failed(q, status)
         assert solve._small_barrier_retry(task, method, force, q, nominal, task.solver, spent, False) is None
+    assert not solve._on_the_path(task, q)  # standing still while the path moves 0.3 m
+    assert solve._small_barrier_retry(task, method, force, q, nominal, task.solver, _failed(q), False) is None
+    guess = solve.start_guess(task, nominal)
+    assert solve._on_the_path(task, guess)
     small = replace(task.solver, extra={"mu_init": 1e-3})
     assert solve._small_barrier_retry(task, method, force, q, nominal, small, _failed(q), False) is None
 

@@ -152,8 +152,8 @@ def route_plan(task: Task, force: TaskForce, route: dict[str, Any]) -> tuple[Pla
 
 def said_of_budget(verdict: Verdict, budget: Budget) -> Verdict:
     """``verdict`` with its first failed requirement followed by the plan's time budget when it ran
-    out, and what the plan did not try or stopped for it (:func:`~forte.planning.nlp.budget.spent_before`,
-    :func:`~forte.planning.nlp.budget.bounded`): a re-solve or a round that might have fixed it;
+    out, and what the plan did not try for it (:func:`~forte.planning.nlp.budget.spent_before`): a
+    re-solve or a round that might have fixed it;
     ``verdict`` as it is when feasible or when the budget did not run out."""
     if verdict.feasible or not verdict.violations or not (budget.skipped or budget.spent()):
         return verdict

@@ -21,7 +21,7 @@ from forte.force.taskforce import TaskForce
 from forte.model.robot import N_BASE
 from forte.model.trajectory import backward_differences
 from forte.planning.methods.catalog import Method
-from forte.planning.nlp.budget import bounded, spent_before
+from forte.planning.nlp.budget import spent_before
 from forte.planning.nlp.optimizer import SolverResult
 from forte.planning.search.route import on_samples, routed
 from forte.planning.solve import optimize
@@ -112,11 +112,8 @@ def refine(task: Task, spec: Method, force: TaskForce, sol: SolverResult, info: 
         trial_task = replace(task, limits=replace(task.limits, arm_acceleration=tuple(acc),
                                                   arm_velocity=tuple(vel[N_BASE:]),
                                                   base_velocity=tuple(vel[:N_BASE])), keep_level=keep)
-        solved = bounded(f"refinement round {k + 1}", optimize, trial_task, spec, replace(force, r=radius),
-                         current.q, reported=force, self_rows=apart)
-        if solved is None:  # stopped at the plan's budget
-            break
-        trial, trial_info = solved
+        trial, trial_info = optimize(trial_task, spec, replace(force, r=radius), current.q, reported=force,
+                                     self_rows=apart)
         trial_verdict, trial_force = judged(task, trial.q, force, trial_info)
         rounds.append({"max_added_radius_n": float(np.max(radius - force.r)), "arm_acceleration": acc.tolist(),
                        "velocity": vel.tolist(), "verdict": trial_verdict.label,
@@ -164,10 +161,7 @@ def apart(task: Task, spec: Method, force: TaskForce, guess: FloatArray | None, 
         return sol, info | {"self_rows": {"kept": False, "skipped": skipped}}, verdict, force
     if spent_before("self-collision re-solve"):
         return sol, info, verdict, force
-    solved = bounded("self-collision re-solve", optimize, task, spec, force, guess, self_rows=True)
-    if solved is None:  # stopped at the plan's budget: the plan as it was
-        return sol, info, verdict, force
-    trial, trial_info = solved
+    trial, trial_info = optimize(task, spec, force, guess, self_rows=True)
     trial_verdict, trial_force = judged(task, trial.q, force, trial_info)
     kept = "self_collision" not in trial_verdict.failed and (trial.success or not sol.success)
     record = {"verdict": trial_verdict.label, "failed": list(trial_verdict.failed), "kept": kept,
@@ -186,10 +180,7 @@ def own_force(task: Task, spec: Method, force: TaskForce, sol: SolverResult, inf
     if task.goal is None or not sol.success or not set(verdict.failed) & by_force or spent_before("own-force re-solve"):
         return sol, info, verdict, force
     own = task.following(sol.q)
-    solved = bounded("own-force re-solve", optimize, own, spec, force, sol.q)
-    if solved is None:  # stopped at the plan's budget
-        return sol, info, verdict, force
-    trial, trial_info = solved
+    trial, trial_info = optimize(own, spec, force, sol.q)
     trial_verdict, trial_force = judged(own, trial.q, force, trial_info)
     record = {"verdict": trial_verdict.label, "failed": list(trial_verdict.failed), "kept": trial.success,
               "iterations": trial.iterations, "solve_time_s": trial.solve_time}
@@ -223,10 +214,7 @@ def slower(unrouted: Task, spec: Method, task: Task, sol: SolverResult, info: di
         stretch *= SLOWER
         trial_task, _ = routed(unrouted, stretch)
         trial_task = trial_task.following(trial_task.goal.route)
-        solved = bounded("slower round", optimize, trial_task, spec, trial_task.force(), None)
-        if solved is None:  # stopped at the plan's budget
-            break
-        trial, trial_info = solved
+        trial, trial_info = optimize(trial_task, spec, trial_task.force(), None)
         trial_verdict, trial_force = judged(trial_task, trial.q, trial_task.force(), trial_info)
         rounds.append({"duration_s": float(trial_task.t[-1]), "verdict": trial_verdict.label,
                        "failed": list(trial_verdict.failed), "iterations": trial.iterations})

@@ -187,9 +187,11 @@ def _small_barrier_retry(task: Task, method: Method, force: TaskForce, q: FloatA
                          options: Any, sol: SolverResult, self_rows: bool) -> Retry | None:
     """A failed solve solved again from the same start with a small, monotone barrier parameter
     (:data:`SMALL_BARRIER`); returns the :class:`Retry`, ``facts["kept"]`` when
-    the retry succeeded or ended nearer the constraints, or ``None`` when no retry applies (the
-    solve succeeded, ran out of its time budget, had the small barrier already, or the plan's
-    budget is spent: :func:`~forte.planning.nlp.budget.spent_before`).
+    the retry succeeded or ended nearer the constraints, or ``None`` when no retry applies: a goal
+    task (its route falls back on its own), a start off the path's poses (:func:`_on_the_path`: a
+    pose out of reach, which a smaller barrier does not bring nearer), a solve that succeeded, ran
+    out of its time budget or had the small barrier already, or a spent plan budget
+    (:func:`~forte.planning.nlp.budget.spent_before`).
 
     Why: IPOPT's adaptive barrier starts from ``mu`` near 1 (its oracle), and from a start on the
     pose constraints (the IK along the path) its first full Newton step can leave them by most
@@ -198,7 +200,9 @@ def _small_barrier_retry(task: Task, method: Method, force: TaskForce, q: FloatA
     converge in 6-7 iterations with ``mu_init = 1e-4``). The retry costs a second solve on
     failures only.
     """
-    if sol.success or sol.status in OUT_OF_TIME or "mu_init" in options.extra or spent_before("small-barrier retry"):
+    if sol.success or sol.status in OUT_OF_TIME or "mu_init" in options.extra or task.goal is not None:
+        return None
+    if not _on_the_path(task, q) or spent_before("small-barrier retry"):
         return None
     small = replace(options, extra=SMALL_BARRIER | options.extra)
     opt, again, rows = solve_clear(task, method, force, q, nominal, small, self_rows=self_rows)
@@ -245,6 +249,18 @@ def _best_of_starts(solve_from: Callable[[FloatArray], SolverResult], task: Task
              "iterations": int(sum(r.iterations for r in results)),
              "solve_time_s": float(sum(r.solve_time for r in results))}
     return results[best], facts
+
+
+#: How near the path's poses a start must be for :func:`_small_barrier_retry` (m, rad).
+ON_PATH_M, ON_PATH_RAD = 1e-3, 1e-2
+
+
+def _on_the_path(task: Task, q: FloatArray) -> bool:
+    """Every waypoint's end-effector pose of ``q`` within :data:`ON_PATH_M` and :data:`ON_PATH_RAD`
+    of the task's (the IK guess of a path in reach)."""
+    ee = np.array([task.robot.ee_pose(qk) for qk in q])
+    near = np.linalg.norm(ee[:, :3, 3] - task.targets[:, :3, 3], axis=1) <= ON_PATH_M
+    return bool(np.all(near) and np.all(orientation_errors(ee, task.targets) <= ON_PATH_RAD))
 
 
 def _upright(task: Task, q: FloatArray) -> bool:

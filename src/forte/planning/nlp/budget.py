@@ -5,54 +5,42 @@
 :func:`solve_budget` opens a :class:`Budget` (process CPU time, :func:`time.process_time`, user
 and system, and wall time, :func:`time.monotonic`) that everything inside spends from: the initial
 guess (IK along the path: seconds on a raw URDF), the problems' builds, IPOPT, the verdicts, the
-rows' setup. Three rules make it hold for the whole plan:
+rows' setup. Two rules make it hold for the whole plan:
 
 - every IPOPT problem built while it is open gets ``max_cpu_time`` and ``max_wall_time`` = what is
   left of each when the problem is built (:func:`time_left`: the time already spent outside IPOPT
   counted, at least :data:`MIN_SOLVE_CPU_S`);
 - no new work starts once less than :data:`MIN_SOLVE_CPU_S` is left: a re-solve, a refinement or
   slower round, another clearance round or another start asks :func:`spent_before` first, which
-  records what it skipped, and the plan keeps what it has;
-- a re-solve or round that starts runs in a forked process stopped :data:`BOUNDED_GRACE_S` after
-  the budget ends (:func:`bounded`): IPOPT checks its limits only between iterations, and one
-  iteration of the raw TIAGo's self-collision re-solve took 82-94 s of CPU (its KKT refactored
-  ~25 times for the inertia correction, MUMPS reallocating memory).
+  records what it skipped, and the plan keeps what it has.
 
-What runs past the budget is then bounded: the rest of the first solve's IPOPT iteration under
-way when it ends (or :data:`MIN_SOLVE_CPU_S` for a first solve started after it), a re-solve's
-:data:`BOUNDED_GRACE_S` plus :data:`POLL_S`, and the plan's closing work: the verdict of the plan
+What runs past the budget: the rest of the IPOPT iteration under way when it ends (IPOPT checks
+its limits between iterations; an iteration is milliseconds on an ordinary problem, but one of the
+raw TIAGo's self-collision re-solve, started from a problem IPOPT had already found infeasible,
+took 82-94 s of CPU: that re-solve is no longer started, see
+:func:`~forte.planning.rounds.apart`), :data:`MIN_SOLVE_CPU_S` for a solve started with less left,
+the initial guess's IK (not interruptible: ~7 s on the raw TIAGo), and the plan's closing work: the verdict of the plan
 kept and the metrics (0.2 s and 0.01 s of CPU on a 41-sample TIAGo plan); a goal task's route
 judged as the plan, on more waypoints and slower (verdicts, no solve: up to 4, and 3 x 4 more,
 :func:`~forte.planning.rounds.slower_route`), which keeps a feasible plan when its NLP runs
 out. IPOPT's own clock counts user time only (a few % less than process time).
 :meth:`Budget.record` is the plan's ``solver.budget``: used against the budget, and what was not
-started or stopped. A budget opened inside an open one is the outer one: a plan's rounds share
+started. A budget opened inside an open one is the outer one: a plan's rounds share
 the plan's.
 """
 
 from __future__ import annotations
 
-import multiprocessing
-import os
-import resource
-import signal
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
-from pathlib import Path
 from typing import Any
 
-from forte import progress
-from forte.exceptions import SolverError
 from forte.settings import PLAN_SOLVE_CPU_S, PLAN_SOLVE_WALL_S, WALL_PER_CPU
 
 #: The least CPU time (s) a problem built after the budget is spent is given.
 MIN_SOLVE_CPU_S = 1.0
-#: How far past the budget (s, CPU and wall) a re-solve run by :func:`bounded` is stopped.
-BOUNDED_GRACE_S = 1.0
-#: How often :func:`bounded` looks at its child (s).
-POLL_S = 0.05
 
 
 class Budget:
@@ -161,92 +149,3 @@ def ipopt_budget() -> dict[str, float]:
     """IPOPT's options for what is left of the open budget (none when none is open)."""
     left = time_left()
     return {} if left is None else {"ipopt.max_cpu_time": left[0], "ipopt.max_wall_time": left[1]}
-
-
-def _child_cpu(pid: int) -> float | None:
-    """The CPU seconds (user + system) process ``pid`` has used, from ``/proc`` (``None``: unknown)."""
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError):
-        return None
-
-
-def _stop(child: Any) -> None:
-    """Kill ``child`` and its process group (what it started)."""
-    try:
-        os.killpg(child.pid, signal.SIGKILL)
-    except OSError:  # not its own group yet, or gone
-        child.kill()
-
-
-def _received(receive: Any) -> Any | None:
-    """The child's message, ``None`` when it ended without sending one."""
-    try:
-        return receive.recv()
-    except EOFError:
-        return None
-
-
-def _run_child(make: Callable[..., Any], args: tuple[Any, ...], kwargs: dict[str, Any], conn: Any,
-               used: float) -> None:
-    os.setpgid(0, 0)  # its own group: stopping it stops what it started too (a kernel compile)
-    budget = _OPEN.get()
-    known = len(budget.skipped) if budget is not None else 0
-    if budget is not None:  # a forked child's CPU clock starts at 0: the plan's ``used`` seconds before it
-        budget.cpu0 = time.process_time() - used
-    with progress.activate(None):  # the parent's reporter draws; its thread is not here
-        try:
-            result = make(*args, **kwargs)
-            conn.send(("ok", result, [] if budget is None else budget.skipped[known:]))
-        except BaseException as exc:  # raised again in the parent
-            conn.send(("error", exc, []))
-    conn.close()
-
-
-def bounded(what: str, make: Callable[..., Any], *args: Any, **kwargs: Any) -> Any | None:
-    """``make(*args, **kwargs)`` (a re-solve or a round of a plan) run so that it stops with the open budget: in
-    a forked child stopped once it has used what was left of the budget's CPU or wall time plus
-    :data:`BOUNDED_GRACE_S`, however long IPOPT's iteration under way (IPOPT checks its limits
-    only between iterations). Returns its result, or ``None`` when it was stopped (``what``
-    recorded in the budget's ``skipped`` as ``"<what>: stopped"``); the child's CPU time is
-    counted as the plan's. Without an open budget, or where processes cannot fork: ``make(...)`` here."""
-    budget = _OPEN.get()
-    if budget is None or "fork" not in multiprocessing.get_all_start_methods():
-        return make(*args, **kwargs)
-    cpu_left, wall_left = budget.left()
-    context = multiprocessing.get_context("fork")
-    receive, send = context.Pipe(duplex=False)
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    child = context.Process(target=_run_child, args=(make, args, kwargs, send, budget.used()[0]), daemon=True)
-    start = time.monotonic()
-    child.start()
-    send.close()
-    message, stopped = None, False
-    try:
-        while message is None and not stopped:
-            if receive.poll(POLL_S):  # its result, or the end of a child that died without one
-                message = _received(receive)
-                if message is None:
-                    break
-            elif (_child_cpu(child.pid) or 0.0) > cpu_left + BOUNDED_GRACE_S \
-                    or time.monotonic() - start > wall_left + BOUNDED_GRACE_S:
-                _stop(child)
-                stopped = True
-    finally:  # interrupted here (Ctrl-C: the child is in its own group, the terminal's signal missed it)
-        if message is None and not stopped and child.is_alive():
-            _stop(child)
-    child.join()
-    receive.close()
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    budget.cpu0 -= (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)  # the child's, ours
-    if message is None and not stopped:
-        raise SolverError(f"{what}: its process ended without a result (exit code {child.exitcode})", status="error")
-    if message is None:
-        budget.skipped.append(f"{what}: stopped")
-        return None
-    status, result, skipped = message
-    budget.skipped.extend(skipped)
-    if status == "error":
-        raise result
-    return result
