@@ -151,8 +151,8 @@ _SOLVER_DOCS = {
     "backend": (choice(SOLVER_BACKENDS), "the NLP solver: IPOPT or forte's stage-structured interior point", ""),
     "route_first": (BOOL, "a goal task: its route becomes the plan without the NLP when the verdict passes it "
                           "(fast; capacity checked, not optimized)", ""),
-    "time_budget_s": (nullable(number(above=0, high=1e6)), "CPU seconds of all the plan's NLP solves (wall: 2.5 x; "
-                      "null: 120; a goal task: 4 unless given, then its route if feasible)", "s"),
+    "time_budget_s": (nullable(number(above=0, high=1e6)), "CPU seconds of the whole plan: guess, solves, rounds "
+                      "(wall: 2.5 x; null: 120; a goal task: 4 unless given, then its route if feasible)", "s"),
 }
 _LIMIT_DOCS = {
     "enabled": (BOOL, "false: the paper's NLP exactly (no velocity or acceleration limits)", ""),
