@@ -251,6 +251,11 @@ def _best_of_starts(solve_from: Callable[[FloatArray], SolverResult], task: Task
     return results[best], facts
 
 
+def _hand_poses(task: Task, q: FloatArray) -> FloatArray:
+    """The end-effector pose (4 x 4) of each configuration of ``q``."""
+    return np.array([task.robot.ee_pose(qk) for qk in q])
+
+
 #: How near the path's poses a start must be for :func:`_small_barrier_retry` (m, rad).
 ON_PATH_M, ON_PATH_RAD = 1e-3, 1e-2
 
@@ -258,12 +263,12 @@ ON_PATH_M, ON_PATH_RAD = 1e-3, 1e-2
 def _on_the_path(task: Task, q: FloatArray) -> bool:
     """Every waypoint's end-effector pose of ``q`` within :data:`ON_PATH_M` and :data:`ON_PATH_RAD`
     of the task's (the IK guess of a path in reach)."""
-    ee = np.array([task.robot.ee_pose(qk) for qk in q])
+    ee = _hand_poses(task, q)
     near = np.linalg.norm(ee[:, :3, 3] - task.targets[:, :3, 3], axis=1) <= ON_PATH_M
     return bool(np.all(near) and np.all(orientation_errors(ee, task.targets) <= ON_PATH_RAD))
 
 
 def _upright(task: Task, q: FloatArray) -> bool:
     """The end effector within the verdict's orientation tolerance of the task's poses."""
-    ee = np.array([task.robot.ee_pose(qk) for qk in q])
+    ee = _hand_poses(task, q)
     return bool(np.all(orientation_errors(ee, task.targets) <= TRACKING_ORIENTATION_TOL))
