@@ -52,6 +52,11 @@ _AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]),
          "Z": np.array([0.0, 0.0, 1.0])}
 
 
+def is_prismatic(joint: pin.JointModel) -> bool:
+    """Whether ``joint`` (revolute or prismatic, as the twin supports) slides along its axis."""
+    return not _joint_axis(joint)[1]
+
+
 def _joint_axis(joint: pin.JointModel) -> tuple[np.ndarray, bool]:
     name = joint.shortname()
     for prefix, revolute in (("JointModelR", True), ("JointModelP", False)):

@@ -41,6 +41,7 @@ import pinocchio as pin
 
 from forte.exceptions import InfeasibleTaskError
 from forte.model.robot import N_BASE, MobileManipulator
+from forte.model.twin import is_prismatic
 from forte.validation import FloatArray
 
 
@@ -75,17 +76,13 @@ def step_weights(robot: MobileManipulator, base_weight: float) -> FloatArray:
     when there are none)."""
     base = 0.0 if robot.base == "fixed" else 1.0 / base_weight
     arm = np.ones(robot.n_arm)
-    prismatic = np.array([robot.model.joints[j + 1].shortname() in PRISMATIC for j in range(robot.n_arm)])
+    prismatic = np.array([is_prismatic(robot.model.joints[j + 1]) for j in range(robot.n_arm)])
     if prismatic.any():
         span = np.asarray(robot.upper, dtype=float) - np.asarray(robot.lower, dtype=float)
         revolute = span[~prismatic & np.isfinite(span)]
         r = float(revolute.mean()) if revolute.size else 2 * np.pi
         arm[prismatic] = np.where(np.isfinite(span[prismatic]), (span[prismatic] / r) ** 2, 1.0)
     return np.concatenate([np.full(N_BASE, base), arm])
-
-
-#: Pinocchio's prismatic joint models.
-PRISMATIC = frozenset({"JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned"})
 
 
 def solve_pose(
