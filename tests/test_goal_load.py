@@ -89,12 +89,17 @@ def test_a_route_short_of_capacity_by_its_own_motion_is_the_plan_when_slower_and
     """MotionBenchMaker's table_pick 0003 with 1.5 kg: on toppra's x 1.5 the plan and the route fail
     capacity near the goal (the arm's own deceleration), the goal holds the load at rest; the NLP's
     plans on slower routes fail clearance, the route itself 1.5 x slower is feasible: it is the
-    plan, and MuJoCo runs it clean."""
+    plan, and MuJoCo runs it clean. The goal task's 4 s CPU budget is raised to 30 s: with it the
+    plan starts its first slower round at 3.9 s here, and a busier machine (CI) skips the round
+    for the budget; the rounds, not the budget, are what this test is about."""
+    from dataclasses import replace
+
     from forte.execution.run import simulate_plan
     from forte.io.plandir import write_plan
     from forte.planning.rounds import judged
 
     task = _table_pick_0003(tmp_path)
+    task = replace(task, solver=replace(task.solver, time_budget_s=30.0))
     assert goal_load(task, task.goal.q_end) is None
     plan = forte.plan(task)
     assert plan.feasible, plan.verdict.reason()
