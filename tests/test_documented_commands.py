@@ -54,6 +54,13 @@ NOT_RUN: list[tuple[str, str]] = [
 REDUCED: list[tuple[str, str, str]] = [
     ("forte experiment hold --weights authors-hold-as-run --out runs/experiments/hold-as-run",
      "--trials 1 --no-weight-sweep", "~1 min with 3 trials and the weight sweep"),
+    ("forte experiment lift --torque-limits urdf --out runs/experiments/lift-urdf-limits",
+     "--trials 1 --no-weight-sweep",
+     "3 trials and the weight sweep, with the hold below ~3.4 min of the suite on 2 cores; "
+     "test_experiments.py runs the URDF limits' hold too"),
+    ("forte experiment hold --torque-limits urdf --out runs/experiments/hold-urdf-limits",
+     "--trials 1 --no-weight-sweep",
+     "3 trials and the weight sweep; one trial here"),
     ("forte experiment wrench --out runs/experiments/wrench", "--offsets 0.2",
      "18 plans and 36 MuJoCo runs, ~1.2 min on 2 cores; the 0.2 m offset here (test_wrench_experiment.py runs it too)"),
     ("forte experiment base --out runs/experiments/base", "--quick",
