@@ -52,7 +52,7 @@ gives ``6 (s_k - s_{k-1}) / H_k = (h_{k-1} a_{k-1} + h_k a_{k+1}) / H_k + 2 a_k`
 ``|s_k - s_{k-1}| <= a_max H_k / 2``: the waypoint acceleration row (``<= a_max h_k``) follows
 where ``h_{k-1} <= h_k`` (equal steps: every knot), and the first (``|s_1 - v_1| <= a_max h_1``)
 from the first row's ``a_max h_1 / 2``. A given path's NLP leaves those rows out
-(:func:`~forte.planning.nlp.ipopt_nlp.kinematic_rows`; the lift at N = 100: 1379 of 4673 rows,
+(:func:`~forte.planning.nlp.ipopt_nlp.kinematic_rows`; the lift at N = 100: 1386 of 4673 rows,
 IPOPT's CPU time 0.21 -> 0.16 s, the plan within 6e-10), and builds them back on a grid or a
 start where they do not follow (:meth:`~forte.planning.nlp.optimizer.TrajectoryOptimizer.solve`).
 """
