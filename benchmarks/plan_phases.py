@@ -9,9 +9,12 @@ missing pairs), the failure diagnosis, the cost terms and metrics; ``rest`` is t
 outside all of them (the rounds' bookkeeping). A re-solve run in a forked child
 (:func:`forte.planning.nlp.budget.bounded`) counts in ``children_cpu_s`` and the total, not in the
 phases. IPOPT's own user CPU (what its ``max_cpu_time``
-counts) is read from CasADi's statistics. A cell of the feasibility matrix by name:
+counts) is read from CasADi's statistics. A cell of the feasibility matrix by name, or a task file
+(``--task``; ``--waypoints`` as ``forte plan``'s), with ``import_cpu_s``: the CPU seconds of the
+process before the plan (interpreter and imports, what a cold ``forte plan`` pays first):
 
     python benchmarks/plan_phases.py tiago-urdf down 0.3 0 41 [--budget 20] [--json out.json]
+    python benchmarks/plan_phases.py --task examples/tasks/lift.yaml --waypoints 100
 """
 
 from __future__ import annotations
@@ -21,8 +24,10 @@ import importlib.util
 import json
 import resource
 import sys
+import tempfile
 import time
 from collections import defaultdict
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -140,25 +145,45 @@ def patch(phases: Phases) -> dict[str, float]:
     return ipopt
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("robot")
-    parser.add_argument("kind")
-    parser.add_argument("distance", type=float)
-    parser.add_argument("payload", type=float)
-    parser.add_argument("samples", type=int)
-    parser.add_argument("--budget", type=float, default=None, help="solver.time_budget_s (CPU s)")
-    parser.add_argument("--json", type=Path, default=None)
-    args = parser.parse_args(argv)
-    import forte
-    from forte.planning.tasks.tasks import task_from_dict
+def load(args: argparse.Namespace) -> tuple[Any, list[Any]]:
+    """The task of ``--task`` or of the feasibility-matrix cell named by the positional arguments."""
+    from forte.planning.tasks.tasks import load_task, task_from_dict
 
+    if args.task is not None:
+        task = load_task(args.task, waypoints=args.waypoints)
+        if args.budget is not None:
+            task = replace(task, solver=replace(task.solver, time_budget_s=args.budget))
+        return task, [str(args.task), task.n]
+    if args.samples is None:
+        raise SystemExit("give a cell (robot kind distance payload samples) or --task")
     cell = fm.Cell(args.robot, fm.Reach(args.kind, args.distance, fm.SIZES[args.distance]), args.payload,
                    args.samples)
     data = fm.task_dict(cell)
     if args.budget is not None:
         data["solver"] = dict(data.get("solver", {})) | {"time_budget_s": args.budget}
-    task = task_from_dict(data, HERE / "plan_phases.yaml")
+    return task_from_dict(data, HERE / "plan_phases.yaml"), list(cell[:1]) + [args.kind, args.distance,
+                                                                              args.payload, args.samples]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("robot", nargs="?")
+    parser.add_argument("kind", nargs="?")
+    parser.add_argument("distance", type=float, nargs="?")
+    parser.add_argument("payload", type=float, nargs="?")
+    parser.add_argument("samples", type=int, nargs="?")
+    parser.add_argument("--task", type=Path, default=None, help="a task file instead of a matrix cell")
+    parser.add_argument("--waypoints", type=int, default=None, help="N of --task (as forte plan's)")
+    parser.add_argument("--budget", type=float, default=None, help="solver.time_budget_s (CPU s)")
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args(argv)
+    import forte
+    from forte.io.plandir import write_plan
+    from forte.planning.tasks.tasks import load_task  # noqa: F401
+
+    import_cpu = time.process_time()  # interpreter, forte and its libraries (and this script's matrix module)
+    task, cell = load(args)
+    load_cpu = time.process_time() - import_cpu
     phases = Phases()
     ipopt = patch(phases)
     r0, k0 = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -170,12 +195,16 @@ def main(argv: list[str] | None = None) -> int:
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     r1, k1 = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
     children = (k1.ru_utime - k0.ru_utime) + (k1.ru_stime - k0.ru_stime)  # re-solves run in forked children
-    out = {"cell": list(cell[:1]) + [args.kind, args.distance, args.payload, args.samples],
-           "budget_s": args.budget, "verdict": plan.verdict.label, "failed": list(plan.verdict.failed),
-           "status": plan.status, "cpu_s": cpu + children, "children_cpu_s": children,
-           "wall_s": wall, "user_s": r1.ru_utime - r0.ru_utime,
-           "system_s": r1.ru_stime - r0.ru_stime, "ipopt": ipopt,
-           "phases": {k: {"cpu_s": round(phases.cpu[k], 2), "wall_s": round(phases.wall[k], 2),
+    with tempfile.TemporaryDirectory() as tmp:
+        c1 = time.process_time()
+        write_plan(plan, Path(tmp) / "plan", figures=False)
+        write_cpu = time.process_time() - c1
+    out = {"cell": cell, "budget_s": args.budget, "verdict": plan.verdict.label, "failed": list(plan.verdict.failed),
+           "status": plan.status, "import_cpu_s": round(import_cpu, 2),
+           "task_load_cpu_s": round(load_cpu, 3), "cpu_s": cpu + children,
+           "children_cpu_s": children, "wall_s": wall, "user_s": r1.ru_utime - r0.ru_utime,
+           "system_s": r1.ru_stime - r0.ru_stime, "write_cpu_s": round(write_cpu, 3), "ipopt": ipopt,
+           "phases": {k: {"cpu_s": round(phases.cpu[k], 3), "wall_s": round(phases.wall[k], 3),
                           "calls": phases.calls[k]} for k in sorted(phases.cpu, key=lambda k: -phases.cpu[k])},
            "solver_budget": plan.solver.get("budget")}
     print(json.dumps(out, indent=1))

@@ -48,12 +48,21 @@ def lagrangian_hessian(opt: Any, pattern: tuple[ca.Sparsity, Any], X: ca.MX, pd:
 
 def kinematic_rows(opt: Any, X: ca.MX, dt: ca.MX) -> ca.MX:
     """Velocity rows ``q_k - q_{k-1}`` and acceleration rows ``dq_k - dq_{k-1}`` (k >= 2), with
-    ``dq_1 = 0``; :meth:`~forte.planning.nlp.optimizer.TrajectoryOptimizer.bounds` scales the limits by ``dt_k``."""
+    ``dq_1 = 0``; :meth:`~forte.planning.nlp.optimizer.TrajectoryOptimizer.bounds` scales the limits by ``dt_k``.
+    Of the coordinates with a limit (``opt._limited``, the stagewise solver's rows), a given path's
+    NLP with the executed spline's rows leaves out those the spline's rows imply
+    (:meth:`~forte.planning.nlp.spline_rows.SplineCoordinates.covered`) while ``opt._drop_implied``."""
     opt._vel_rows = np.flatnonzero(np.isfinite(opt._vel)) if opt.limits.enabled else np.array([], int)
     opt._acc_rows = np.flatnonzero(np.isfinite(opt._acc)) if opt.limits.enabled else np.array([], int)
     if opt.n < 2 or not opt.fix_initial:
         opt._vel_rows = opt._acc_rows = np.array([], int)
+    opt._limited = (opt._vel_rows, opt._acc_rows)
+    if opt.n < 2 or not opt.fix_initial:
         return ca.MX(0, 1)
+    if opt._spline_rows and opt.goal is None and opt._drop_implied:
+        velocity, acceleration = opt._spline.covered()
+        opt._vel_rows = np.setdiff1d(opt._vel_rows, velocity)
+        opt._acc_rows = np.setdiff1d(opt._acc_rows, acceleration)
     if not opt.limits.enabled and not opt.rests_at_end:
         return ca.MX(0, 1)
     step = X[:, 1:] - X[:, :-1]

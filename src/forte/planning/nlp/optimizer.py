@@ -145,6 +145,7 @@ class TrajectoryOptimizer(NlpStructure):
         self._clear = [load_collision_kernels(robot, f.frame, f.slots, options, f.other)
                        for f in slots.frames] if slots else []
         self.kernels = load_kernels(robot, resolved, settings, options)
+        self._drop_implied = True  # the waypoint rows the spline's imply: out (ipopt_nlp.kinematic_rows)
         self._build()
         self.build_time = time.perf_counter() - start
 
@@ -215,6 +216,8 @@ class TrajectoryOptimizer(NlpStructure):
                                    warm if warm is None or not isinstance(warm, tuple) else None, term_values, start)
         if warm is not None and not isinstance(warm, tuple):
             warm = None  # a stagewise iterate does not warm-start IPOPT
+        if self._restore_rows(t, start):
+            warm = None  # multipliers of the problem without those rows
         p = self.parameters(t, targets, f, r, self._nominal, term_values, start)
         lbx, ubx, lbg, ubg = self.bounds(t, q_init, start, q_goal)
         x0 = self.full_x(np.clip(np.asarray(q_guess, dtype=float).ravel(), lbx[: n * nq], ubx[: n * nq]))
@@ -247,6 +250,18 @@ class TrajectoryOptimizer(NlpStructure):
             lam_g=np.array(result["lam_g"]).ravel(),
         )
 
+    def _restore_rows(self, t: Any, start: StartMotion | None) -> bool:
+        """Build the problem again with every waypoint row when the times ``t`` or the ``start``
+        leave some of the rows left out unimplied by the spline's
+        (:meth:`~forte.planning.nlp.spline_rows.SplineCoordinates.implied`); True when it did."""
+        left_out = self._drop_implied and self._spline_rows and (
+            self._vel_rows.size < self._limited[0].size or self._acc_rows.size < self._limited[1].size)
+        if not left_out or self._spline.implied(t, self._spline_start(start)):
+            return False
+        self._drop_implied, self._warm_solver = False, None
+        self._build()
+        return True
+
     def stagewise(self) -> Any:
         """The stage-structured solver of this problem when ``options.backend`` asks for it and
         it handles the problem (built once), else None (IPOPT solves). It has no rows on the
@@ -273,7 +288,7 @@ class TrajectoryOptimizer(NlpStructure):
         return StageNLP(self.n, self.robot.nq, self.robot.n_arm, self.kernels, self._window_index(), self._pose_steps,
                         self._stage, np.array([weight(t, self.weights) for t in self._stage]), self._quadratic,
                         [weight(t, self.weights) for t in self._quadratic], self.rests_at_end, self.fix_initial,
-                        self._vel_rows, self._acc_rows, self._vel, self._acc, self.bounds, self.slots is not None,
+                        *self._limited, self._vel, self._acc, self.bounds, self.slots is not None,
                         bool(self._lateral), self.options.tol, self.options.constraint_tol, self.options.max_iter,
                         self.build_time, self.codegen)
 
