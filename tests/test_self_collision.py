@@ -170,3 +170,13 @@ def test_a_pair_overlapping_at_the_start_closes_at_most_half_its_mesh_gap_there(
     S = np.vstack([S0, S0 - 0.02])
     np.testing.assert_allclose(self_margins(S, True, slack), np.minimum(SELF_MARGIN, S0 - slack))
     np.testing.assert_allclose(self_margins(S, False, slack), SELF_MARGIN)
+
+
+def test_a_plans_robot_block_records_the_srdf_it_was_judged_with(tiago, tmp_path):
+    from forte.io.robot_file import store_robot
+    from forte.model.robot import default_robot
+
+    panda = store_robot(default_robot(), tmp_path)["self_collision"]
+    assert panda["srdf"] == "erd:panda_description/srdf/panda.srdf" and panda["srdf_disabled"]["Never"] > 0
+    assert store_robot(tiago, tmp_path)["self_collision"] == arm_geometry(tiago).record()
+    assert store_robot(tiago, tmp_path)["self_collision"]["srdf"] is None
