@@ -264,8 +264,9 @@ def test_a_self_collision_re_solve_that_did_not_converge_replaces_only_an_unconv
                                    solve_time=0.0, codegen="python")
 
     def verdict(failed):
-        return type("V", (), {"failed": failed, "violations": (), "feasible": not failed,
-                              "label": "infeasible" if failed else "feasible"})()
+        label = "infeasible" if failed else "feasible"
+        return type("V", (), {"failed": failed, "violations": (), "feasible": not failed, "label": label,
+                              "reason": lambda self: f"{label}: {', '.join(failed)}"})()
 
     colliding = verdict(("self_collision",))
     cases = {(True, True): True, (True, False): False, (False, True): True, (False, False): True}
@@ -276,7 +277,7 @@ def test_a_self_collision_re_solve_that_did_not_converge_replaces_only_an_unconv
         kept, info, kept_verdict, _ = rounds.apart(task, get_method("forte"), force, None, sol, {}, colliding)
         assert info["self_rows"]["kept"] is keep, (original_converged, trial_converged)
         assert (kept is trial) is keep and (kept_verdict is colliding) is not keep
-        assert info["self_rows"]["status"] == trial.status
+        assert info["self_rows"]["status"] == trial.status and info["self_rows"]["reason"] == "infeasible: velocity"
     # a re-solve that still collides is never kept
     monkeypatch.setattr(rounds, "judged", lambda task, q, force, info: (colliding, force))
     kept, info, _, _ = rounds.apart(task, get_method("forte"), force, None, result(False, 0.0), {}, colliding)

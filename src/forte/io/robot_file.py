@@ -2,14 +2,18 @@
 
 ``robot.urdf`` (:data:`ROBOT_FILE`) beside ``plan.json`` is a byte-for-byte copy of the URDF the
 plan was made with; plan.json's ``robot`` block names it (``urdf_file``) and records its sha256
-(``urdf_sha256``) and where it came from (``urdf``: ``erd:<path inside example-robot-data>`` for
-example-robot-data's descriptions, else the original path). Meshes stay package references
+(``urdf_sha256``), the self-collision pairs the plan was judged with (``self_collision``: the SRDF
+used or ``null``, its disabled pairs per stated reason, the pairs checked;
+:meth:`forte.model.self_collision.ArmGeometry.record`) and where the URDF came from (``urdf``:
+``erd:<path inside example-robot-data>`` for example-robot-data's descriptions, else the original
+path). Meshes stay package references
 (``package://example-robot-data/...``), which resolve against the installed example-robot-data
 wherever the directory is read (:func:`forte.model.description.mesh_package_dirs`).
 
 Reading (:func:`stored_description`): a copy whose sha256 differs from plan.json's is refused; when
 ``urdf`` resolves on this machine to the same bytes, that file is used (same bytes, and its
-package's SRDF and meshes beside it), else the stored copy. Either way the model is the one planned.
+package's SRDF and meshes beside it), else the stored copy (no SRDF beside it: the pairs of adjacent
+links alone are left out, as ``self_collision`` then records). Either way the model is the one planned.
 A plan.json of format 1-3 (no ``urdf_file``) names its URDF by absolute path; a path into another
 installation of example-robot-data is read from this one's.
 """
@@ -23,6 +27,7 @@ from typing import Any
 from forte.exceptions import RobotModelError, TaskFileError
 from forte.model.description import resolve_urdf
 from forte.model.robot import MobileManipulator
+from forte.model.self_collision import arm_geometry
 
 #: The stored copy of the robot's URDF in a plan directory.
 ROBOT_FILE = "robot.urdf"
@@ -38,7 +43,10 @@ def store_robot(robot: MobileManipulator, directory: Path) -> dict[str, Any]:
     """Copy ``robot``'s URDF into ``directory`` as :data:`ROBOT_FILE`; its ``robot`` block for plan.json."""
     data = robot.urdf_path.read_bytes()
     (directory / ROBOT_FILE).write_bytes(data)
-    return robot.describe() | {"urdf_file": ROBOT_FILE, "urdf_sha256": hashlib.sha256(data).hexdigest()}
+    geometry = arm_geometry(robot)
+    pairs = geometry.record() if geometry is not None else {"srdf": None, "pairs_checked": 0}
+    return robot.describe() | {"urdf_file": ROBOT_FILE, "urdf_sha256": hashlib.sha256(data).hexdigest(),
+                               "self_collision": pairs}
 
 
 def stored_description(plan_dir: Path, desc: dict[str, Any]) -> dict[str, Any]:

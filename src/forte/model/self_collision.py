@@ -2,15 +2,18 @@
 
 The geometry is the URDF's ``<collision>`` elements, reduced like the kinematic model (fingers and
 every joint outside the arm locked at neutral, or at the robot's ``locked_joints``) and mounted on
-the base like it. Pairs that never count: every pair the robot's SRDF disables
-(``<disable_collisions>``, found beside the URDF as ``../srdf/*.srdf``), and, for a URDF without
-one, geometries on the same or on adjacent links.
+the base like it. Pairs that never count: geometries on the same or on adjacent links (their meshes
+usually overlap at the joint), and every pair the robot's SRDF disables (``<disable_collisions>``;
+:func:`package_srdf` finds it, :attr:`ArmGeometry.record` says which file it was and how many pairs
+it disabled for which stated reason).
 The check is exact on the meshes (coal's narrow phase), ~50 us per configuration for the Panda.
 The base of the built-in robot is not in the URDF, so the arm is not checked against it here.
 """
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
+from collections import Counter
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -18,7 +21,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from forte.model.description import mesh_package_dirs
+from forte.model.description import mesh_package_dirs, urdf_reference
 from forte.model.urdf_loading import load_geometry, load_model, locked_configuration
 
 
@@ -27,6 +30,45 @@ class Contact(NamedTuple):
 
     first: str
     second: str
+
+
+class LinkContact(NamedTuple):
+    """Two links whose meshes interpenetrate, ``depth`` (m) deep (:meth:`ArmGeometry.link_contacts`)."""
+
+    depth: float
+    first: str
+    second: str
+
+
+def package_srdf(urdf: Path) -> Path | None:
+    """The SRDF that goes with ``urdf``: a file named after the URDF's stem, else after its robot
+    (``<robot name=...>``), with the suffix ``.srdf``, beside the URDF or in its package's ``srdf/``
+    folder (the folder beside the URDF's own: example-robot-data keeps its URDFs in ``urdf/`` or
+    ``robots/`` and its SRDFs in ``srdf/``); ``None`` when there is none. An SRDF named after
+    neither is another variant of the robot (``ur3_gripper.srdf`` beside ``ur5.srdf``): not used."""
+    urdf = Path(urdf)
+    folders = (urdf.parent, urdf.parent.parent / "srdf")
+    for name in dict.fromkeys((urdf.stem, _robot_name(urdf))):
+        for folder in folders:
+            if name and (folder / f"{name}.srdf").is_file():
+                return folder / f"{name}.srdf"
+    return None
+
+
+def _robot_name(urdf: Path) -> str:
+    try:
+        for _, element in ET.iterparse(urdf, events=("start",)):
+            return element.get("name") or ""
+    except (ET.ParseError, OSError):
+        pass
+    return ""
+
+
+def disabled_reasons(srdf: Path) -> dict[str, int]:
+    """How many ``<disable_collisions>`` the SRDF states per ``reason`` (``Adjacent``, ``Never``,
+    ``Default``, ...; ``unstated`` where it gives none)."""
+    root = ET.parse(srdf).getroot()
+    return dict(Counter(e.get("reason") or "unstated" for e in root.iter("disable_collisions")))
 
 
 class ArmGeometry:
@@ -40,13 +82,13 @@ class ArmGeometry:
         q_ref = locked_configuration(full, dict(locked))
         self.model, self.geom = pin.buildReducedModel(full, geom, lock, q_ref) if lock else (full, geom)
         self.geom.addAllCollisionPairs()
-        srdf = sorted((urdf.parent.parent / "srdf").glob("*.srdf")) if urdf.parent.name == "urdf" else []
-        if srdf:
-            pin.removeCollisionPairs(self.model, self.geom, str(srdf[0]))
-        else:
-            self._remove_adjacent()
+        self.srdf = package_srdf(urdf)
+        if self.srdf is not None:
+            pin.removeCollisionPairs(self.model, self.geom, str(self.srdf))
+        self._remove_adjacent()
         self.data, self.geom_data = self.model.createData(), self.geom.createData()
-        self.source = str(srdf[0].name) if srdf else "adjacent links excluded"
+        self.source = (f"{self.srdf.name} and adjacent links excluded" if self.srdf is not None
+                       else "adjacent links excluded")
 
     def _remove_adjacent(self) -> None:
         objs = self.geom.geometryObjects
@@ -60,6 +102,14 @@ class ArmGeometry:
     def pairs(self) -> int:
         return len(self.geom.collisionPairs)
 
+    def record(self) -> dict[str, Any]:
+        """Which pairs are left out, for the robot's description: the SRDF used (``None``: none
+        found), the ``<disable_collisions>`` it states per reason, and how many geometry pairs are
+        checked."""
+        return {"srdf": None if self.srdf is None else urdf_reference(self.srdf),
+                "srdf_disabled": {} if self.srdf is None else disabled_reasons(self.srdf),
+                "adjacent_links_excluded": True, "pairs_checked": self.pairs}
+
     def contact(self, q_arm: Any) -> Contact | None:
         """The first colliding pair at arm configuration ``q_arm``, or ``None``."""
         if not pin.computeCollisions(self.model, self.data, self.geom, self.geom_data, np.asarray(q_arm, float), True):
@@ -69,6 +119,44 @@ class ArmGeometry:
                 objs = self.geom.geometryObjects
                 return Contact(objs[pair.first].name, objs[pair.second].name)
         return None  # pragma: no cover - coal reported a collision without a pair
+
+    def link_contacts(self, q_arm: Any) -> list[LinkContact]:
+        """Every pair of links whose meshes interpenetrate at ``q_arm``, deepest first, each at its
+        deepest pair of geometries. The depth is coal's signed distance, negated, where it computes
+        one (a box, sphere or cylinder in the pair), else, mesh against mesh (whose distance is 0
+        in contact), the depth of coal's contact."""
+        if not pin.computeCollisions(self.model, self.data, self.geom, self.geom_data, np.asarray(q_arm, float), False):
+            return []
+        objs, deepest = self.geom.geometryObjects, {}
+        for i, (pair, result) in enumerate(zip(self.geom.collisionPairs, self.geom_data.collisionResults, strict=True)):
+            if not result.isCollision():
+                continue
+            depth = -pin.computeDistance(self.geom, self.geom_data, i).min_distance
+            if depth <= 0.0 and result.numContacts():
+                depth = abs(result.getContact(0).penetration_depth)
+            links = (link_name(objs[pair.first].name), link_name(objs[pair.second].name))
+            key = frozenset(links)
+            if key not in deepest or depth > deepest[key].depth:
+                deepest[key] = LinkContact(max(depth, 0.0), *links)
+        return sorted(deepest.values(), key=lambda c: -c.depth)
+
+    def link_gaps(self, q_arm: Any, links: set[frozenset[str]]) -> dict[frozenset[str], float]:
+        """The mesh distance (m, signed) at ``q_arm`` of each checked pair of links in ``links``
+        (the smallest over their pairs of geometries); pairs that are not checked are left out."""
+        pin.updateGeometryPlacements(self.model, self.data, self.geom, self.geom_data, np.asarray(q_arm, float))
+        objs, gaps = self.geom.geometryObjects, {}
+        for i, pair in enumerate(self.geom.collisionPairs):
+            key = frozenset((link_name(objs[pair.first].name), link_name(objs[pair.second].name)))
+            if key in links:
+                d = pin.computeDistance(self.geom, self.geom_data, i).min_distance
+                gaps[key] = min(d, gaps.get(key, np.inf))
+        return gaps
+
+
+def link_name(geometry_name: str) -> str:
+    """The link a URDF collision geometry belongs to: Pinocchio names them ``<link>_<index>``."""
+    stem, _, index = geometry_name.rpartition("_")
+    return stem if stem and index.isdigit() else geometry_name
 
 
 def _package_dirs(urdf: Path) -> list[str]:

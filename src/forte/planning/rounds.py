@@ -151,7 +151,8 @@ def apart(task: Task, spec: Method, force: TaskForce, guess: FloatArray | None, 
     the raw TIAGo's pose 0.33 m out of reach) is not solved again: the same problem with more rows
     has fewer feasible points, not more (that re-solve ran 500 iterations, 50 s of CPU, or 110 s
     stopped by the budget, for the same verdict).
-    ``info["self_rows"]`` records the try. Returns the force
+    ``info["self_rows"]`` records the try (its verdict's one line, ``reason``, names the pairs that
+    still collide). Returns the force
     the kept plan was judged with too (:func:`judged`).
     """
     if "clearance_rows" in info or "self_collision" not in verdict.failed:
@@ -165,7 +166,8 @@ def apart(task: Task, spec: Method, force: TaskForce, guess: FloatArray | None, 
     trial_verdict, trial_force = judged(task, trial.q, force, trial_info)
     kept = "self_collision" not in trial_verdict.failed and (trial.success or not sol.success)
     record = {"verdict": trial_verdict.label, "failed": list(trial_verdict.failed), "kept": kept,
-              "status": trial.status, "iterations": trial.iterations, "solve_time_s": trial.solve_time}
+              "reason": trial_verdict.reason(), "status": trial.status, "iterations": trial.iterations,
+              "solve_time_s": trial.solve_time}
     if kept:
         return trial, trial_info | {"self_rows": record}, trial_verdict, trial_force
     return sol, info | {"self_rows": record}, verdict, force

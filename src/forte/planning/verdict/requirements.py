@@ -52,7 +52,7 @@ from forte.planning.verdict.base_requirements import (
 from forte.planning.verdict.keep_level import TiltLimit
 from forte.planning.verdict.margin import execution_margin, kept_clearance, margin_note
 from forte.planning.verdict.motion_samples import MotionSamples
-from forte.planning.verdict.requirement_base import Context, Measure, Requirement, Violation, exceeded
+from forte.planning.verdict.requirement_base import Context, Measure, Requirement, Violation, _near, exceeded
 from forte.settings import PLAN_SOLVE_CPU_S, WALL_PER_CPU
 from forte.validation import FloatArray
 
@@ -236,6 +236,10 @@ def via_measures(ctx: Context) -> list[Measure]:
     return measures
 
 
+#: How many colliding pairs of links a self-collision violation names (deepest first).
+NAMED_PAIRS = 3
+
+
 @dataclass(frozen=True)
 class SelfCollision(Requirement):
     """No contact between the arm's URDF collision meshes (coal, :mod:`forte.model.self_collision`).
@@ -256,14 +260,26 @@ class SelfCollision(Requirement):
         return [Measure(hit, 0.5, "", "arm links collide")]
 
     def check(self, ctx: Context) -> Violation | None:
+        """The violation of :meth:`measures`, its detail naming the colliding pairs of links deepest
+        first (:meth:`~forte.model.self_collision.ArmGeometry.link_contacts`, at most
+        :data:`NAMED_PAIRS`), each with its deepest penetration and where; ``worst``: the deepest (m)."""
         found = super().check(ctx)
-        if found is None:
-            return None
         geometry = arm_geometry(ctx.robot)
-        first = int(np.flatnonzero(ctx.samples.t == found.first_time)[0])
-        pair = geometry.contact(ctx.samples.q[first, N_BASE:]) if geometry is not None else None
-        names = f": {pair.first} with {pair.second}" if pair is not None else ""
-        return found._replace(detail=f"{found.detail.split(';')[0]}{names}")
+        if found is None or geometry is None:
+            return found
+        s, deepest = ctx.samples, {}
+        for i in np.flatnonzero([geometry.contact(q[N_BASE:]) is not None for q in s.q]):
+            for c in geometry.link_contacts(s.q[i, N_BASE:]):
+                key = frozenset((c.first, c.second))
+                if key not in deepest or c.depth > deepest[key][0].depth:
+                    deepest[key] = (c, int(i))
+        ranked = sorted(deepest.values(), key=lambda ci: -ci[0].depth)
+        named = "; ".join(f"{c.first} with {c.second} {1e3 * c.depth:.3g} mm deep at t = {s.t[i]:.3g} s{_near(s, i)}"
+                          for c, i in ranked[:NAMED_PAIRS])
+        more = f" (+{len(ranked) - NAMED_PAIRS} more pairs)" if len(ranked) > NAMED_PAIRS else ""
+        worst = ranked[0][0].depth if ranked else found.worst
+        detail = f"{found.detail.split(';')[0]}: {named}{more}" if ranked else found.detail.split(";")[0]
+        return found._replace(detail=detail, worst=worst, limit=0.0, units="m")
 
 
 def scene_distances(ctx: Context) -> Clearances | None:
