@@ -298,8 +298,7 @@ def test_a_raw_tiagos_pair_overlapping_at_all_zeros_but_apart_at_the_start_gets_
     """The raw TIAGo (no ``home_arm``: home is all zeros) from the feasibility matrix's start: the
     ``arm_1_link`` / ``torso_fixed_column_link`` pairs whose covers overlap at all zeros but not at
     the start get rows with the plain margin; those overlapping at the start keep their start
-    distance (less the slack, :func:`~forte.planning.nlp.self_pairs.start_slack`); the pairs no
-    posture separates are the only ones left out."""
+    distance (less the slack); the pairs no posture separates are the only ones left out."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
     import feasibility_matrix as fm
 
@@ -311,7 +310,6 @@ def test_a_raw_tiagos_pair_overlapping_at_all_zeros_but_apart_at_the_start_gets_
         SELF_START_SLACK,
         self_distances,
         self_pairs,
-        start_slack,
     )
     from forte.planning.tasks.tasks import task_from_dict
 
@@ -331,11 +329,9 @@ def test_a_raw_tiagos_pair_overlapping_at_all_zeros_but_apart_at_the_start_gets_
     slots = assign_slots(robot, np.tile(q0, (3, 1)), task.scene, task.clearance, True)
     margin = {(p, -1 - m): float(f.values[k, j * SELF_SIZE + SELF_FIELDS["margin"][0]])
               for f in slots.frames for (k, j), (p, m) in f.pairs.items() if m < 0}
-    slack = dict(zip(self_pairs(robot), start_slack(robot, q0), strict=True))  # the meshes 18 mm apart: 9 mm
-    assert all(0.0 < slack[pair] < SELF_START_SLACK for pair in pairs)
     for pair, s in zip(pairs, at_start, strict=True):
         if s < SELF_ACTIVATION:  # near at the start: rows, keeping the start distance where they overlap
-            assert margin[pair] == pytest.approx(min(SELF_MARGIN, s - slack[pair]))
+            assert margin[pair] == pytest.approx(min(SELF_MARGIN, s - SELF_START_SLACK))
     assert all(pair in margin and margin[pair] == SELF_MARGIN for pair in moved)
 
 

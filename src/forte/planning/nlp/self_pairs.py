@@ -17,8 +17,8 @@ Panda gets it from its URDF's meshes alone. Which pairs count:
   ``self_collision`` requirement).
 
 A pair whose covers overlap only at some postures keeps its rows: at a fixed start where they
-overlap it keeps its start distance less its slack (:func:`start_slack`: at most half its meshes'
-gap there; :func:`~forte.planning.nlp.collision_slots.self_margins`), elsewhere :data:`SELF_MARGIN`.
+overlap it keeps its start distance
+(:func:`~forte.planning.nlp.collision_slots.self_margins`), elsewhere :data:`SELF_MARGIN`.
 Filtering at ``robot.home()`` instead dropped pairs that are apart at the user's start: a raw
 URDF's home is the all-zeros posture, where 5 of the raw TIAGo's 12 ``arm_1_link`` /
 ``torso_fixed_column_link`` pairs overlap, and the arm then ran through the column.
