@@ -133,45 +133,6 @@ def test_a_self_collision_names_the_deepest_pair_first_with_its_time_and_waypoin
     assert later == sorted(later, reverse=True)
 
 
-def test_a_pair_overlapping_at_the_start_closes_at_most_half_its_mesh_gap_there(tiago):
-    """The start slack (covers overlapping at the fixed start): the hand's safety box, 9.4 mm from
-    the torso column's box at the raw TIAGo's start (coal's distance on all pairs), may close 4.7 mm
-    (half of it), not the uniform 1 cm that let it touch; the pieces of two links none of whose
-    covers overlap at the start, or whose meshes are 2 cm apart or more, keep 1 cm; self_margins
-    takes the start distance less that slack."""
-    from forte.model.body_spheres import primitive_centres, robot_primitives
-    from forte.planning.nlp.collision_slots import self_margins
-    from forte.planning.nlp.self_pairs import (
-        SELF_MARGIN,
-        SELF_START_SLACK,
-        START_GAP_FRACTION,
-        self_distances,
-        self_pairs,
-        start_slack,
-    )
-
-    q0 = np.r_[0.0, 0.0, 0.0, TIAGO_START]
-    slack = start_slack(tiago, q0)
-    pairs, primitives = self_pairs(tiago), robot_primitives(tiago)
-    S0 = self_distances(primitive_centres(tiago, q0, primitives), primitives, pairs)
-    gaps = _link_distances(arm_geometry(tiago), TIAGO_START)
-    box = frozenset(("hand_safety_box", "torso_fixed_column_link"))
-    assert gaps[box] == pytest.approx(0.0094, abs=5e-4)
-    links_of = [frozenset((primitives[a].piece, primitives[b].piece)) for a, b in pairs]
-    overlapping = {links for links, d in zip(links_of, S0, strict=True) if d < SELF_MARGIN}  # some pieces' covers
-    seen = set()
-    for links, s in zip(links_of, slack, strict=True):
-        if links in overlapping and links in gaps:
-            assert s == pytest.approx(min(SELF_START_SLACK, max(START_GAP_FRACTION * gaps[links], 0.0)))
-            seen.add(links)
-        else:
-            assert s == SELF_START_SLACK
-    assert box in seen and np.all(slack[[links == box for links in links_of]] < 0.005)
-    S = np.vstack([S0, S0 - 0.02])
-    np.testing.assert_allclose(self_margins(S, True, slack), np.minimum(SELF_MARGIN, S0 - slack))
-    np.testing.assert_allclose(self_margins(S, False, slack), SELF_MARGIN)
-
-
 def test_a_plans_robot_block_records_the_srdf_it_was_judged_with(tiago, tmp_path):
     from forte.io.robot_file import store_robot
     from forte.model.robot import default_robot

@@ -24,14 +24,7 @@ import numpy as np
 from forte.model.body_spheres import BASE_FRAME, Primitive, primitive_centres, robot_primitives
 from forte.model.scene import Proxy, Scene, floor_proxy, rounded_box_distance
 from forte.planning.nlp.collision_kernels import SELF_FIELDS, SELF_SIZE, SLOT_BUCKETS, SLOT_FIELDS, SLOT_SIZE, bucket
-from forte.planning.nlp.self_pairs import (
-    SELF_ACTIVATION,
-    SELF_MARGIN,
-    SELF_START_SLACK,
-    self_distances,
-    self_pairs,
-    start_slack,
-)
+from forte.planning.nlp.self_pairs import SELF_ACTIVATION, SELF_MARGIN, SELF_START_SLACK, self_distances, self_pairs
 from forte.validation import FloatArray
 
 #: A pair gets rows when its cover distance is below the clearance plus this (m).
@@ -214,7 +207,7 @@ def assign_slots(robot: object, q: FloatArray, scene: Scene, clearance: float, f
     kept = scene_margins(robot, scene, clearance, D.shape, clear, primitives)
     pairs_self = self_pairs(robot)
     S = self_distances(centres, primitives, pairs_self)
-    margins = self_margins(S, fix_initial, start_slack(robot, np.atleast_2d(q)[0]) if fix_initial else None)
+    margins = self_margins(S, fix_initial)
     n = D.shape[0]
     index_self = {pair: i for i, pair in enumerate(pairs_self)}
     near = [set(zip(*np.nonzero(D[k] < clearance + ACTIVATION), strict=True))
@@ -295,16 +288,15 @@ def _slot(primitive: Primitive, proxy: Proxy, clearance: float) -> FloatArray:
 START_OVERLAP_SLACK = 0.002
 
 
-def self_margins(S: FloatArray, fix_initial: bool, slack: FloatArray | None = None) -> FloatArray:
+def self_margins(S: FloatArray, fix_initial: bool) -> FloatArray:
     """Per self pair: the cover distance it keeps, :data:`~forte.planning.nlp.self_pairs.SELF_MARGIN`,
     or, for a pair whose covers already overlap at the fixed start (``S[0]``: its distance there;
     a cover is up to ~12 % thicker than the mesh, so the meshes may well be apart), its start
-    distance less its ``slack`` (per pair, :func:`~forte.planning.nlp.self_pairs.start_slack`;
-    ``None``: :data:`~forte.planning.nlp.self_pairs.SELF_START_SLACK`), so the plan does not push the
-    two further into each other than their meshes allow. ``S``: N x pairs."""
+    distance less :data:`~forte.planning.nlp.self_pairs.SELF_START_SLACK`, so the plan does not push the
+    two further into each other. ``S``: N x pairs."""
     margins = np.full(S.shape[1], SELF_MARGIN)
     if fix_initial and len(S):
-        margins = np.minimum(margins, S[0] - (SELF_START_SLACK if slack is None else slack))
+        margins = np.minimum(margins, S[0] - SELF_START_SLACK)
     return margins
 
 
@@ -320,9 +312,8 @@ def missing_pairs(robot: object, q: FloatArray, scene: Scene, clearance: float, 
     S = self_distances(centres, primitives, self_pairs(robot))
     have = slots.triples()
     found = {(int(k), int(p), int(m)) for k, p, m in zip(*np.nonzero(D < clearance - tol), strict=True)}
-    slack = start_slack(robot, np.atleast_2d(q)[0]) if fix_initial else None
     found |= {(int(k), int(pairs_self[i, 0]), -1 - int(pairs_self[i, 1]))
-              for k, i in zip(*np.nonzero(S < self_margins(S, fix_initial, slack) - tol), strict=True)}
+              for k, i in zip(*np.nonzero(S < self_margins(S, fix_initial) - tol), strict=True)}
     return found - have
 
 

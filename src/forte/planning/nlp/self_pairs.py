@@ -34,7 +34,6 @@ from typing import Any
 import numpy as np
 
 from forte.model.body_spheres import BASE_FRAME, Primitive, link_of, primitive_centres, robot_primitives
-from forte.model.robot import N_BASE
 from forte.validation import FloatArray
 
 #: A self pair gets rows when its covers come closer than this (m) on the start trajectory.
@@ -57,15 +56,10 @@ CONTACT_SAMPLES = 32
 #: (259 of its pairs overlapping, by up to 28 cm) could move its hand 4 mm per interval along its
 #: torso: the self-row solve of a 0.1 m down reach (41 samples) ran out of its 120 s budget at
 #: 346 iterations, its constraint violation stuck at 0.07-0.09 through restoration phases; with
-#: 1 cm it converged (291 iterations). The verdict checks the meshes all the same. A pair whose
-#: meshes start closer than twice this gets less (:func:`start_slack`).
+#: 1 cm it converged (291 iterations). The verdict checks the meshes all the same.
 SELF_START_SLACK = 0.01
-#: A pair whose covers overlap at a fixed start may close further by at most this fraction of its
-#: meshes' gap there (:func:`start_slack`).
-START_GAP_FRACTION = 0.5
 
 _CACHE: dict[str, tuple[tuple[int, int], ...]] = {}
-_SLACK: dict[tuple[str, bytes], FloatArray] = {}
 
 
 def self_distances(centres: FloatArray, primitives: tuple[Primitive, ...],
@@ -124,36 +118,3 @@ def contact_postures(robot: Any) -> FloatArray:
     arm = np.random.default_rng(0).uniform(lower, upper, (CONTACT_SAMPLES, robot.n_arm))
     home = robot.home()
     return np.vstack([home, np.hstack([np.zeros((CONTACT_SAMPLES, home.size - robot.n_arm)), arm])])
-
-
-def start_slack(robot: Any, q_start: FloatArray) -> FloatArray:
-    """Per self pair (:func:`self_pairs`): how much closer (m) than at the fixed start ``q_start``
-    its covers may come when they overlap there
-    (:func:`~forte.planning.nlp.collision_slots.self_margins`): :data:`SELF_START_SLACK`, or
-    :data:`START_GAP_FRACTION` of its two links' mesh gap at the start where that is smaller (none
-    for links in contact). A cover is coarser than its mesh, so an overlap of covers says little,
-    but covers that close by ``x`` bring their meshes about ``x`` closer as well: a uniform 1 cm let
-    the raw TIAGo's hand safety box, 9.4 mm from the torso column at the start, run into it.
-    Pairs of links the mesh check does not judge keep :data:`SELF_START_SLACK`. Cached per robot
-    and start."""
-    key = (robot.fingerprint + str(robot.urdf_path), np.asarray(q_start, dtype=float).tobytes())
-    if key not in _SLACK:
-        _SLACK[key] = _start_slack(robot, np.asarray(q_start, dtype=float))
-    return _SLACK[key]
-
-
-def _start_slack(robot: Any, q_start: FloatArray) -> FloatArray:
-    from forte.model.self_collision import arm_geometry
-
-    pairs, primitives = self_pairs(robot), robot_primitives(robot)
-    slack = np.full(len(pairs), SELF_START_SLACK)
-    geometry = arm_geometry(robot)
-    if geometry is None or not pairs:
-        return slack
-    cover = self_distances(primitive_centres(robot, q_start, primitives), primitives, pairs)
-    links = [frozenset((primitives[a].piece, primitives[b].piece)) for a, b in pairs]
-    gaps = geometry.link_gaps(q_start[N_BASE:], {k for k, d in zip(links, cover, strict=True) if d < SELF_MARGIN})
-    for i, k in enumerate(links):
-        if k in gaps:
-            slack[i] = min(SELF_START_SLACK, max(START_GAP_FRACTION * gaps[k], 0.0))
-    return slack
