@@ -3,8 +3,8 @@
 The same cover as for the scene (:mod:`forte.model.body_spheres`), so an arm other than the
 Panda gets it from its URDF's meshes alone. Which pairs count:
 
-- two arm pieces when the robot's SRDF (or, without one, the rule "not the same or adjacent
-  links") lets their meshes collide (:class:`forte.model.self_collision.ArmGeometry`);
+- two arm pieces when neither the rule "not the same or adjacent links" nor the robot's SRDF
+  leaves their meshes out (:class:`forte.model.self_collision.ArmGeometry`);
 - an arm piece and the base, unless the piece hangs on the base too (the arm's root link);
 - never two pieces on the same frame or on a joint and its parent joint (adjacent links move
   about one joint axis, their distance barely changes, and URDF meshes of adjacent links

@@ -11,8 +11,8 @@ on the universe. Its collision pairs are
   the clearance ``c``: such a pair counts as a collision when its distance is below ``c``, so a
   state passes only when the exact clearance (the hull distance :class:`ClearanceChecker` reports)
   is ``>= c``;
-- the arm's self-collision pairs (:class:`~forte.model.self_collision.ArmGeometry`: the SRDF's
-  pairs, else non-adjacent links) with no margin. They are checked on the hulls, which contain the
+- the arm's self-collision pairs (:class:`~forte.model.self_collision.ArmGeometry`: non-adjacent
+  links, less the pairs the package's SRDF disables) with no margin. They are checked on the hulls, which contain the
   meshes: for a convex mesh (every Panda link) this is the mesh check, for a concave one it is
   conservative.
 
