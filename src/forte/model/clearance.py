@@ -45,7 +45,6 @@ whatever the number of bodies.
 from __future__ import annotations
 
 from functools import lru_cache
-from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -54,7 +53,7 @@ import pinocchio as pin
 from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT, PAYLOAD_RADIUS, has_base_box
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import FLOOR, Scene
-from forte.model.self_collision import ArmGeometry, locked_key
+from forte.model.self_collision import loaded_geometry, locked_key
 from forte.validation import FloatArray
 
 #: The names of the base box and the payload among the robot's parts.
@@ -117,9 +116,8 @@ class _Arm(NamedTuple):
 
 @lru_cache(maxsize=8)
 def _arm(urdf: str, arm_joints: tuple[str, ...], locked: tuple[tuple[str, float], ...] = ()) -> _Arm | None:
-    try:
-        arm = ArmGeometry(Path(urdf), arm_joints, locked)
-    except (ValueError, RuntimeError):  # no collision geometry that can be loaded
+    arm = loaded_geometry(urdf, arm_joints, locked)  # shared with the self-collision check
+    if arm is None:  # no collision geometry that can be loaded
         return None
     parts, excess = [], {}
     for obj in arm.geom.geometryObjects:

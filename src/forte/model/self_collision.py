@@ -244,12 +244,21 @@ def _package_dirs(urdf: Path) -> list[str]:
 
 
 @lru_cache(maxsize=8)
-def _arm_geometry(urdf: str, arm_joints: tuple[str, ...], locked: tuple[tuple[str, float], ...]) -> ArmGeometry | None:
+def loaded_geometry(urdf: str, arm_joints: tuple[str, ...],
+                    locked: tuple[tuple[str, float], ...] = ()) -> ArmGeometry | None:
+    """The arm's geometry, loaded once per URDF, joints and locks (the meshes take ~10 ms) for this
+    check and the clearance's parts (:mod:`forte.model.clearance`, which builds hulls beside the
+    meshes and bounds its own copies; each keeps its own Pinocchio data); ``None`` when no
+    collision geometry can be loaded."""
     try:
-        geometry = ArmGeometry(Path(urdf), arm_joints, locked)
+        return ArmGeometry(Path(urdf), arm_joints, locked)
     except (ValueError, RuntimeError):  # no collision meshes found: nothing to check on
         return None
-    return geometry if geometry.pairs else None
+
+
+def _arm_geometry(urdf: str, arm_joints: tuple[str, ...], locked: tuple[tuple[str, float], ...]) -> ArmGeometry | None:
+    geometry = loaded_geometry(urdf, arm_joints, locked)
+    return geometry if geometry is not None and geometry.pairs else None
 
 
 def arm_geometry(robot: Any) -> ArmGeometry | None:
