@@ -10,8 +10,12 @@ The check is exact on the meshes (coal's narrow phase), ~50 us per configuration
 Many configurations at once (:meth:`ArmGeometry.contacts`, the verdict's samples) go through a
 broad phase first: each geometry's bounding sphere (its local AABB's), placed by batched forward
 kinematics (:mod:`forte.model.joint_placements`); a configuration where every checked pair's spheres
-are more than :data:`BROAD_PHASE_MARGIN` apart has no contact (the spheres contain the geometries),
-the others are checked as one is, so the answers are :meth:`ArmGeometry.contact`'s exactly.
+are more than :data:`BROAD_PHASE_MARGIN` apart has no contact (the spheres contain the geometries);
+elsewhere only the pairs whose spheres come that close are given to coal, in :meth:`ArmGeometry.contact`'s
+order, so the answers are its answers. (Within GJK's tolerance of touching, coal's answer for a
+pair of convex shapes depends on the configuration it checked that pair at before: it starts
+from the last separating direction. There, and only there, skipping far configurations can
+change an answer, as checking them in another order would.)
 The base of the built-in robot is not in the URDF, so the arm is not checked against it here.
 """
 
