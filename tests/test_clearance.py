@@ -12,6 +12,7 @@ import yaml
 
 import forte
 from forte.cli.main import main
+from forte.exceptions import InvalidInputError
 from forte.force.taskforce import given_force
 from forte.io.plandir import LEGACY_METRIC_COLUMNS, METRIC_COLUMNS, read_metrics, read_plan_dir, write_plan
 from forte.model.clearance import BASE_PART, ClearanceChecker, clearances
@@ -174,6 +175,23 @@ def test_arm_parts_follow_the_planners_kinematics_and_the_panda_meshes_are_conve
             assert d_hull == pytest.approx(d_mesh, abs=1e-4)
         else:
             assert d_hull <= d_mesh + 1e-9  # the solid's depth, at least a triangle's
+
+
+def test_the_payload_sits_at_ee_pose_to_the_bit_and_a_bad_configuration_is_refused_as_it_refuses(robot):
+    """The payload's placement is :meth:`ee_pose`'s (the same products, its base transform shared
+    with the arm's parts), and a configuration ``ee_pose`` refuses is refused with its error."""
+    checker = ClearanceChecker(robot, Scene((), 0.0))
+    rng = np.random.default_rng(8)
+    for _ in range(20):
+        q = np.r_[rng.uniform(-2, 2, 3), rng.uniform(robot.lower, robot.upper)]
+        assert checker.placements(q)[-1].tobytes() == robot.ee_pose(q).tobytes()
+    bad = np.r_[0.0, 0.0, 0.0, robot.home_arm]
+    bad[5] = np.nan
+    with pytest.raises(InvalidInputError) as expected:
+        robot.ee_pose(bad)
+    with pytest.raises(InvalidInputError) as refused:
+        checker.placements(bad)
+    assert str(refused.value) == str(expected.value)
 
 
 def _drive(robot, x_end: float, n: int = 11, duration: float = 5.0):

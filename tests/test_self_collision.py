@@ -12,8 +12,9 @@ import pytest
 
 from forte.force.taskforce import given_force
 from forte.model.description import example_robot_data_dir
+from forte.model.presets import preset_robot
 from forte.model.robot import N_BASE, MobileManipulator
-from forte.model.self_collision import ArmGeometry, arm_geometry, package_srdf
+from forte.model.self_collision import BROAD_PHASE_MARGIN, ArmGeometry, arm_geometry, locked_key, package_srdf
 from forte.planning.verdict.motion_samples import sample_motion
 from forte.planning.verdict.verdict import judge
 
@@ -141,3 +142,49 @@ def test_a_plans_robot_block_records_the_srdf_it_was_judged_with(tiago, tmp_path
     assert panda["srdf"] == "erd:panda_description/srdf/panda.srdf" and panda["srdf_disabled"]["Never"] > 0
     assert store_robot(tiago, tmp_path)["self_collision"] == arm_geometry(tiago).record()
     assert store_robot(tiago, tmp_path)["self_collision"]["srdf"] is None
+
+
+@pytest.mark.parametrize("preset", ["authors", "ur5", "kinova", "tiago"])
+def test_the_broad_phase_spheres_never_part_a_pair_closer_than_the_margin(preset):
+    """Where :meth:`ArmGeometry.near_pairs` says a pair is apart, coal's distance of its meshes is
+    above :data:`BROAD_PHASE_MARGIN` too (the spheres contain the geometries)."""
+    g = arm_geometry(preset_robot(preset))
+    rng = np.random.default_rng(5)
+    Q = rng.uniform(np.maximum(g.model.lowerPositionLimit, -np.pi), np.minimum(g.model.upperPositionLimit, np.pi),
+                    (30, g.model.nq))
+    near = g.near_pairs(Q)
+    assert near.shape == (30, g.pairs) and near.any() and not near.all()
+    for q, row in zip(Q, near, strict=True):
+        pin.updateGeometryPlacements(g.model, g.data, g.geom, g.geom_data, q)
+        for i in np.flatnonzero(~row):
+            assert pin.computeDistance(g.geom, g.geom_data, int(i)).min_distance > BROAD_PHASE_MARGIN
+
+
+@pytest.mark.parametrize("preset", ["authors", "tiago"])
+def test_contacts_through_the_broad_phase_are_contacts_one_by_one(preset):
+    g = arm_geometry(preset_robot(preset))
+    rng = np.random.default_rng(6)
+    Q = rng.uniform(np.maximum(g.model.lowerPositionLimit, -np.pi), np.minimum(g.model.upperPositionLimit, np.pi),
+                    (600, g.model.nq))
+    one_by_one = [g.contact(q) for q in Q]
+    assert 20 < sum(c is not None for c in one_by_one) < 580  # both kinds, and first pairs that differ
+    assert len({c for c in one_by_one if c is not None}) > 3
+    assert g.contacts(Q) == one_by_one
+
+
+@pytest.mark.parametrize("preset", ["authors", "tiago"])
+def test_the_clearances_hulls_and_bounds_on_the_shared_geometry_change_no_answer(preset):
+    """The clearance builds its parts on the geometry this check loads (hulls of the meshes, local
+    AABBs of the shapes): a geometry so used answers as an untouched one, contacts and depths."""
+    from forte.model.clearance import _convex, _part
+
+    robot = preset_robot(preset)
+    untouched, used = (ArmGeometry(Path(robot.urdf_path), tuple(robot.arm_joints), locked_key(robot))
+                       for _ in range(2))
+    for obj in used.geom.geometryObjects:
+        _part(obj.name, _convex(obj.geometry)[0])
+    rng = np.random.default_rng(12)
+    Q = rng.uniform(np.maximum(used.model.lowerPositionLimit, -np.pi),
+                    np.minimum(used.model.upperPositionLimit, np.pi), (300, used.model.nq))
+    assert [used.contact(q) for q in Q] == [untouched.contact(q) for q in Q]
+    assert [used.link_contacts(q) for q in Q[:60]] == [untouched.link_contacts(q) for q in Q[:60]]

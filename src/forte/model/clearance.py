@@ -45,7 +45,6 @@ whatever the number of bodies.
 from __future__ import annotations
 
 from functools import lru_cache
-from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -54,7 +53,7 @@ import pinocchio as pin
 from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT, PAYLOAD_RADIUS, has_base_box
 from forte.model.robot import N_BASE, MobileManipulator
 from forte.model.scene import FLOOR, Scene
-from forte.model.self_collision import ArmGeometry, locked_key
+from forte.model.self_collision import loaded_geometry, locked_key
 from forte.validation import FloatArray
 
 #: The names of the base box and the payload among the robot's parts.
@@ -117,9 +116,8 @@ class _Arm(NamedTuple):
 
 @lru_cache(maxsize=8)
 def _arm(urdf: str, arm_joints: tuple[str, ...], locked: tuple[tuple[str, float], ...] = ()) -> _Arm | None:
-    try:
-        arm = ArmGeometry(Path(urdf), arm_joints, locked)
-    except (ValueError, RuntimeError):  # no collision geometry that can be loaded
+    arm = loaded_geometry(urdf, arm_joints, locked)  # shared with the self-collision check
+    if arm is None:  # no collision geometry that can be loaded
         return None
     parts, excess = [], {}
     for obj in arm.geom.geometryObjects:
@@ -197,8 +195,17 @@ class ClearanceChecker:
             out[:arm] = base @ self.robot.mount @ np.array([m.homogeneous for m in self._geom_data.oMg])
         if len(self.parts) - 1 > (0 if self._arm is None else len(self._arm.parts)):  # the base box
             out[-2] = base @ self._base_offset
-        out[-1] = self.robot.ee_pose(q)
+        out[-1] = base @ self._ee_frame(q)  # robot.ee_pose(q), its base transform computed once
         return out
+
+    def _ee_frame(self, q: FloatArray) -> FloatArray:
+        """The end effector's pose in the base frame (4 x 4), as :meth:`MobileManipulator.ee_pose`
+        computes it; ``q`` checked as it checks it only when it is not plainly valid (cheaper)."""
+        robot = self.robot
+        if q.shape != (robot.nq,) or not np.isfinite(q).all():
+            q = robot.check_configuration(q)  # raises its error
+        pin.framesForwardKinematics(robot.model, robot.data, q[N_BASE:])
+        return robot.data.oMf[robot.ee_frame_id].homogeneous
 
     def evaluate(self, Q: Any) -> Clearances:
         """The clearance of every configuration (K x nq); nothing is computed for an empty scene."""

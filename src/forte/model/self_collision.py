@@ -7,6 +7,15 @@ usually overlap at the joint), and every pair the robot's SRDF disables (``<disa
 :func:`package_srdf` finds it, :attr:`ArmGeometry.record` says which file it was and how many pairs
 it disabled for which stated reason).
 The check is exact on the meshes (coal's narrow phase), ~50 us per configuration for the Panda.
+Many configurations at once (:meth:`ArmGeometry.contacts`, the verdict's samples) go through a
+broad phase first: each geometry's bounding sphere (its local AABB's), placed by batched forward
+kinematics (:mod:`forte.model.joint_placements`); a configuration where every checked pair's spheres
+are more than :data:`BROAD_PHASE_MARGIN` apart has no contact (the spheres contain the geometries);
+elsewhere only the pairs whose spheres come that close are given to coal, in :meth:`ArmGeometry.contact`'s
+order, so the answers are its answers. (Within GJK's tolerance of touching, coal's answer for a
+pair of convex shapes depends on the configuration it checked that pair at before: it starts
+from the last separating direction. There, and only there, skipping far configurations can
+change an answer, as checking them in another order would.)
 The base of the built-in robot is not in the URDF, so the arm is not checked against it here.
 """
 
@@ -14,7 +23,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from collections import Counter
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -22,7 +31,25 @@ import numpy as np
 import pinocchio as pin
 
 from forte.model.description import mesh_package_dirs, urdf_reference
+from forte.model.joint_placements import joint_placements
 from forte.model.urdf_loading import load_geometry, load_model, locked_configuration
+
+#: How far apart (m) two geometries' bounding spheres must be for the broad phase to skip the
+#: pair: far above the placements' rounding (~1e-15 m) and coal's collision threshold (~1e-8 m).
+BROAD_PHASE_MARGIN = 1e-3
+#: Configurations placed per batch by the broad phase (bounds its arrays).
+BROAD_PHASE_BATCH = 1024
+
+
+class Spheres(NamedTuple):
+    """Bounding spheres of an arm's geometries (``centre`` in the parent joint's frame, G x 3,
+    ``radius``, G; ``joint``: the parent joint of each) and the checked pairs (``first``, ``second``)."""
+
+    centre: Any
+    radius: Any
+    joint: Any
+    first: Any
+    second: Any
 
 
 class Contact(NamedTuple):
@@ -120,6 +147,58 @@ class ArmGeometry:
                 return Contact(objs[pair.first].name, objs[pair.second].name)
         return None  # pragma: no cover - coal reported a collision without a pair
 
+    def contacts(self, Q_arm: Any) -> list[Contact | None]:
+        """:meth:`contact` at each arm configuration (K x nq), through the broad phase (module
+        docstring): coal checks only the pairs whose spheres come close, in :meth:`contact`'s
+        order, and a configuration with none is ``None`` without it."""
+        Q = np.asarray(Q_arm, float).reshape(-1, self.model.nq)
+        near = self.near_pairs(Q)
+        if near is None:
+            return [self.contact(q) for q in Q]
+        return [self._first_contact(q, np.flatnonzero(row)) if row.any() else None
+                for q, row in zip(Q, near, strict=True)]
+
+    def _first_contact(self, q_arm: Any, pairs: Any) -> Contact | None:
+        """The first of ``pairs`` (indices, ascending) that collides at ``q_arm``, or ``None``."""
+        pin.updateGeometryPlacements(self.model, self.data, self.geom, self.geom_data, q_arm)
+        for i in pairs:
+            if pin.computeCollision(self.geom, self.geom_data, int(i)):
+                pair, objs = self.geom.collisionPairs[int(i)], self.geom.geometryObjects
+                return Contact(objs[pair.first].name, objs[pair.second].name)
+        return None
+
+    def near_pairs(self, Q_arm: Any) -> Any:
+        """Per arm configuration (K x nq) and checked pair (K x pairs): whether the pair's bounding
+        spheres come within :data:`BROAD_PHASE_MARGIN` (``False``: no contact there); ``None``
+        when a joint's type is not one :func:`~forte.model.joint_placements.joint_placements` places."""
+        Q = np.asarray(Q_arm, float).reshape(-1, self.model.nq)
+        out = np.empty((len(Q), self.pairs), dtype=bool)
+        s = self.spheres
+        for start in range(0, len(Q), BROAD_PHASE_BATCH):
+            oMi = joint_placements(self.model, Q[start:start + BROAD_PHASE_BATCH])
+            if oMi is None:
+                return None
+            T = oMi[:, s.joint]  # K x G x 4 x 4
+            centre = np.einsum("kgij,gj->kgi", T[..., :3, :3], s.centre) + T[..., :3, 3]
+            d = centre[:, s.first] - centre[:, s.second]
+            gap = np.sqrt((d * d).sum(axis=-1)) - s.radius[s.first] - s.radius[s.second]
+            out[start:start + BROAD_PHASE_BATCH] = gap <= BROAD_PHASE_MARGIN
+        return out
+
+    @cached_property
+    def spheres(self) -> Spheres:
+        """The geometries' bounding spheres (coal's local AABB, computed on a copy: the geometries
+        checked stay as loaded) and the checked pairs."""
+        centre, radius = [], []
+        for obj in self.geom.geometryObjects:
+            box = obj.geometry.clone()
+            box.computeLocalAABB()
+            centre.append(obj.placement.act(np.array(box.aabb_center, dtype=float)))
+            radius.append(float(box.aabb_radius))
+        pairs = np.array([(p.first, p.second) for p in self.geom.collisionPairs], dtype=int).reshape(-1, 2)
+        joint = np.array([obj.parentJoint for obj in self.geom.geometryObjects], dtype=int)
+        return Spheres(np.array(centre).reshape(-1, 3), np.array(radius), joint, pairs[:, 0], pairs[:, 1])
+
     def link_contacts(self, q_arm: Any) -> list[LinkContact]:
         """Every pair of links whose meshes interpenetrate at ``q_arm``, deepest first, each at its
         deepest pair of geometries. The depth is coal's signed distance, negated, where it computes
@@ -169,12 +248,21 @@ def _package_dirs(urdf: Path) -> list[str]:
 
 
 @lru_cache(maxsize=8)
-def _arm_geometry(urdf: str, arm_joints: tuple[str, ...], locked: tuple[tuple[str, float], ...]) -> ArmGeometry | None:
+def loaded_geometry(urdf: str, arm_joints: tuple[str, ...],
+                    locked: tuple[tuple[str, float], ...] = ()) -> ArmGeometry | None:
+    """The arm's geometry, loaded once per URDF, joints and locks (the meshes take ~10 ms) for this
+    check and the clearance's parts (:mod:`forte.model.clearance`, which builds hulls beside the
+    meshes and bounds its own copies; each keeps its own Pinocchio data); ``None`` when no
+    collision geometry can be loaded."""
     try:
-        geometry = ArmGeometry(Path(urdf), arm_joints, locked)
+        return ArmGeometry(Path(urdf), arm_joints, locked)
     except (ValueError, RuntimeError):  # no collision meshes found: nothing to check on
         return None
-    return geometry if geometry.pairs else None
+
+
+def _arm_geometry(urdf: str, arm_joints: tuple[str, ...], locked: tuple[tuple[str, float], ...]) -> ArmGeometry | None:
+    geometry = loaded_geometry(urdf, arm_joints, locked)
+    return geometry if geometry is not None and geometry.pairs else None
 
 
 def arm_geometry(robot: Any) -> ArmGeometry | None:

@@ -22,11 +22,19 @@ def gather(x: ca.MX, index: FloatArray) -> ca.MX:
 
 
 def dm(matrix: Any) -> ca.DM:
-    """casadi DM from a scipy sparse matrix (keeps the sparsity)."""
-    csc = sparse.csc_matrix(matrix)
-    csc.sort_indices()
-    sp = ca.Sparsity(csc.shape[0], csc.shape[1], csc.indptr.tolist(), csc.indices.tolist())
-    return ca.DM(sp, csc.data)
+    """casadi DM from a scipy sparse matrix (keeps the sparsity, explicit zeros included).
+
+    The same matrix, built the cheap way (CasADi converts Python lists element by element, and
+    a numpy array slower still): from its compressed rows as the transpose when it has fewer
+    rows than columns (fewer pointers to convert; the transpose only permutes the nonzeros),
+    and a matrix of ones from the scalar 1 (most are selections and scatters)."""
+    rows = matrix.shape[0] < matrix.shape[1]
+    m = sparse.csr_matrix(matrix) if rows else sparse.csc_matrix(matrix)
+    m.sort_indices()
+    shape = m.shape[::-1] if rows else m.shape
+    sp = ca.Sparsity(shape[0], shape[1], m.indptr.tolist(), m.indices.tolist())
+    out = ca.DM(sp, 1.0) if m.nnz and (m.data == 1.0).all() else ca.DM(sp, m.data.tolist())
+    return out.T if rows else out
 
 
 def scatter_matrix(index: FloatArray, size: int) -> sparse.csr_matrix:

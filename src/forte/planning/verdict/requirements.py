@@ -256,7 +256,7 @@ class SelfCollision(Requirement):
         geometry = arm_geometry(ctx.robot)
         if geometry is None:
             return []
-        hit = np.array([geometry.contact(qk[N_BASE:]) is not None for qk in ctx.samples.q], dtype=float)
+        hit = np.array([c is not None for c in geometry.contacts(ctx.samples.q[:, N_BASE:])], dtype=float)
         return [Measure(hit, 0.5, "", "arm links collide")]
 
     def check(self, ctx: Context) -> Violation | None:
@@ -268,7 +268,7 @@ class SelfCollision(Requirement):
         if found is None or geometry is None:
             return found
         s, deepest = ctx.samples, {}
-        for i in np.flatnonzero([geometry.contact(q[N_BASE:]) is not None for q in s.q]):
+        for i in np.flatnonzero([c is not None for c in geometry.contacts(s.q[:, N_BASE:])]):
             for c in geometry.link_contacts(s.q[i, N_BASE:]):
                 key = frozenset((c.first, c.second))
                 if key not in deepest or c.depth > deepest[key][0].depth:

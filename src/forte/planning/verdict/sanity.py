@@ -41,15 +41,12 @@ def sample_configurations(robot: Any, extra: list[Any], samples: int = SAMPLES, 
 
 def best_static_capacity(robot: Any, directions: FloatArray, configurations: FloatArray) -> FloatArray:
     """For each unit direction (K x 3): the largest static capacity over the configurations (K)."""
-    zeros = np.zeros(robot.n_arm)
-    A, b = [], []
-    for q in configurations:
-        tau = robot.rnea(q[3:], zeros, zeros)
-        plus, minus = residual_margins(tau, robot.torque_limits)
-        Ai, bi = halfspaces(robot.arm_jacobian(q), plus, minus, alpha=1.0)
-        A.append(Ai)
-        b.append(bi)
-    A_arr, b_arr = np.asarray(A), np.asarray(b)  # S x m x 3, S x m
+    configurations = np.asarray(configurations, dtype=float)
+    zeros = np.zeros((len(configurations), robot.n_arm))
+    tau = robot.rnea_along(configurations[:, 3:], zeros, zeros)  # static: gravity alone
+    plus, minus = residual_margins(tau, robot.torque_limits)
+    A_arr, b_arr = halfspaces(robot.arm_jacobians(configurations), plus, minus, alpha=1.0)  # S x m x 3, S x m
+    A_arr = np.ascontiguousarray(A_arr)  # the layout one configuration at a time gives: einsum's sums depend on it
     best = np.full(len(directions), -np.inf)
     for start in range(0, len(directions), 256):
         u = directions[start:start + 256]
