@@ -188,6 +188,7 @@ def test_a_plan_ipopt_found_infeasible_is_not_solved_again_with_self_rows(monkey
     monkeypatch.setattr(rounds, "optimize", optimize)
     monkeypatch.setattr(rounds, "judged", lambda task, q, force, info: (colliding, force))
     colliding = type("V", (), {"failed": ("self_collision",), "violations": (), "feasible": False,
+                               "reason": lambda self: "self_collision: a pair collides",
                                "label": "infeasible"})()
     sol = rounds.SolverResult(q=np.asarray(task.nominal()), success=False, status=rounds.INFEASIBLE, iterations=86,
                               objective=0.0, constraint_violation=0.33, build_time=0.0, solve_time=0.0,
