@@ -34,6 +34,7 @@ import numpy as np
 import pinocchio as pin
 
 from forte.model.description import BASE_BOX_HALF_XY, BASE_BOX_MIN_HEIGHT, PAYLOAD_RADIUS, has_base_box
+from forte.model.self_collision import link_of
 from forte.validation import FloatArray
 
 #: Frame index of a primitive fixed to the base.
@@ -158,12 +159,6 @@ def payload_primitive(robot: Any) -> Primitive:
     effector) on the end effector's joint: the shape MuJoCo's hand holds."""
     frame = robot.model.frames[robot.ee_frame_id]
     return Primitive(frame.parentJoint - 1, np.array(frame.placement.translation), 0.0, PAYLOAD_RADIUS, "payload")
-
-
-def link_of(geometry_name: str) -> str:
-    """The link a URDF collision geometry belongs to: Pinocchio names them ``<link>_<index>``."""
-    stem, _, index = geometry_name.rpartition("_")
-    return stem if stem and index.isdigit() else geometry_name
 
 
 def _vertices(shape: Any) -> FloatArray | None:

@@ -213,26 +213,14 @@ class ArmGeometry:
             depth = -pin.computeDistance(self.geom, self.geom_data, i).min_distance
             if depth <= 0.0 and result.numContacts():
                 depth = abs(result.getContact(0).penetration_depth)
-            links = (link_name(objs[pair.first].name), link_name(objs[pair.second].name))
+            links = (link_of(objs[pair.first].name), link_of(objs[pair.second].name))
             key = frozenset(links)
             if key not in deepest or depth > deepest[key].depth:
                 deepest[key] = LinkContact(max(depth, 0.0), *links)
         return sorted(deepest.values(), key=lambda c: -c.depth)
 
-    def link_gaps(self, q_arm: Any, links: set[frozenset[str]]) -> dict[frozenset[str], float]:
-        """The mesh distance (m, signed) at ``q_arm`` of each checked pair of links in ``links``
-        (the smallest over their pairs of geometries); pairs that are not checked are left out."""
-        pin.updateGeometryPlacements(self.model, self.data, self.geom, self.geom_data, np.asarray(q_arm, float))
-        objs, gaps = self.geom.geometryObjects, {}
-        for i, pair in enumerate(self.geom.collisionPairs):
-            key = frozenset((link_name(objs[pair.first].name), link_name(objs[pair.second].name)))
-            if key in links:
-                d = pin.computeDistance(self.geom, self.geom_data, i).min_distance
-                gaps[key] = min(d, gaps.get(key, np.inf))
-        return gaps
 
-
-def link_name(geometry_name: str) -> str:
+def link_of(geometry_name: str) -> str:
     """The link a URDF collision geometry belongs to: Pinocchio names them ``<link>_<index>``."""
     stem, _, index = geometry_name.rpartition("_")
     return stem if stem and index.isdigit() else geometry_name

@@ -33,7 +33,8 @@ from typing import Any
 
 import numpy as np
 
-from forte.model.body_spheres import BASE_FRAME, Primitive, link_of, primitive_centres, robot_primitives
+from forte.model.body_spheres import BASE_FRAME, Primitive, primitive_centres, robot_primitives
+from forte.model.self_collision import link_of
 from forte.validation import FloatArray
 
 #: A self pair gets rows when its covers come closer than this (m) on the start trajectory.
