@@ -195,17 +195,10 @@ class ClearanceChecker:
             out[:arm] = base @ self.robot.mount @ np.array([m.homogeneous for m in self._geom_data.oMg])
         if len(self.parts) - 1 > (0 if self._arm is None else len(self._arm.parts)):  # the base box
             out[-2] = base @ self._base_offset
-        out[-1] = base @ self._ee_frame(q)  # robot.ee_pose(q), its base transform computed once
+        if q.shape != (self.robot.nq,) or not np.isfinite(q).all():
+            q = self.robot.check_configuration(q)  # raises ee_pose's error (checked only then: cheaper)
+        out[-1] = base @ self.robot.arm_ee_pose(q[N_BASE:])  # robot.ee_pose(q), its base transform computed once
         return out
-
-    def _ee_frame(self, q: FloatArray) -> FloatArray:
-        """The end effector's pose in the base frame (4 x 4), as :meth:`MobileManipulator.ee_pose`
-        computes it; ``q`` checked as it checks it only when it is not plainly valid (cheaper)."""
-        robot = self.robot
-        if q.shape != (robot.nq,) or not np.isfinite(q).all():
-            q = robot.check_configuration(q)  # raises its error
-        pin.framesForwardKinematics(robot.model, robot.data, q[N_BASE:])
-        return robot.data.oMf[robot.ee_frame_id].homogeneous
 
     def evaluate(self, Q: Any) -> Clearances:
         """The clearance of every configuration (K x nq); nothing is computed for an empty scene."""

@@ -268,15 +268,17 @@ class MobileManipulator:
         return T
 
     # -- kinematics ---------------------------------------------------------------------
-    def _arm_frame_placement(self, q_a: FloatArray) -> pin.SE3:
+    def arm_ee_pose(self, q_a: FloatArray) -> FloatArray:
+        """4x4 pose of the end-effector frame in the base frame (the mount included) at arm
+        configuration ``q_a``: :meth:`ee_pose` without the base's transform."""
         pin.framesForwardKinematics(self.model, self.data, q_a)
-        return self.data.oMf[self.ee_frame_id]
+        return self.data.oMf[self.ee_frame_id].homogeneous
 
     def ee_pose(self, q: Any) -> FloatArray:
         """4x4 world-frame pose of the end-effector frame."""
         q = self.check_configuration(q)
         q_b, q_a = self.split(q)
-        return self.base_transform(q_b) @ self._arm_frame_placement(q_a).homogeneous
+        return self.base_transform(q_b) @ self.arm_ee_pose(q_a)
 
     def ee_position(self, q: Any) -> FloatArray:
         return self.ee_pose(q)[:3, 3]
