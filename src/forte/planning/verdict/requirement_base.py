@@ -93,11 +93,11 @@ def exceeded(ctx: Context, name: str, value: FloatArray, limit: float, units: st
              else "between waypoints only")
     part = f" ({which[worst]})" if which is not None else ""
     detail = (f"{what} {where}, first at t = {first:.3g} s; worst {value[worst]:.4g} {units}{part} "
-              f"(limit {limit:.4g}) at t = {s.t[worst]:.3g} s{_near(s, worst)}")
+              f"(limit {limit:.4g}) at t = {s.t[worst]:.3g} s{where_on_path(s, worst)}")
     return Violation(name, detail, float(value[worst]), float(limit), units, at_waypoints, first)
 
 
-def _near(samples: MotionSamples, i: int) -> str:
+def where_on_path(samples: MotionSamples, i: int) -> str:
     """Where sample ``i`` lies: ``(waypoint k)`` on a waypoint, else ``(between waypoints k and k+1)``."""
     k = samples.segment_of(i)
     if samples.t[i] == samples.t[samples.waypoint[k]]:

@@ -52,7 +52,7 @@ from forte.planning.verdict.base_requirements import (
 from forte.planning.verdict.keep_level import TiltLimit
 from forte.planning.verdict.margin import execution_margin, kept_clearance, margin_note
 from forte.planning.verdict.motion_samples import MotionSamples
-from forte.planning.verdict.requirement_base import Context, Measure, Requirement, Violation, _near, exceeded
+from forte.planning.verdict.requirement_base import Context, Measure, Requirement, Violation, exceeded, where_on_path
 from forte.settings import PLAN_SOLVE_CPU_S, WALL_PER_CPU
 from forte.validation import FloatArray
 
@@ -274,8 +274,8 @@ class SelfCollision(Requirement):
                 if key not in deepest or c.depth > deepest[key][0].depth:
                     deepest[key] = (c, int(i))
         ranked = sorted(deepest.values(), key=lambda ci: -ci[0].depth)
-        named = "; ".join(f"{c.first} with {c.second} {1e3 * c.depth:.3g} mm deep at t = {s.t[i]:.3g} s{_near(s, i)}"
-                          for c, i in ranked[:NAMED_PAIRS])
+        named = "; ".join(f"{c.first} with {c.second} {1e3 * c.depth:.3g} mm deep at t = {s.t[i]:.3g} s"
+                          f"{where_on_path(s, i)}" for c, i in ranked[:NAMED_PAIRS])
         more = f" (+{len(ranked) - NAMED_PAIRS} more pairs)" if len(ranked) > NAMED_PAIRS else ""
         worst = ranked[0][0].depth if ranked else found.worst
         detail = f"{found.detail.split(';')[0]}: {named}{more}" if ranked else found.detail.split(";")[0]
