@@ -19,29 +19,38 @@ from typing import Any
 
 import numpy as np
 
+from forte.exceptions import RobotModelError
+from forte.model.twin import joint_axis
 from forte.validation import FloatArray
 
 _X, _Y, _Z = np.eye(3)
-#: Pinocchio's joint types handled: kind (R revolute, U unbounded revolute, P prismatic) and axis
-#: (``None``: the joint's own, for the unaligned ones).
-_JOINTS: dict[str, tuple[str, FloatArray | None]] = {
-    "JointModelRX": ("R", _X), "JointModelRY": ("R", _Y), "JointModelRZ": ("R", _Z),
-    "JointModelRevoluteUnaligned": ("R", None),
-    "JointModelRUBX": ("U", _X), "JointModelRUBY": ("U", _Y), "JointModelRUBZ": ("U", _Z),
-    "JointModelRevoluteUnboundedUnaligned": ("U", None),
-    "JointModelPX": ("P", _X), "JointModelPY": ("P", _Y), "JointModelPZ": ("P", _Z),
-    "JointModelPrismaticUnaligned": ("P", None),
+#: Pinocchio's unbounded revolute joints and their axes (``None``: the joint's own); revolute and
+#: prismatic ones are the twin's (:func:`~forte.model.twin.joint_axis`).
+_UNBOUNDED: dict[str, FloatArray | None] = {
+    "JointModelRUBX": _X, "JointModelRUBY": _Y, "JointModelRUBZ": _Z, "JointModelRevoluteUnboundedUnaligned": None,
 }
+
+
+def _kind_and_axis(joint: Any) -> tuple[str, FloatArray] | None:
+    """``("R" | "U" | "P", axis)`` of ``joint`` (revolute, unbounded revolute, prismatic), or ``None``."""
+    name = joint.shortname()
+    if name in _UNBOUNDED:
+        axis = _UNBOUNDED[name]
+        return "U", np.asarray(joint.extract().axis, dtype=float) if axis is None else axis
+    try:
+        axis, revolute = joint_axis(joint)
+    except RobotModelError:
+        return None
+    return ("R" if revolute else "P"), np.asarray(axis, dtype=float)
 
 
 def joint_motion(joint: Any, q: FloatArray) -> FloatArray | None:
     """The motions ``X_j`` (K x 4 x 4) of ``joint`` (a Pinocchio joint model) at its entries ``q``
     (K x nq of the joint); ``None`` for a joint of another type."""
-    if joint.shortname() not in _JOINTS:
+    found = _kind_and_axis(joint)
+    if found is None:
         return None
-    kind, axis = _JOINTS[joint.shortname()]
-    if axis is None:
-        axis = np.asarray(joint.extract().axis, dtype=float)  # as Pinocchio takes it: not normalized
+    kind, axis = found
     out = np.repeat(np.eye(4)[None], len(q), axis=0)
     if kind == "P":
         out[:, :3, 3] = q[:, :1] * axis

@@ -54,10 +54,12 @@ _AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]),
 
 def is_prismatic(joint: pin.JointModel) -> bool:
     """Whether ``joint`` (revolute or prismatic, as the twin supports) slides along its axis."""
-    return not _joint_axis(joint)[1]
+    return not joint_axis(joint)[1]
 
 
-def _joint_axis(joint: pin.JointModel) -> tuple[np.ndarray, bool]:
+def joint_axis(joint: pin.JointModel) -> tuple[np.ndarray, bool]:
+    """The axis of a revolute or prismatic ``joint`` (aligned or not; an unaligned one's as
+    Pinocchio stores it) and whether it is revolute; :class:`RobotModelError` for another type."""
     name = joint.shortname()
     for prefix, revolute in (("JointModelR", True), ("JointModelP", False)):
         if name.startswith(prefix):
@@ -97,7 +99,7 @@ class CasadiTwin:
         self.n_arm = robot.n_arm
         joints: list[_Joint] = []
         for j in range(1, model.njoints):
-            axis, revolute = _joint_axis(model.joints[j])
+            axis, revolute = joint_axis(model.joints[j])
             placement = model.jointPlacements[j]
             inertia = model.inertias[j]
             joints.append(
